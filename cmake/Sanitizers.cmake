@@ -1,0 +1,10 @@
+# PNSPLAT_SANITIZE=address builds everything with ASan+UBSan, =thread with TSan.
+if(PNSPLAT_SANITIZE STREQUAL "address")
+  add_compile_options(-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=address,undefined)
+elseif(PNSPLAT_SANITIZE STREQUAL "thread")
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
+elseif(NOT PNSPLAT_SANITIZE STREQUAL "")
+  message(FATAL_ERROR "PNSPLAT_SANITIZE must be address, thread or empty, not '${PNSPLAT_SANITIZE}'")
+endif()

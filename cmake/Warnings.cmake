@@ -1,0 +1,9 @@
+# Warnings travel through one INTERFACE target; every project target links it.
+add_library(pnsplat_warnings INTERFACE)
+add_library(pnsplat::warnings ALIAS pnsplat_warnings)
+target_compile_options(pnsplat_warnings INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion -Wnon-virtual-dtor
+  -Wold-style-cast -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion)
+if(PNSPLAT_WERROR)
+  target_compile_options(pnsplat_warnings INTERFACE -Werror)
+endif()

@@ -1,0 +1,78 @@
+// One-ring neighbourhoods: paper section 4, SPEC.md section 3.
+//
+// The Euclidean neighbourhood Nε_p (points of the current level closer than r, passing the
+// validity cone of eq. 6) is filtered by the fuzzy BSP rule into Nf_p, or into Ng_p when the
+// badness is measured on geodesic projections. The survivors are sorted by angle around n_p and
+// form the implicit triangle fan of the local refinement.
+//
+// Thread use: a NeighbourSet is scratch memory owned by one thread; the functions are pure.
+#pragma once
+
+#include <cstdint>
+#include <numbers>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+namespace pnsplat {
+
+// A tangent frame (u, v, n) of a unit normal n, continuous except where n = (0,0,-1)
+// (Duff et al., "Building an orthonormal basis, revisited", JCGT 2017).
+struct TangentFrame {
+    glm::vec3 u, v, n;
+    explicit TangentFrame(glm::vec3 normal);
+    // Angle of d's projection onto the tangent plane, in (-π, π].
+    float angleOf(glm::vec3 d) const;
+};
+
+// Neighbours of one point as flat arrays. `index` is opaque to this module (the caller's id).
+struct NeighbourSet {
+    std::vector<std::uint32_t> index;
+    std::vector<glm::vec3> position;
+    std::vector<glm::vec3> normal;
+    std::vector<float> angle; // filled by sortFan/filterFuzzy: angle around n_p in (-π, π]
+
+    std::size_t size() const { return index.size(); }
+    void clear();
+    void push(std::uint32_t i, glm::vec3 p, glm::vec3 n);
+    // Keeps the entries whose keep[k] is non-zero, in order.
+    void compact(const std::vector<std::uint8_t>& keep);
+};
+
+struct FuzzyParams {
+    float thetaF = std::numbers::pi_v<float> / 6.0f; // tolerance θf of the fuzzy plane
+    // Ng instead of Nf: badness measured on the geodesic projections q'_i = p + G(p,p_i)·q̂_i.
+    bool geodesicProjection = true;
+    // SPEC 10 (1): G(p,p_i) ≈ |p p_i| (only with geodesicProjection).
+    bool euclideanGeodesic = false;
+};
+
+// Badness w_ij of p_i against p_j seen from p (SPEC 3): with sin α = normalize(p_j-p)·normalize(p_i-p_j),
+// 0 when α < -θf, else (sin α / sin θf + 1) / 2.
+float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThetaF);
+
+// Scratch buffers reused across calls (no allocation per point once warm).
+struct NeighbourhoodScratch {
+    std::vector<glm::vec3> projected;  // the positions the badness is measured on
+    std::vector<glm::vec3> direction;  // normalize(projected - p)
+    std::vector<float> worstSucc, worstPred;
+    std::vector<std::uint8_t> keep;
+    std::vector<std::uint32_t> order;
+    NeighbourSet sorted;
+};
+
+// Filters `set` (the Euclidean neighbourhood of (p, n), validity already checked) into Nf_p or
+// Ng_p and sorts the survivors by angle around n, filling set.angle.
+//
+// Ambiguity (SPEC 3), choice made: every w_i is computed against the whole Euclidean
+// neighbourhood, and all points with w_i > 1 are removed at once. The rule is then a pure function
+// of the set (no dependence on the order of the neighbours), and a point strongly behind a point
+// that is itself removed is still behind it. The resulting symmetry rate is measured in
+// tests/neighbourhood_test.cpp.
+void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourSet& set,
+                 NeighbourhoodScratch& scratch);
+
+// Sorts `set` by angle around n (fills set.angle) without filtering.
+void sortFan(glm::vec3 p, glm::vec3 n, NeighbourSet& set, NeighbourhoodScratch& scratch);
+
+} // namespace pnsplat

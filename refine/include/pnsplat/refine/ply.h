@@ -1,0 +1,42 @@
+// PLY input and output of oriented point sets.
+//
+// Reads ascii and binary little-endian (and big-endian) PLY files with one `vertex` element whose
+// properties may come in any order and any scalar type: `x y z nx ny nz` are required, `red green
+// blue` (uchar, or float in [0,1]) and `radius` are optional; other properties and other
+// elements (faces, ...) are skipped. Any thread may call these functions.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "pnsplat/refine/point_set.h"
+#include "pnsplat/refine/result.h"
+
+namespace pnsplat {
+
+struct PlyReadOptions {
+    // Triangles of a `face` element are returned in PlyData::triangles when set (for `eval`).
+    bool readFaces = false;
+};
+
+struct PlyData {
+    PointSet points;
+    std::vector<glm::u32vec3> triangles; // filled only with PlyReadOptions::readFaces
+};
+
+// Fails with a one-line message naming the file for: a missing or unreadable file, a malformed or
+// unsupported header, a truncated body, a non-finite coordinate or normal, a normal of (near)
+// zero length, a negative or non-finite radius, and a file with no points. Normals are
+// normalised on reading.
+Result<PlyData> readPly(const std::filesystem::path& path, const PlyReadOptions& options = {});
+
+enum class PlyFormat { Ascii, BinaryLittleEndian };
+
+// Writes `points` (x y z nx ny nz as float, then radius when present, then red green blue when
+// present). The file appears complete or not at all: data goes to a temporary file in the same
+// folder that is renamed over `path` only after a successful write.
+Result<void> writePly(const std::filesystem::path& path, const PointSet& points,
+                      PlyFormat format = PlyFormat::BinaryLittleEndian);
+
+} // namespace pnsplat

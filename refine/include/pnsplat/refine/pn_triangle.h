@@ -1,0 +1,147 @@
+// PN-triangle tools: paper section 3, SPEC.md section 2.
+//
+// Curved point-normal triangles after Vlachos, Peters, Boyd and Mitchell, "Curved PN Triangles"
+// (I3D 2001), with the edge control points of Guennebaud, Barthe and Paulin (EG 2005, eq. 1-6):
+// the point at a third of the edge is projected onto the tangent plane of its corner and then
+// moved back to a distance of one third of the edge.
+//
+// Everything here is inline: these functions run several times per generated point.
+// Any thread may call them. Positions are in model units, angles in radians, normals unit length.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+namespace pnsplat {
+
+// Edge control point near `pa` on the edge pa→pb (SPEC 2):
+//   b_ab = pa + |pa pb|/3 · normalize(Q_a(pa + (pb - pa)/3) - pa),
+// Q_a the orthogonal projection onto the tangent plane of pa. When pb - pa is parallel to na
+// (the tangent direction is undefined; the validity cone of eq. 6 excludes such pairs) the
+// unprojected third point is returned.
+inline glm::vec3 edgeControlPoint(glm::vec3 pa, glm::vec3 na, glm::vec3 pb) {
+    const glm::vec3 third = (pb - pa) * (1.0f / 3.0f);
+    const glm::vec3 tangent = third - glm::dot(third, na) * na; // Q_a(pa + third) - pa
+    const float tangentLength2 = glm::dot(tangent, tangent);
+    const float thirdLength2 = glm::dot(third, third);
+    if (tangentLength2 <= 1e-12f * thirdLength2 || tangentLength2 == 0.0f) return pa + third;
+    return pa + tangent * std::sqrt(thirdLength2 / tangentLength2);
+}
+
+// The ten control points of the PN triangle over (p0,n0), (p1,n1), (p2,n2).
+// Index names follow the paper: b_ijk weights p0^i p1^j p2^k.
+struct PnTriangle {
+    glm::vec3 b300, b030, b003;       // corners p0, p1, p2
+    glm::vec3 b210, b120;             // edge p0 p1: near p0, near p1
+    glm::vec3 b021, b012;             // edge p1 p2: near p1, near p2
+    glm::vec3 b102, b201;             // edge p2 p0: near p2, near p0
+};
+
+inline PnTriangle makePnTriangle(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1, glm::vec3 p2,
+                                 glm::vec3 n2) {
+    PnTriangle t;
+    t.b300 = p0;
+    t.b030 = p1;
+    t.b003 = p2;
+    t.b210 = edgeControlPoint(p0, n0, p1);
+    t.b120 = edgeControlPoint(p1, n1, p0);
+    t.b021 = edgeControlPoint(p1, n1, p2);
+    t.b012 = edgeControlPoint(p2, n2, p1);
+    t.b102 = edgeControlPoint(p2, n2, p0);
+    t.b201 = edgeControlPoint(p0, n0, p2);
+    return t;
+}
+
+// Centre control point b111 = c + 3/2 (e - c), c the centroid of the corners, e the mean of the six
+// edge control points (Vlachos et al.). Not needed by the refinement itself (its terms cancel in
+// both the centre point and the centre derivatives) but part of the patch, used by evaluate().
+inline glm::vec3 centreControlPoint(const PnTriangle& t) {
+    const glm::vec3 c = (t.b300 + t.b030 + t.b003) * (1.0f / 3.0f);
+    const glm::vec3 e = (t.b210 + t.b120 + t.b021 + t.b012 + t.b102 + t.b201) * (1.0f / 6.0f);
+    return c + 1.5f * (e - c);
+}
+
+// B(u,v) of the cubic Bézier triangle with w = 1-u-v; u weighs p0 (b300), v weighs p1 (b030).
+inline glm::vec3 evaluate(const PnTriangle& t, float u, float v) {
+    const float w = 1.0f - u - v;
+    const glm::vec3 b111 = centreControlPoint(t);
+    return t.b300 * (u * u * u) + t.b030 * (v * v * v) + t.b003 * (w * w * w) +
+           3.0f * (t.b210 * (u * u * v) + t.b120 * (u * v * v) + t.b021 * (v * v * w) +
+                   t.b012 * (v * w * w) + t.b102 * (u * w * w) + t.b201 * (u * u * w)) +
+           6.0f * b111 * (u * v * w);
+}
+
+// The smoothing operator (eq. 3): the displacement φ = 1/6 Σ t_i added to the centre of gravity of
+// the three corners, t0 = b210-p0, t1 = b120-p1, t2 = b021-p1, t3 = b012-p2, t4 = b102-p2,
+// t5 = b201-p0. cog + φ equals B(1/3,1/3), the mean of the six edge control points.
+inline glm::vec3 smoothingDisplacement(const PnTriangle& t) {
+    const glm::vec3 sum = (t.b210 - t.b300) + (t.b120 - t.b030) + (t.b021 - t.b030) + (t.b012 - t.b003) +
+                          (t.b102 - t.b003) + (t.b201 - t.b300);
+    return sum * (1.0f / 6.0f);
+}
+
+inline glm::vec3 centreOfGravity(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
+    return (p0 + p1 + p2) * (1.0f / 3.0f);
+}
+
+// Normal of the new point: cross product of the exact partial derivatives of the patch at its
+// centre (SPEC 2; the paper's printed tangents (eq. 4) are a scaled approximation that differs on
+// curved triangles). With s the weight of p1 and t the weight of p2:
+//   3 dB/ds = (p1-p0) + (b120-b210) + (b012-b102) + 2(b021-b201)
+//   3 dB/dt = (p2-p0) + (b102-b201) + (b021-b120) + 2(b012-b210)
+// oriented like n0+n1+n2. For a degenerate patch (tangents parallel within 0.5°: a sliver whose
+// normal rounding decides) the mean normal normalize(n0+n1+n2) is returned.
+inline glm::vec3 centreNormal(const PnTriangle& t, glm::vec3 n0, glm::vec3 n1, glm::vec3 n2) {
+    const glm::vec3 ds = (t.b030 - t.b300) + (t.b120 - t.b210) + (t.b012 - t.b102) + 2.0f * (t.b021 - t.b201);
+    const glm::vec3 dt = (t.b003 - t.b300) + (t.b102 - t.b201) + (t.b021 - t.b120) + 2.0f * (t.b012 - t.b210);
+    glm::vec3 n = glm::cross(ds, dt);
+    const glm::vec3 orientation = n0 + n1 + n2;
+    const float length2 = glm::dot(n, n);
+    constexpr float kMinSin2 = 7.6e-5f; // sin²(0.5°)
+    if (!(length2 > kMinSin2 * glm::dot(ds, ds) * glm::dot(dt, dt))) return glm::normalize(orientation);
+    n *= 1.0f / std::sqrt(length2);
+    return glm::dot(n, orientation) < 0.0f ? -n : n;
+}
+
+// Geodesic distance (eq. 5 context): the length of the control polygon of the boundary curve
+// between p0 and p1, G = 2/3 |p0 p1| + |b210 - b120|.
+inline float geodesicDistance(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
+    const glm::vec3 b210 = edgeControlPoint(p0, n0, p1);
+    const glm::vec3 b120 = edgeControlPoint(p1, n1, p0);
+    return (2.0f / 3.0f) * glm::length(p1 - p0) + glm::length(b120 - b210);
+}
+
+// Unsigned angle a-o-b in [0, π]; 0 when a or b coincides with o.
+inline float angleAt(glm::vec3 o, glm::vec3 a, glm::vec3 b) {
+    const glm::vec3 u = a - o;
+    const glm::vec3 v = b - o;
+    const float denominator = std::sqrt(glm::dot(u, u) * glm::dot(v, v));
+    if (!(denominator > 0.0f)) return 0.0f;
+    return std::acos(std::clamp(glm::dot(u, v) / denominator, -1.0f, 1.0f));
+}
+
+// Curved angle (eq. 5) of p0, p1 seen from p: the angles subtended by the three legs of the control
+// polygon of the curve between p0 and p1, A = ∠(p0,p,b210) + ∠(b210,p,b120) + ∠(b120,p,p1).
+inline float curvedAngle(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
+    const glm::vec3 b210 = edgeControlPoint(p0, n0, p1);
+    const glm::vec3 b120 = edgeControlPoint(p1, n1, p0);
+    return angleAt(p, p0, b210) + angleAt(p, b210, b120) + angleAt(p, b120, p1);
+}
+
+// Neighbour validity (eq. 6, SPEC 2): p1 may be a neighbour of p0 only when it lies outside the cone
+// of apex p0, axis n0+n1 and half-angle γ/2 (γ the angle between the normals):
+//   |(n0+n1) · normalize(p1-p0)| < 1 + n0·n1.
+// The extracted paper text shows '>', which would reject coplanar points with equal normals; the
+// geometric statement '<' is implemented. Symmetric in its two points. Coincident points fail.
+inline bool validNeighbours(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
+    const glm::vec3 d = p1 - p0;
+    const float length2 = glm::dot(d, d);
+    if (!(length2 > 0.0f)) return false;
+    const float axial = std::abs(glm::dot(n0 + n1, d));
+    return axial < (1.0f + glm::dot(n0, n1)) * std::sqrt(length2);
+}
+
+} // namespace pnsplat

@@ -1,0 +1,35 @@
+// An oriented point set (a set of splats), stored as flat parallel arrays (structure of arrays) so
+// that per-point loops touch only the attributes they use.
+//
+// Units are the model's own; normals are unit length; a radius is the splat radius, which the
+// refinement requires to reach at least the farthest neighbour of the point's natural first ring
+// (SPEC 1). Colours are 8-bit sRGB as stored in PLY files.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec3.hpp>
+#include <glm/gtc/type_precision.hpp>
+
+namespace pnsplat {
+
+struct PointSet {
+    std::vector<glm::vec3> position;
+    std::vector<glm::vec3> normal;
+    std::vector<float> radius;       // empty when the source gave none (see estimateRadii)
+    std::vector<glm::u8vec3> colour; // empty when the model has no colour
+
+    std::size_t size() const { return position.size(); }
+    bool empty() const { return position.empty(); }
+    bool hasRadius() const { return !radius.empty(); }
+    bool hasColour() const { return !colour.empty(); }
+
+    // Appends point i of `other`; both sets must carry the same optional attributes.
+    void appendFrom(const PointSet& other, std::size_t i);
+    void reserve(std::size_t n);
+    void resize(std::size_t n);
+};
+
+} // namespace pnsplat

@@ -1,0 +1,24 @@
+// Radii for inputs that come without them (SPEC.md section 9; not in the paper).
+//
+// The refinement needs r_i to reach at least the farthest neighbour of the natural first ring of
+// p_i (SPEC 1). The estimate: take the points within twice the distance of the 6th nearest
+// neighbour (at most kMaxCandidates), filter them with the fuzzy BSP rule (Nf, SPEC 3) like a
+// refinement step would, and take the distance of the farthest survivor. Then make the relation
+// symmetric: when p_j survives around p_i, r_j also reaches p_i.
+//
+// Thread use: runs on the given number of worker threads (0 = all); the result does not depend on
+// the thread count. Positions and normals must be finite, normals unit length.
+#pragma once
+
+#include "pnsplat/refine/point_set.h"
+
+namespace pnsplat {
+
+inline constexpr unsigned kRadiusNearest = 6;
+inline constexpr unsigned kMaxCandidates = 48;
+
+// Fills points.radius (replacing any radii present). A single isolated point gets radius 0; the
+// refinement rejects such input (validateForRefinement) because it has no neighbourhood.
+void estimateRadii(PointSet& points, unsigned threads = 0);
+
+} // namespace pnsplat

@@ -1,0 +1,107 @@
+// Interpolatory √3-like refinement of an oriented point set: paper sections 5 and 7,
+// SPEC.md sections 1, 4, 5, 7 and 10.
+//
+// P0 ⊂ P1 ⊂ P2 ⊂ ...: each level refines every point of P(l) once (local refinement, SPEC 4) and
+// appends the inserted points. Old points never move; only their radius changes. The output of a
+// level is identical for any number of threads (SPEC 5: fixed spatial colouring, see refiner.cpp).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <numbers>
+#include <vector>
+
+#include "pnsplat/refine/point_set.h"
+#include "pnsplat/refine/result.h"
+
+namespace pnsplat {
+
+enum class NeighbourhoodKind {
+    Fuzzy,    // Nf: fuzzy BSP on the points themselves
+    Accurate, // Ng: fuzzy BSP on geodesic projections (the full method's default)
+};
+
+// The paper's constants (section 5): λ1 = 1/√3 (scale of a √3 step), λ2 = 1/2 (discard balls),
+// θc = π/2 (completeness of a new one-ring).
+inline constexpr float kLambda1 = 0.57735026918962576f;
+inline constexpr float kLambda2 = 0.5f;
+inline constexpr float kThetaC = std::numbers::pi_v<float> / 2.0f;
+// A point's children lie within kChildReach · r of it: a candidate is the mean of six edge control
+// points of a triangle (p, p_i, p_j) with |p p_i|, |p p_j| < r, each within r/3, 4r/3 or 5r/3 of p.
+inline constexpr float kChildReach = 10.0f / 9.0f;
+
+struct RefineOptions {
+    NeighbourhoodKind neighbourhood = NeighbourhoodKind::Accurate;
+    float thetaF = std::numbers::pi_v<float> / 6.0f; // fuzzy-plane tolerance θf
+    // Boundary gap θb ∈ (2π/3, π] (section 6): consecutive fan neighbours further apart than this
+    // around p make no candidate. Default π: only gaps that cannot be interior are skipped.
+    float thetaB = std::numbers::pi_v<float>;
+
+    // The faster variants of section 7 ("Simplifications"), SPEC 10, each a separate switch:
+    bool euclideanGeodesic = false;  // (1) G(p0,p1) ≈ |p0 p1|
+    bool plainAngle = false;         // (2) curved angle ≈ plain angle
+                                     // (3) is neighbourhood = Fuzzy
+    bool centroidCandidates = false; // (4) candidates at the centroid, smoothed only when inserted
+
+    // Off: new points at the plain centroid with the mean normal (no PN displacement). Not part of
+    // the method: a baseline that shows what the smoothing operator contributes.
+    bool smoothing = true;
+
+    unsigned threads = 1;  // 0 = all hardware threads; the output does not depend on it
+    bool profile = false;  // measure the time per phase (costs a few percent)
+
+    // All four faster variants on.
+    static RefineOptions fast();
+};
+
+// Time spent per phase of the local refinement, summed over the workers (paper section 8:
+// neighbourhood, filtering, selection, interpolation and radii), in seconds.
+struct PhaseTimes {
+    double neighbourhood = 0, filtering = 0, selection = 0, interpolation = 0;
+};
+
+struct LevelStats {
+    std::uint32_t level = 0;         // the level built: P(level) from P(level-1)
+    std::size_t pointsBefore = 0;
+    std::size_t inserted = 0;
+    std::size_t discarded = 0;       // candidates that fell in the discard space
+    double seconds = 0;              // wall clock
+    PhaseTimes phases;               // filled when RefineOptions::profile
+    std::size_t sequentialPoints = 0; // points too large for the parallel colouring
+};
+
+// Called as progress(done, total) with points refined so far in the current level, from the
+// thread that called refineLevel, at most a few hundred times per level.
+using ProgressFn = std::function<void(std::size_t done, std::size_t total)>;
+
+class Refiner {
+public:
+    // `input` must be non-empty with unit normals and positive radii (estimateRadii supplies them).
+    Refiner(PointSet input, const RefineOptions& options);
+    ~Refiner();
+    Refiner(Refiner&&) noexcept;
+    Refiner& operator=(Refiner&&) noexcept;
+
+    // Builds the next level. Not thread-safe; uses the options' worker threads internally.
+    LevelStats refineLevel(const ProgressFn& progress = {});
+
+    // All points so far, level by level: P0 (the input, unchanged but for the radii) first.
+    const PointSet& points() const;
+    std::uint32_t levels() const;                 // 0 before the first refineLevel
+    std::size_t levelEnd(std::uint32_t l) const;  // |P(l)|
+    // Children of point i inserted at the transition l → l+1: [childBegin, childEnd).
+    std::size_t childBegin(std::uint32_t l, std::size_t i) const;
+    std::size_t childEnd(std::uint32_t l, std::size_t i) const;
+
+    PointSet takePoints() &&;
+
+private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
+// Checks that a point set can be refined: non-empty, finite, unit normals, positive radii.
+Result<void> validateForRefinement(const PointSet& points);
+
+} // namespace pnsplat

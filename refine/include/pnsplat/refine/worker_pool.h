@@ -1,0 +1,52 @@
+// The worker threads of the refinement, in one place.
+//
+// Contract: a WorkerPool owns `threads - 1` threads; the thread that calls parallelFor is worker 0
+// and takes part. parallelFor(count, task) runs task(item, worker) once for every item in
+// [0, count), items handed out dynamically, and returns when all are done (the return
+// synchronises with every task). Which worker runs which item varies from run to run: tasks must
+// write only memory that no other item of the same call reads or writes, and results must not
+// depend on `worker` except through per-worker scratch memory. parallelFor is not reentrant and
+// must be called from one thread at a time.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace pnsplat {
+
+class WorkerPool {
+public:
+    // threads = 0 picks std::thread::hardware_concurrency().
+    explicit WorkerPool(unsigned threads);
+    ~WorkerPool();
+    WorkerPool(const WorkerPool&) = delete;
+    WorkerPool& operator=(const WorkerPool&) = delete;
+
+    unsigned size() const { return static_cast<unsigned>(threads_.size()) + 1; }
+
+    void parallelFor(std::size_t count, const std::function<void(std::size_t item, unsigned worker)>& task);
+
+private:
+    void workerLoop(unsigned worker);
+    void runItems(unsigned worker);
+
+    std::vector<std::thread> threads_;
+    std::mutex mutex_;
+    std::condition_variable wake_;
+    std::condition_variable done_;
+    const std::function<void(std::size_t, unsigned)>* task_ = nullptr;
+    std::size_t count_ = 0;
+    std::atomic<std::size_t> next_{0};
+    std::uint64_t generation_ = 0;
+    unsigned busy_ = 0;
+    bool stopping_ = false;
+};
+
+} // namespace pnsplat

@@ -1,0 +1,93 @@
+// Radius estimation from the natural first ring (SPEC.md section 9).
+#include "pnsplat/refine/radius_estimation.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include <glm/geometric.hpp>
+#include <nanoflann.hpp>
+
+#include "pnsplat/refine/neighbourhood.h"
+#include "pnsplat/refine/pn_triangle.h"
+#include "pnsplat/refine/worker_pool.h"
+
+namespace pnsplat {
+
+namespace {
+
+struct Cloud {
+    const std::vector<glm::vec3>& points;
+    std::size_t kdtree_get_point_count() const { return points.size(); }
+    float kdtree_get_pt(std::size_t i, std::size_t dim) const { return points[i][static_cast<int>(dim)]; }
+    template <class Box>
+    bool kdtree_get_bbox(Box&) const { return false; }
+};
+
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>, Cloud, 3, std::uint32_t>;
+
+} // namespace
+
+void estimateRadii(PointSet& points, unsigned threads) {
+    const std::size_t count = points.size();
+    points.radius.assign(count, 0.0f);
+    if (count < 2) return;
+    const Cloud cloud{points.position};
+    Tree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    tree.buildIndex();
+
+    // Survivors per point, for the symmetric pass: at most kMaxCandidates each.
+    std::vector<std::uint32_t> survivors(count * kMaxCandidates);
+    std::vector<std::uint8_t> survivorCount(count);
+    WorkerPool pool(threads);
+    struct Scratch {
+        NeighbourSet set;
+        NeighbourhoodScratch neighbourhood;
+    };
+    std::vector<Scratch> scratch(pool.size());
+    constexpr std::size_t kBatch = 256;
+    pool.parallelFor((count + kBatch - 1) / kBatch, [&](std::size_t batch, unsigned worker) {
+        Scratch& s = scratch[worker];
+        std::array<std::uint32_t, kMaxCandidates + 1> index;
+        std::array<float, kMaxCandidates + 1> distance2;
+        for (std::size_t i = batch * kBatch; i < std::min(count, (batch + 1) * kBatch); ++i) {
+            const glm::vec3 x = points.position[i], n = points.normal[i];
+            const std::size_t found = tree.knnSearch(&x.x, kMaxCandidates + 1, index.data(), distance2.data());
+            // Skip the point itself and coincident duplicates.
+            std::size_t first = 0;
+            while (first < found && distance2[first] <= 0.0f) ++first;
+            if (first >= found) continue;
+            const std::size_t nth = std::min(found - 1, first + kRadiusNearest - 1);
+            const float limit2 = 4.0f * distance2[nth];
+            s.set.clear();
+            for (std::size_t k = first; k < found && distance2[k] <= limit2; ++k) {
+                const std::uint32_t j = index[k];
+                if (validNeighbours(x, n, points.position[j], points.normal[j]))
+                    s.set.push(j, points.position[j], points.normal[j]);
+            }
+            FuzzyParams params;
+            params.geodesicProjection = false;
+            filterFuzzy(x, n, params, s.set, s.neighbourhood);
+            float radius = 0.0f;
+            for (std::size_t k = 0; k < s.set.size(); ++k) {
+                radius = std::max(radius, glm::length(s.set.position[k] - x));
+                survivors[i * kMaxCandidates + k] = s.set.index[k];
+            }
+            survivorCount[i] = static_cast<std::uint8_t>(s.set.size());
+            // Neighbourhoods are open balls (|p - p_i| < r): reach the farthest survivor strictly.
+            points.radius[i] = std::nextafter(radius, std::numeric_limits<float>::max());
+        }
+    });
+    // Symmetric pass, sequential so that the result is independent of the threads.
+    for (std::size_t i = 0; i < count; ++i) {
+        for (std::size_t k = 0; k < survivorCount[i]; ++k) {
+            const std::uint32_t j = survivors[i * kMaxCandidates + k];
+            const float reach = std::nextafter(glm::length(points.position[i] - points.position[j]),
+                                               std::numeric_limits<float>::max());
+            points.radius[j] = std::max(points.radius[j], reach);
+        }
+    }
+}
+
+} // namespace pnsplat

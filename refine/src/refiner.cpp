@@ -1,0 +1,534 @@
+// Levels of refinement on worker threads: paper sections 5 and 7, SPEC.md sections 4, 5 and 7.
+//
+// Parallel scheme (SPEC 5). The result of a level depends on the order in which its points are
+// refined, so the order is fixed independently of the thread count:
+//  - Space is cut into cubic cells of side s = kCellFactor · r_lim, r_lim the 99th percentile of
+//    the radii of P(l). Cells are coloured by the parity of their integer coordinates (2×2×2 = 8
+//    colours); two cells of one colour are at least s apart.
+//  - Refining p reads points within r_p + kChildReach·r_q of p and writes points within
+//    kChildReach·r_p of p, so two points further apart than (1 + kChildReach)·r_lim < s never
+//    touch the same memory: cells of one colour are refined concurrently, each by one worker, its
+//    points in increasing index order; the colours follow each other in order 0..7.
+//  - Points with r > r_lim (at most 1 %) are refined first, one after the other, in index order.
+// Every point sees exactly the points that the same sequential order would show it, whatever the
+// number of threads, so the output is identical for any thread count.
+#include "pnsplat/refine/refiner.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cassert>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <glm/geometric.hpp>
+
+#include "pnsplat/refine/hierarchy.h"
+#include "pnsplat/refine/neighbourhood.h"
+#include "pnsplat/refine/pn_triangle.h"
+#include "pnsplat/refine/worker_pool.h"
+
+namespace pnsplat {
+
+namespace {
+
+constexpr float kPi = std::numbers::pi_v<float>;
+constexpr float kTwoPi = 2.0f * kPi;
+constexpr float kCellFactor = 2.25f; // > 1 + kChildReach
+constexpr float kLargeQuantile = 0.99f;
+// Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
+// (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
+// neighbour at the next level; without the margin it would drop out by rounding.
+constexpr float kRadiusMargin = 1.0f + 1.0f / 4096.0f;
+// Choice: a candidate competes for a gap of N'_p only if it splits it into two parts of at least
+// this angle. Every fan triangle is shared by the fans of its three corners, so its candidate is
+// computed up to three times (with rounding noise); once inserted by one corner it is a member of
+// the others' N'_p, and its twins, a few ulps away in angle, must not be inserted again.
+constexpr float kMinSplitAngle = kThetaC / 8.0f;
+
+using Clock = std::chrono::steady_clock;
+
+// A point inserted during the current level, stored in the cell of its parent.
+struct NewPoint {
+    glm::vec3 position;
+    glm::vec3 normal;
+    float radius;
+    glm::u8vec3 colour;
+};
+
+// Where the children of a point of P(l) are, once it is refined.
+struct ChildRange {
+    std::uint32_t cell = 0, begin = 0, count = 0;
+};
+
+// A member of the new one-ring N'_p or of Y_p: a point of P(l+1) - P(l).
+struct RingMember {
+    std::uint32_t cell, local;
+    glm::vec3 position;
+    glm::vec3 normal;
+    float angle;           // around n_p
+    float gapToNext = 0;   // curved angle to the next member, valid when !gapStale
+    bool gapStale = true;
+    bool gapExhausted = false; // no candidate left inside this gap
+};
+
+// A possible new point of L_p (eq. 12), from the fan triangle (p, fan[a], fan[b]).
+struct Candidate {
+    glm::vec3 position;
+    glm::vec3 normal;
+    glm::u8vec3 colour;
+    float angle;
+    std::uint32_t a, b;
+};
+
+struct WorkerScratch {
+    NeighbourSet fan;
+    NeighbourhoodScratch neighbourhood;
+    std::vector<std::uint32_t> stack;
+    std::vector<RingMember> ring;  // N'_p
+    std::vector<RingMember> outer; // Y_p
+    std::vector<Candidate> candidates;
+    PhaseTimes times;
+    std::size_t inserted = 0, discarded = 0;
+};
+
+// Counter-clockwise sweep from angle a to angle b, in [0, 2π).
+inline float sweep(float a, float b) {
+    float d = b - a;
+    if (d < 0.0f) d += kTwoPi;
+    if (d >= kTwoPi) d -= kTwoPi;
+    return d;
+}
+
+inline double secondsSince(Clock::time_point& t) {
+    const Clock::time_point now = Clock::now();
+    const double s = std::chrono::duration<double>(now - t).count();
+    t = now;
+    return s;
+}
+
+inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
+    const glm::uvec3 sum = glm::uvec3(a) + glm::uvec3(b) + glm::uvec3(c);
+    return glm::u8vec3((sum + glm::uvec3(1)) / 3u);
+}
+
+} // namespace
+
+RefineOptions RefineOptions::fast() {
+    RefineOptions o;
+    o.neighbourhood = NeighbourhoodKind::Fuzzy;
+    o.euclideanGeodesic = true;
+    o.plainAngle = true;
+    o.centroidCandidates = true;
+    return o;
+}
+
+struct Refiner::State {
+    RefineOptions options;
+    WorkerPool pool;
+    PointSet points;
+    PointHierarchy hierarchy;
+
+    // The level being built.
+    std::vector<float> levelRadius; // radii of P(l) at the start of the level (read-only during it)
+    std::vector<std::uint8_t> refined;
+    std::vector<ChildRange> childRange;
+    std::vector<std::vector<NewPoint>> cellPoints;
+    std::vector<WorkerScratch> scratch;
+
+    State(PointSet input, const RefineOptions& o)
+        : options(o), pool(o.threads), points(std::move(input)), hierarchy(points.position),
+          scratch(pool.size()) {}
+
+    void refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s);
+    LevelStats refineLevel(const ProgressFn& progress);
+
+private:
+    void gatherNeighbourhood(std::uint32_t p, WorkerScratch& s);
+    void makeCandidates(std::uint32_t p, WorkerScratch& s) const;
+    float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
+    void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
+    NewPoint& newPoint(const RingMember& m) { return cellPoints[m.cell][m.local]; }
+};
+
+void Refiner::State::gatherNeighbourhood(std::uint32_t p, WorkerScratch& s) {
+    const glm::vec3 x = points.position[p];
+    const glm::vec3 n = points.normal[p];
+    const float r = levelRadius[p];
+    const float r2 = r * r;
+    const float innerRadius = kLambda1 * r;
+    const TangentFrame frame(n);
+    s.fan.clear();
+    s.ring.clear();
+    s.outer.clear();
+    hierarchy.query(points.position, x, r, s.stack, [&](std::uint32_t i, float d2) {
+        // Nε_p (eq. 7): points of P(l) closer than r that pass the validity cone (eq. 6).
+        if (d2 < r2 && i != p && validNeighbours(x, n, points.position[i], points.normal[i]))
+            s.fan.push(i, points.position[i], points.normal[i]);
+        // The points already inserted near p are children of refined points q with
+        // |p - q| <= r + kChildReach·r_q (section 7). The distance is tested before the `refined`
+        // flag is read: only points this close are guaranteed not to be refined concurrently.
+        const float reach = r + kChildReach * levelRadius[i];
+        if (d2 > reach * reach || !refined[i]) return;
+        const ChildRange range = childRange[i];
+        const NewPoint* children = cellPoints[range.cell].data() + range.begin;
+        for (std::uint32_t k = 0; k < range.count; ++k) {
+            const glm::vec3 d = children[k].position - x;
+            const float distance = glm::length(d);
+            if (!(distance < r)) continue;
+            RingMember m{range.cell, range.begin + k, children[k].position, children[k].normal, frame.angleOf(d)};
+            if (distance < innerRadius) s.ring.push_back(m); // N'_p (section 5)
+            else if (distance > innerRadius) s.outer.push_back(m); // Y_p (eq. 10)
+        }
+    });
+}
+
+void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
+    const glm::vec3 x = points.position[p];
+    const glm::vec3 n = points.normal[p];
+    const TangentFrame frame(n);
+    const NeighbourSet& fan = s.fan;
+    const std::size_t m = fan.size();
+    const bool colour = points.hasColour();
+    s.candidates.clear();
+    if (m < 2) return;
+    for (std::uint32_t a = 0; a < m; ++a) {
+        const std::uint32_t b = static_cast<std::uint32_t>((a + 1) % m);
+        // Boundary gap (section 6): no triangle across an opening wider than θb.
+        if (sweep(fan.angle[a], fan.angle[b]) > options.thetaB) continue;
+        Candidate c;
+        const glm::vec3 pa = fan.position[a], pb = fan.position[b];
+        const glm::vec3 na = fan.normal[a], nb = fan.normal[b];
+        const glm::vec3 cog = centreOfGravity(x, pa, pb);
+        if (!options.smoothing || options.centroidCandidates) {
+            c.position = cog;
+            c.normal = glm::normalize(n + na + nb);
+        } else {
+            // L_p (eq. 12): cog + φ on the PN triangle (p, p_a, p_b), normal from its tangents.
+            const PnTriangle t = makePnTriangle(x, n, pa, na, pb, nb);
+            c.position = cog + smoothingDisplacement(t);
+            c.normal = centreNormal(t, n, na, nb);
+        }
+        c.colour = colour ? meanColour(points.colour[p], points.colour[fan.index[a]], points.colour[fan.index[b]])
+                          : glm::u8vec3(0);
+        c.angle = frame.angleOf(c.position - x);
+        c.a = a;
+        c.b = b;
+        s.candidates.push_back(c);
+    }
+}
+
+// The "curved angle" between consecutive members of N'_p (eq. 5), or their plain angle
+// (variant 2). A gap wider than π cannot be measured by unsigned angles: its counter-clockwise
+// sweep is used, which is always above θc.
+float Refiner::State::gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const {
+    const float s = ringSize == 1 ? kTwoPi : sweep(a.angle, b.angle);
+    if (s > kPi) return s;
+    if (options.plainAngle) return angleAt(x, a.position, b.position);
+    return curvedAngle(x, a.position, a.normal, b.position, b.normal);
+}
+
+void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const {
+    auto at = std::upper_bound(ring.begin(), ring.end(), m, [](const RingMember& u, const RingMember& v) {
+        return u.angle < v.angle;
+    });
+    at = ring.insert(at, m);
+    // The gaps before and after the new member change.
+    const std::size_t k = static_cast<std::size_t>(at - ring.begin());
+    ring[k].gapStale = true;
+    ring[(k + ring.size() - 1) % ring.size()].gapStale = true;
+}
+
+void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) {
+    const bool profile = options.profile;
+    Clock::time_point t0;
+    if (profile) t0 = Clock::now();
+
+    const glm::vec3 x = points.position[p];
+    const glm::vec3 n = points.normal[p];
+    gatherNeighbourhood(p, s);
+    if (profile) s.times.neighbourhood += secondsSince(t0);
+
+    FuzzyParams fuzzy;
+    fuzzy.thetaF = options.thetaF;
+    fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
+    fuzzy.euclideanGeodesic = options.euclideanGeodesic;
+    filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
+    if (profile) s.times.filtering += secondsSince(t0);
+
+    makeCandidates(p, s);
+    if (profile) s.times.interpolation += secondsSince(t0);
+
+    // N'_p sorted around n_p; ties broken by storage position, which is deterministic.
+    std::sort(s.ring.begin(), s.ring.end(), [](const RingMember& a, const RingMember& b) {
+        if (a.angle != b.angle) return a.angle < b.angle;
+        return a.cell != b.cell ? a.cell < b.cell : a.local < b.local;
+    });
+
+    const float lambda2 = kLambda2;
+    std::vector<RingMember>& ring = s.ring;
+    std::vector<Candidate>& candidates = s.candidates;
+    auto& cellStore = cellPoints[cell];
+    const auto firstChild = static_cast<std::uint32_t>(cellStore.size());
+    double interpolationSeconds = 0;
+
+    while (!candidates.empty()) {
+        // 1. The pair of consecutive members of N'_p with the largest curved angle that is not
+        //    below θc (N'_p complete otherwise) and still has a candidate inside it.
+        std::size_t chosen = candidates.size();
+        if (ring.empty()) {
+            chosen = 0; // an empty N'_p is incomplete; every candidate fills it equally
+        } else {
+            for (std::size_t j = 0; j < ring.size(); ++j) {
+                if (!ring[j].gapStale) continue;
+                ring[j].gapToNext = gapValue(x, ring[j], ring[(j + 1) % ring.size()], ring.size());
+                ring[j].gapStale = false;
+                ring[j].gapExhausted = false;
+            }
+            for (;;) {
+                std::size_t widest = ring.size();
+                for (std::size_t j = 0; j < ring.size(); ++j) {
+                    if (ring[j].gapExhausted || ring[j].gapToNext < kThetaC) continue;
+                    if (widest == ring.size() || ring[j].gapToNext > ring[widest].gapToNext) widest = j;
+                }
+                if (widest == ring.size()) break; // complete, or no candidate fills what is open
+                // 2. The candidate that best balances the sampling: max of min(∠p_j p p_k, ∠p_k p p_j+1).
+                //    Choice: angles measured around n_p in the tangent plane (the plane that orders
+                //    the fan), and only candidates inside the gap compete, so a point is never put
+                //    into a gap other than the one being filled.
+                const RingMember& a = ring[widest];
+                const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[(widest + 1) % ring.size()].angle);
+                float bestScore = -1.0f;
+                for (std::size_t k = 0; k < candidates.size(); ++k) {
+                    const float into = sweep(a.angle, candidates[k].angle);
+                    const float score = std::min(into, gapSweep - into);
+                    if (score >= kMinSplitAngle && score > bestScore) {
+                        bestScore = score;
+                        chosen = k;
+                    }
+                }
+                if (chosen < candidates.size()) break;
+                ring[widest].gapExhausted = true;
+            }
+            if (chosen == candidates.size()) break;
+        }
+
+        // 3. Insert the candidate unless it falls into the discard space D_p (eq. 11); then the
+        //    closest point of Y_p joins N'_p instead.
+        const Candidate c = candidates[chosen];
+        candidates.erase(candidates.begin() + static_cast<std::ptrdiff_t>(chosen));
+        std::size_t closest = s.outer.size();
+        float closestDistance = std::numeric_limits<float>::max();
+        bool discarded = false;
+        for (std::size_t h = 0; h < s.outer.size(); ++h) {
+            const float distance = glm::length(c.position - s.outer[h].position);
+            if (distance < lambda2 * newPoint(s.outer[h]).radius) discarded = true;
+            if (distance < closestDistance) {
+                closestDistance = distance;
+                closest = h;
+            }
+        }
+        if (discarded) {
+            ++s.discarded;
+            const RingMember& y = s.outer[closest];
+            const bool present = std::any_of(ring.begin(), ring.end(), [&](const RingMember& m) {
+                return m.cell == y.cell && m.local == y.local;
+            });
+            if (!present) insertIntoRing(ring, y);
+            continue;
+        }
+        Clock::time_point ti;
+        if (profile) ti = Clock::now();
+        NewPoint np{c.position, c.normal, 0.0f, c.colour};
+        if (options.centroidCandidates && options.smoothing) {
+            // Variant 4: the smoothing operator only for candidates actually inserted.
+            const glm::vec3 pa = s.fan.position[c.a], pb = s.fan.position[c.b];
+            const glm::vec3 na = s.fan.normal[c.a], nb = s.fan.normal[c.b];
+            const PnTriangle t = makePnTriangle(x, n, pa, na, pb, nb);
+            np.position = c.position + smoothingDisplacement(t);
+            np.normal = centreNormal(t, n, na, nb);
+        }
+        const auto local = static_cast<std::uint32_t>(cellStore.size());
+        cellStore.push_back(np);
+        ++s.inserted;
+        RingMember m{cell, local, np.position, np.normal, TangentFrame(n).angleOf(np.position - x)};
+        insertIntoRing(ring, m);
+        if (profile) interpolationSeconds += secondsSince(ti);
+    }
+
+    // Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
+    // neighbours in the new ring.
+    if (!ring.empty()) {
+        float newRadius = 0.0f;
+        const std::size_t m = ring.size();
+        for (std::size_t j = 0; j < m; ++j) {
+            const glm::vec3 pj = ring[j].position;
+            const float toP = glm::length(pj - x);
+            newRadius = std::max(newRadius, toP);
+            float& rj = newPoint(ring[j]).radius;
+            const float reach = std::max({toP, glm::length(pj - ring[(j + m - 1) % m].position),
+                                          glm::length(pj - ring[(j + 1) % m].position)});
+            rj = std::max(rj, kRadiusMargin * reach);
+        }
+        points.radius[p] = kRadiusMargin * newRadius;
+    }
+    childRange[p] = ChildRange{cell, firstChild, static_cast<std::uint32_t>(cellStore.size()) - firstChild};
+    refined[p] = 1;
+    if (profile) {
+        const double total = secondsSince(t0);
+        s.times.selection += total - interpolationSeconds;
+        s.times.interpolation += interpolationSeconds;
+    }
+}
+
+LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
+    const Clock::time_point start = Clock::now();
+    const auto count = static_cast<std::uint32_t>(points.size());
+    LevelStats stats;
+    stats.level = hierarchy.levels();
+    stats.pointsBefore = count;
+
+    levelRadius = points.radius;
+    std::vector<float> reach(count);
+    for (std::uint32_t i = 0; i < count; ++i) reach[i] = kChildReach * levelRadius[i];
+    hierarchy.updateBounds(points.position, reach);
+    refined.assign(count, 0);
+    childRange.assign(count, ChildRange{});
+
+    // Colouring (see the top of this file).
+    std::vector<float> sortedRadii = levelRadius;
+    const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
+    std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
+                     sortedRadii.end());
+    const float radiusLimit = sortedRadii[quantileIndex];
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+    for (const glm::vec3& x : points.position) {
+        lo = glm::min(lo, x);
+        hi = glm::max(hi, x);
+    }
+    const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+    const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
+    std::vector<std::uint32_t> large;
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
+    keyed.reserve(count);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        if (levelRadius[i] > radiusLimit) {
+            large.push_back(i);
+            continue;
+        }
+        const glm::uvec3 c = glm::uvec3(glm::clamp((points.position[i] - lo) / cellSize, glm::vec3(0.0f),
+                                                   glm::vec3(float((1u << 21) - 1))));
+        const std::uint64_t key = (std::uint64_t(c.x) << 42) | (std::uint64_t(c.y) << 21) | c.z;
+        keyed.emplace_back(key, i);
+    }
+    std::sort(keyed.begin(), keyed.end());
+    struct Cell {
+        std::uint32_t begin, end; // into keyed
+    };
+    std::vector<Cell> cells;
+    std::array<std::vector<std::uint32_t>, 8> cellsByColour;
+    for (std::uint32_t k = 0; k < keyed.size();) {
+        std::uint32_t e = k;
+        while (e < keyed.size() && keyed[e].first == keyed[k].first) ++e;
+        const std::uint64_t key = keyed[k].first;
+        const unsigned colour = unsigned(key & 1u) | unsigned((key >> 21) & 1u) << 1 | unsigned((key >> 42) & 1u) << 2;
+        cellsByColour[colour].push_back(static_cast<std::uint32_t>(cells.size()));
+        cells.push_back(Cell{k, e});
+        k = e;
+    }
+    cellPoints.assign(cells.size() + 1, {});
+    stats.sequentialPoints = large.size();
+
+    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0;
+    std::size_t done = 0;
+    const auto largeCell = static_cast<std::uint32_t>(cells.size());
+    for (std::uint32_t i : large) refinePoint(i, largeCell, scratch[0]);
+    done += large.size();
+    if (progress) progress(done, count);
+    std::atomic<std::size_t> processed{0};
+    for (const std::vector<std::uint32_t>& group : cellsByColour) {
+        pool.parallelFor(group.size(), [&](std::size_t item, unsigned worker) {
+            const Cell cell = cells[group[item]];
+            for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], scratch[worker]);
+            const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
+            if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, count);
+        });
+    }
+    done += processed.load();
+    if (progress) progress(done, count);
+
+    // Append the new points grouped by parent, parents in index order (section 7).
+    std::vector<std::uint32_t> childBegin(count + 1);
+    std::uint32_t offset = count;
+    for (std::uint32_t i = 0; i < count; ++i) {
+        childBegin[i] = offset;
+        offset += childRange[i].count;
+    }
+    childBegin[count] = offset;
+    points.resize(offset);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const ChildRange range = childRange[i];
+        for (std::uint32_t k = 0; k < range.count; ++k) {
+            const NewPoint& np = cellPoints[range.cell][range.begin + k];
+            const std::uint32_t o = childBegin[i] + k;
+            points.position[o] = np.position;
+            points.normal[o] = np.normal;
+            points.radius[o] = np.radius;
+            if (points.hasColour()) points.colour[o] = np.colour;
+        }
+    }
+    hierarchy.addLevel(std::move(childBegin));
+    cellPoints.clear();
+
+    for (const WorkerScratch& s : scratch) {
+        stats.inserted += s.inserted;
+        stats.discarded += s.discarded;
+        stats.phases.neighbourhood += s.times.neighbourhood;
+        stats.phases.filtering += s.times.filtering;
+        stats.phases.selection += s.times.selection;
+        stats.phases.interpolation += s.times.interpolation;
+    }
+    stats.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    return stats;
+}
+
+Refiner::Refiner(PointSet input, const RefineOptions& options)
+    : state_(std::make_unique<State>(std::move(input), options)) {
+    assert(validateForRefinement(state_->points).ok());
+}
+
+Refiner::~Refiner() = default;
+Refiner::Refiner(Refiner&&) noexcept = default;
+Refiner& Refiner::operator=(Refiner&&) noexcept = default;
+
+LevelStats Refiner::refineLevel(const ProgressFn& progress) { return state_->refineLevel(progress); }
+const PointSet& Refiner::points() const { return state_->points; }
+std::uint32_t Refiner::levels() const { return state_->hierarchy.levels() - 1; }
+std::size_t Refiner::levelEnd(std::uint32_t l) const { return state_->hierarchy.levelEnd(l); }
+std::size_t Refiner::childBegin(std::uint32_t l, std::size_t i) const {
+    return state_->hierarchy.childBegin(l, static_cast<std::uint32_t>(i));
+}
+std::size_t Refiner::childEnd(std::uint32_t l, std::size_t i) const {
+    return state_->hierarchy.childEnd(l, static_cast<std::uint32_t>(i));
+}
+PointSet Refiner::takePoints() && { return std::move(state_->points); }
+
+Result<void> validateForRefinement(const PointSet& points) {
+    if (points.empty()) return Error{"the point set is empty"};
+    if (!points.hasRadius()) return Error{"the point set has no radii"};
+    if (points.size() >= (1u << 31)) return Error{"too many points (at most 2^31)"};
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const glm::vec3 x = points.position[i], n = points.normal[i];
+        if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
+            return Error{"point " + std::to_string(i) + " has a non-finite coordinate"};
+        const float length = glm::length(n);
+        if (!(std::abs(length - 1.0f) < 1e-3f))
+            return Error{"point " + std::to_string(i) + " has a normal that is not of unit length"};
+        if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
+            return Error{"point " + std::to_string(i) + " has a radius that is not positive and finite"};
+    }
+    return {};
+}
+
+} // namespace pnsplat

@@ -1,0 +1,126 @@
+// `pnsplat refine`: refine a PLY point set (or the embedded default model) offline.
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include <fmt/core.h>
+
+#include "commands.h"
+#include "progress.h"
+#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/radius_estimation.h"
+#include "pnsplat/refine/refiner.h"
+#include "pnsplat/refine/shapes.h"
+
+namespace pnsplat::tools {
+
+namespace {
+
+struct RefineArgs {
+    std::string input;
+    std::string output;
+    unsigned levels = 0;
+    std::size_t targetPoints = 0;
+    std::string neighbourhood = "accurate";
+    unsigned threads = 0;
+    bool fast = false;
+    bool euclideanGeodesic = false;
+    bool plainAngle = false;
+    bool centroidCandidates = false;
+    bool noSmoothing = false;
+    bool ascii = false;
+    bool estimateRadii = false;
+    double thetaFDegrees = 30.0;
+    double thetaBDegrees = 180.0;
+};
+
+constexpr unsigned kDefaultLevels = 4;
+
+void runRefine(const RefineArgs& args) {
+    using Clock = std::chrono::steady_clock;
+    PointSet points;
+    std::string inputName = args.input;
+    if (args.input.empty()) {
+        points = makeDefaultModel();
+        inputName = "the default model";
+    } else {
+        points = unwrap(readPly(args.input)).points;
+    }
+    if (points.size() < 3)
+        throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
+
+    RefineOptions options = args.fast ? RefineOptions::fast() : RefineOptions{};
+    if (!args.fast) options.neighbourhood = args.neighbourhood == "fuzzy" ? NeighbourhoodKind::Fuzzy : NeighbourhoodKind::Accurate;
+    options.euclideanGeodesic |= args.euclideanGeodesic;
+    options.plainAngle |= args.plainAngle;
+    options.centroidCandidates |= args.centroidCandidates;
+    options.smoothing = !args.noSmoothing;
+    options.thetaF = static_cast<float>(args.thetaFDegrees * std::numbers::pi / 180.0);
+    options.thetaB = static_cast<float>(args.thetaBDegrees * std::numbers::pi / 180.0);
+    options.threads = args.threads;
+
+    const auto start = Clock::now();
+    if (!points.hasRadius() || args.estimateRadii) estimateRadii(points, args.threads);
+    if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
+
+    const std::size_t inputCount = points.size();
+    const unsigned levels = args.levels != 0 ? args.levels : (args.targetPoints != 0 ? 64u : kDefaultLevels);
+    Refiner refiner(std::move(points), options);
+    ProgressBar bar("refining");
+    double refineSeconds = 0;
+    unsigned done = 0;
+    while (done < levels && (args.targetPoints == 0 || refiner.points().size() < args.targetPoints)) {
+        bar.setLabel(fmt::format("level {}", done + 1));
+        const LevelStats stats = refiner.refineLevel([&](std::size_t d, std::size_t t) { bar.update(d, t); });
+        refineSeconds += stats.seconds;
+        ++done;
+        if (stats.inserted == 0) break; // converged: nothing more to insert
+    }
+    bar.finish();
+    const std::size_t outputCount = refiner.points().size();
+
+    std::string output = args.output;
+    if (output.empty())
+        output = (args.input.empty() ? std::string("default") : std::filesystem::path(args.input).stem().string()) + "-refined.ply";
+    unwrap(writePly(output, refiner.points(), args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
+    const double total = std::chrono::duration<double>(Clock::now() - start).count();
+    const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - inputCount) / refineSeconds : 0.0;
+    fmt::print("{}: {} points in, {} out, {} level(s), {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
+               inputName, inputCount, outputCount, done, refineSeconds, rate, total, output);
+}
+
+} // namespace
+
+void addRefineCommand(CLI::App& app) {
+    auto args = std::make_shared<RefineArgs>();
+    CLI::App* cmd = app.add_subcommand("refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)");
+    cmd->add_option("input", args->input, "input PLY (x y z nx ny nz [radius] [red green blue]); "
+                                          "omitted: the embedded default model")
+        ->check(CLI::ExistingFile);
+    cmd->add_option("-o,--output", args->output, "output PLY (default: <input>-refined.ply)");
+    auto* levels = cmd->add_option("-l,--levels", args->levels, fmt::format("refinement levels (default {})", kDefaultLevels))
+                       ->check(CLI::Range(1u, 64u));
+    cmd->add_option("-n,--target-points", args->targetPoints, "refine level by level until at least this many points")
+        ->check(CLI::PositiveNumber)
+        ->excludes(levels);
+    cmd->add_option("--neighbourhood", args->neighbourhood, "one-ring: accurate (Ng, geodesic projection) or fuzzy (Nf)")
+        ->check(CLI::IsMember({"fuzzy", "accurate"}))
+        ->capture_default_str();
+    cmd->add_option("-t,--threads", args->threads, "worker threads (0 = all; output is identical for any count)")
+        ->capture_default_str();
+    cmd->add_flag("--fast", args->fast, "all four faster variants of the paper (section 7) at once");
+    cmd->add_flag("--euclidean-geodesic", args->euclideanGeodesic, "variant 1: Euclidean distance for the geodesic distance");
+    cmd->add_flag("--plain-angle", args->plainAngle, "variant 2: plain angle for the curved angle");
+    cmd->add_flag("--centroid-candidates", args->centroidCandidates, "variant 4: smooth only the candidates inserted");
+    cmd->add_flag("--no-smoothing", args->noSmoothing, "baseline: insert plain centroids (no PN displacement)");
+    cmd->add_option("--theta-f", args->thetaFDegrees, "fuzzy-plane tolerance in degrees")->check(CLI::Range(1.0, 89.0))->capture_default_str();
+    cmd->add_option("--theta-b", args->thetaBDegrees, "boundary gap threshold in degrees, (120, 180]")
+        ->check(CLI::Range(120.001, 180.0))
+        ->capture_default_str();
+    cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
+    cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
+    cmd->callback([args] { runRefine(*args); });
+}
+
+} // namespace pnsplat::tools

@@ -90,7 +90,7 @@ struct WorkerScratch {
     std::vector<RingMember> outer; // Y_p
     std::vector<Candidate> candidates;
     PhaseTimes times;
-    std::size_t inserted = 0, discarded = 0;
+    std::size_t inserted = 0, discarded = 0, incomplete = 0;
 };
 
 // Counter-clockwise sweep from angle a to angle b, in [0, 2π).
@@ -357,6 +357,14 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         if (profile) interpolationSeconds += secondsSince(ti);
     }
 
+    // Whether N'_p ended complete (every curved angle below θc): statistics only.
+    bool complete = !ring.empty();
+    for (std::size_t j = 0; j < ring.size() && complete; ++j) {
+        if (ring[j].gapStale) ring[j].gapToNext = gapValue(x, ring[j], ring[(j + 1) % ring.size()], ring.size());
+        complete = ring[j].gapToNext < kThetaC;
+    }
+    if (!complete) ++s.incomplete;
+
     // Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
     // neighbours in the new ring.
     if (!ring.empty()) {
@@ -413,6 +421,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
     keyed.reserve(count);
     for (std::uint32_t i = 0; i < count; ++i) {
+        if (levelRadius[i] <= options.targetRadius) continue; // adaptive: small enough already
+        ++stats.refinedPoints;
         if (levelRadius[i] > radiusLimit) {
             large.push_back(i);
             continue;
@@ -440,23 +450,23 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     cellPoints.assign(cells.size() + 1, {});
     stats.sequentialPoints = large.size();
 
-    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0;
+    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0;
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
     for (std::uint32_t i : large) refinePoint(i, largeCell, scratch[0]);
     done += large.size();
-    if (progress) progress(done, count);
+    if (progress) progress(done, stats.refinedPoints);
     std::atomic<std::size_t> processed{0};
     for (const std::vector<std::uint32_t>& group : cellsByColour) {
         pool.parallelFor(group.size(), [&](std::size_t item, unsigned worker) {
             const Cell cell = cells[group[item]];
             for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], scratch[worker]);
             const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
-            if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, count);
+            if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, stats.refinedPoints);
         });
     }
     done += processed.load();
-    if (progress) progress(done, count);
+    if (progress) progress(done, stats.refinedPoints);
 
     // Append the new points grouped by parent, parents in index order (section 7).
     std::vector<std::uint32_t> childBegin(count + 1);
@@ -484,6 +494,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (const WorkerScratch& s : scratch) {
         stats.inserted += s.inserted;
         stats.discarded += s.discarded;
+        stats.incomplete += s.incomplete;
         stats.phases.neighbourhood += s.times.neighbourhood;
         stats.phases.filtering += s.times.filtering;
         stats.phases.selection += s.times.selection;

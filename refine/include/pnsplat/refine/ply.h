@@ -4,6 +4,11 @@
 // properties may come in any order and any scalar type: `x y z nx ny nz` are required, `red green
 // blue` (uchar, or float in [0,1]) and `radius` are optional; other properties and other
 // elements (faces, ...) are skipped. Any thread may call these functions.
+//
+// Details of reading: integer colours are clamped to 0..255, float colours scaled by 255 and
+// rounded; colour is kept only when all of red, green and blue are present. List properties of any
+// element are skipped. Ascii data is read as whitespace-separated tokens (line breaks do not
+// matter); data after the last element is ignored.
 #pragma once
 
 #include <filesystem>
@@ -16,7 +21,11 @@
 namespace pnsplat {
 
 struct PlyReadOptions {
-    // Triangles of a `face` element are returned in PlyData::triangles when set (for `eval`).
+    // Triangles of a `face` element are returned in PlyData::triangles when set (for `eval`):
+    // its `vertex_indices` (or `vertex_index`) list, polygons fan-triangulated; a face of fewer
+    // than 3 vertices or with an index outside the vertex element is an error. A file without a
+    // face element gives no triangles. When set, nx ny nz may be absent as a whole (a bare mesh
+    // such as ../shared/data/*-mesh.ply): PointSet::normal is then left empty.
     bool readFaces = false;
 };
 
@@ -28,14 +37,16 @@ struct PlyData {
 // Fails with a one-line message naming the file for: a missing or unreadable file, a malformed or
 // unsupported header, a truncated body, a non-finite coordinate or normal, a normal of (near)
 // zero length, a negative or non-finite radius, and a file with no points. Normals are
-// normalised on reading.
+// normalised on reading (below 1e-12 counts as zero length); a normal already within 1e-6 of unit
+// length is kept bit for bit, so files from writePly read back exactly.
 Result<PlyData> readPly(const std::filesystem::path& path, const PlyReadOptions& options = {});
 
 enum class PlyFormat { Ascii, BinaryLittleEndian };
 
 // Writes `points` (x y z nx ny nz as float, then radius when present, then red green blue when
 // present). The file appears complete or not at all: data goes to a temporary file in the same
-// folder that is renamed over `path` only after a successful write.
+// folder that is renamed over `path` only after a successful write. Floats round-trip exactly in
+// both formats (ascii uses the shortest representation). `points.normal` must be filled.
 Result<void> writePly(const std::filesystem::path& path, const PointSet& points,
                       PlyFormat format = PlyFormat::BinaryLittleEndian);
 

@@ -48,6 +48,12 @@ struct RefineOptions {
     // the method: a baseline that shows what the smoothing operator contributes.
     bool smoothing = true;
 
+    // Adaptive refinement (0 = off, every point is refined at every level, as in the paper's
+    // offline method): points whose radius is at most targetRadius are not refined, so sparse
+    // regions keep being refined after dense ones have reached the target spacing. This is what
+    // the paper's real-time renderer does with a screen-space size threshold (section 7).
+    float targetRadius = 0.0f;
+
     unsigned threads = 1;  // 0 = all hardware threads; the output does not depend on it
     bool profile = false;  // measure the time per phase (costs a few percent)
 
@@ -66,9 +72,11 @@ struct LevelStats {
     std::size_t pointsBefore = 0;
     std::size_t inserted = 0;
     std::size_t discarded = 0;       // candidates that fell in the discard space
+    std::size_t incomplete = 0;      // points whose new one-ring N'_p stayed incomplete
     double seconds = 0;              // wall clock
     PhaseTimes phases;               // filled when RefineOptions::profile
     std::size_t sequentialPoints = 0; // points too large for the parallel colouring
+    std::size_t refinedPoints = 0;    // points of P(level-1) refined (all but adaptive skips)
 };
 
 // Called as progress(done, total) with points refined so far in the current level, from the

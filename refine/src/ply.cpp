@@ -1,0 +1,863 @@
+// PLY input and output of oriented point sets: a header parser, a binary reader (either byte
+// order) that walks rows through a precomputed offset/type table, an ascii reader on
+// std::from_chars, validation of every point, and an atomic writer (temporary file + rename).
+#include "pnsplat/refine/ply.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <bit>
+#include <cassert>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <iterator>
+#include <limits>
+#include <memory>
+#include <new>
+#include <optional>
+#include <string_view>
+#include <system_error>
+#include <utility>
+
+#include <unistd.h>
+
+#include <fmt/core.h>
+
+namespace pnsplat {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
+// Normals shorter than this are rejected; normals within kUnitTolerance of unit length are kept
+// bit for bit (so files written by writePly read back exactly), all others are normalised.
+constexpr double kMinNormalLength = 1e-12;
+constexpr double kUnitTolerance = 1e-6;
+constexpr std::size_t kWriteChunkBytes = std::size_t{1} << 20;
+
+// ---------------------------------------------------------------------------------------------
+// Header model
+
+enum class ScalarType : std::uint8_t { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
+
+std::size_t sizeOf(ScalarType type) {
+    switch (type) {
+    case ScalarType::Int8:
+    case ScalarType::UInt8: return 1;
+    case ScalarType::Int16:
+    case ScalarType::UInt16: return 2;
+    case ScalarType::Int32:
+    case ScalarType::UInt32:
+    case ScalarType::Float32: return 4;
+    case ScalarType::Float64: return 8;
+    }
+    return 1;
+}
+
+bool isFloating(ScalarType type) { return type == ScalarType::Float32 || type == ScalarType::Float64; }
+
+std::optional<ScalarType> parseScalarType(std::string_view name) {
+    static constexpr std::pair<std::string_view, ScalarType> kNames[] = {
+        {"char", ScalarType::Int8},      {"int8", ScalarType::Int8},
+        {"uchar", ScalarType::UInt8},    {"uint8", ScalarType::UInt8},
+        {"short", ScalarType::Int16},    {"int16", ScalarType::Int16},
+        {"ushort", ScalarType::UInt16},  {"uint16", ScalarType::UInt16},
+        {"int", ScalarType::Int32},      {"int32", ScalarType::Int32},
+        {"uint", ScalarType::UInt32},    {"uint32", ScalarType::UInt32},
+        {"float", ScalarType::Float32},  {"float32", ScalarType::Float32},
+        {"double", ScalarType::Float64}, {"float64", ScalarType::Float64},
+    };
+    for (const auto& [spelling, type] : kNames)
+        if (spelling == name) return type;
+    return std::nullopt;
+}
+
+struct Property {
+    std::string name;
+    ScalarType type = ScalarType::Float32; // the item type for lists
+    bool isList = false;
+    ScalarType countType = ScalarType::UInt8; // lists only
+};
+
+struct Element {
+    std::string name;
+    std::uint64_t count = 0;
+    std::vector<Property> properties;
+
+    bool hasLists() const {
+        return std::any_of(properties.begin(), properties.end(), [](const Property& p) { return p.isList; });
+    }
+    int find(std::string_view propertyName) const {
+        for (std::size_t i = 0; i < properties.size(); ++i)
+            if (properties[i].name == propertyName) return static_cast<int>(i);
+        return -1;
+    }
+};
+
+enum class Encoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
+
+struct Header {
+    Encoding encoding = Encoding::Ascii;
+    std::vector<Element> elements;
+    std::size_t bodyOffset = 0;
+};
+
+// The vertex attributes the reader keeps, as slots of one row of values.
+enum Slot : int { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kRadius, kSlotCount };
+constexpr std::array<std::string_view, kSlotCount> kSlotNames = {"x",   "y",     "z",    "nx", "ny",
+                                                                  "nz", "red", "green", "blue", "radius"};
+
+Error fail(std::string_view file, std::string_view problem) {
+    return Error{fmt::format("{}: {}", file, problem)};
+}
+
+std::vector<std::string_view> splitWords(std::string_view line) {
+    std::vector<std::string_view> words;
+    std::size_t i = 0;
+    while (i < line.size()) {
+        while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+        const std::size_t start = i;
+        while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+        if (i > start) words.push_back(line.substr(start, i - start));
+    }
+    return words;
+}
+
+// Printable form of a header word for messages (header bytes may be anything).
+std::string printable(std::string_view word) {
+    std::string out;
+    for (char c : word.substr(0, 40)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
+    if (word.size() > 40) out += "...";
+    return out;
+}
+
+std::optional<std::uint64_t> parseCount(std::string_view word) {
+    std::uint64_t value = 0;
+    const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), value);
+    if (ec != std::errc() || end != word.data() + word.size()) return std::nullopt;
+    return value;
+}
+
+Result<Header> parseHeader(std::string_view data, std::string_view file) {
+    if (data.empty()) return fail(file, "empty file");
+    if (data.size() < 4 || data.substr(0, 3) != "ply" || (data[3] != '\n' && data[3] != '\r'))
+        return fail(file, "not a PLY file (does not start with 'ply')");
+
+    Header header;
+    bool haveFormat = false;
+    std::size_t pos = 0;
+    int lineNumber = 0;
+    while (true) {
+        const std::size_t newline = data.find('\n', pos);
+        if (newline == std::string_view::npos || newline >= kMaxHeaderBytes) {
+            if (newline == std::string_view::npos && data.size() < kMaxHeaderBytes)
+                return fail(file, "malformed header: no end_header line");
+            return fail(file, fmt::format("malformed header: no end_header within the first {} KiB",
+                                          kMaxHeaderBytes / 1024));
+        }
+        std::string_view line = data.substr(pos, newline - pos);
+        pos = newline + 1;
+        ++lineNumber;
+        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+        const auto words = splitWords(line);
+        const auto bad = [&](std::string_view what) {
+            return fail(file, fmt::format("malformed header line {}: {} ('{}')", lineNumber, what,
+                                          printable(line)));
+        };
+        if (lineNumber == 1) {
+            if (words.size() != 1 || words[0] != "ply") return bad("expected 'ply'");
+            continue;
+        }
+        if (words.empty()) continue;
+        const std::string_view keyword = words[0];
+        if (keyword == "comment" || keyword == "obj_info") continue;
+        if (keyword == "end_header") {
+            if (words.size() != 1) return bad("unexpected words after end_header");
+            break;
+        }
+        if (keyword == "format") {
+            if (haveFormat) return bad("second format line");
+            if (words.size() != 3) return bad("expected 'format <type> 1.0'");
+            if (words[1] == "ascii") header.encoding = Encoding::Ascii;
+            else if (words[1] == "binary_little_endian") header.encoding = Encoding::BinaryLittleEndian;
+            else if (words[1] == "binary_big_endian") header.encoding = Encoding::BinaryBigEndian;
+            else return bad("unknown format");
+            if (words[2] != "1.0") return bad("unsupported format version");
+            haveFormat = true;
+        } else if (keyword == "element") {
+            if (words.size() != 3) return bad("expected 'element <name> <count>'");
+            const auto count = parseCount(words[2]);
+            if (!count) return bad("element count is not a non-negative integer");
+            for (const Element& e : header.elements)
+                if (e.name == words[1]) return bad("second element of the same name");
+            header.elements.push_back(Element{std::string(words[1]), *count, {}});
+        } else if (keyword == "property") {
+            if (header.elements.empty()) return bad("property before any element");
+            Property property;
+            if (words.size() == 3) {
+                const auto type = parseScalarType(words[1]);
+                if (!type) return bad("unknown property type");
+                property.type = *type;
+                property.name = std::string(words[2]);
+            } else if (words.size() == 5 && words[1] == "list") {
+                const auto countType = parseScalarType(words[2]);
+                const auto itemType = parseScalarType(words[3]);
+                if (!countType || !itemType) return bad("unknown property type");
+                if (isFloating(*countType)) return bad("list count type must be an integer type");
+                property.isList = true;
+                property.countType = *countType;
+                property.type = *itemType;
+                property.name = std::string(words[4]);
+            } else {
+                return bad("expected 'property <type> <name>' or 'property list <type> <type> <name>'");
+            }
+            Element& element = header.elements.back();
+            if (element.find(property.name) >= 0) return bad("second property of the same name");
+            element.properties.push_back(std::move(property));
+        } else {
+            return bad("unknown keyword");
+        }
+    }
+    if (!haveFormat) return fail(file, "malformed header: no format line");
+    header.bodyOffset = pos;
+    return header;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Storing and checking one vertex
+
+struct VertexLayout {
+    std::array<int, kSlotCount> property{}; // index of the property of each slot, or -1
+    std::array<ScalarType, kSlotCount> type{};
+    bool hasNormal = false;
+    bool hasColour = false;
+    bool hasRadius = false;
+};
+
+Result<VertexLayout> vertexLayout(const Element& vertex, const PlyReadOptions& options,
+                                  std::string_view file) {
+    VertexLayout layout;
+    for (int s = 0; s < kSlotCount; ++s) {
+        const int p = vertex.find(kSlotNames[s]);
+        layout.property[s] = p;
+        if (p < 0) continue;
+        if (vertex.properties[p].isList)
+            return fail(file, fmt::format("vertex property '{}' is a list", kSlotNames[s]));
+        layout.type[s] = vertex.properties[p].type;
+    }
+    const auto has = [&](int s) { return layout.property[s] >= 0; };
+    for (int s : {kX, kY, kZ})
+        if (!has(s)) return fail(file, fmt::format("vertex element has no '{}' property", kSlotNames[s]));
+    layout.hasNormal = has(kNx) && has(kNy) && has(kNz);
+    if (!layout.hasNormal && !(options.readFaces && !has(kNx) && !has(kNy) && !has(kNz))) {
+        for (int s : {kNx, kNy, kNz})
+            if (!has(s))
+                return fail(file, fmt::format("vertex element has no '{}' property", kSlotNames[s]));
+    }
+    layout.hasColour = has(kRed) && has(kGreen) && has(kBlue);
+    layout.hasRadius = has(kRadius);
+    if (!layout.hasNormal) layout.property[kNx] = layout.property[kNy] = layout.property[kNz] = -1;
+    if (!layout.hasColour) layout.property[kRed] = layout.property[kGreen] = layout.property[kBlue] = -1;
+    return layout;
+}
+
+std::uint8_t toColourByte(double value, ScalarType type) {
+    if (isFloating(type)) value = std::round(value * 255.0);
+    return static_cast<std::uint8_t>(std::clamp(value, 0.0, 255.0));
+}
+
+// Stores row `i` (values by slot) into `points`; returns the problem, or nullptr when valid.
+const char* storeVertex(PointSet& points, const VertexLayout& layout, std::size_t i,
+                        const std::array<double, kSlotCount>& v) {
+    const auto x = static_cast<float>(v[kX]);
+    const auto y = static_cast<float>(v[kY]);
+    const auto z = static_cast<float>(v[kZ]);
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) return "non-finite coordinate";
+    points.position[i] = glm::vec3(x, y, z);
+    if (layout.hasNormal) {
+        glm::vec3 n(static_cast<float>(v[kNx]), static_cast<float>(v[kNy]), static_cast<float>(v[kNz]));
+        if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) return "non-finite normal";
+        const double nx = n.x, ny = n.y, nz = n.z;
+        const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
+        if (!(length >= kMinNormalLength)) return "zero-length normal";
+        if (std::abs(length - 1.0) > kUnitTolerance)
+            n = glm::vec3(static_cast<float>(nx / length), static_cast<float>(ny / length),
+                          static_cast<float>(nz / length));
+        points.normal[i] = n;
+    }
+    if (layout.hasRadius) {
+        const auto r = static_cast<float>(v[kRadius]);
+        if (!std::isfinite(r) || r < 0.0f) return "negative or non-finite radius";
+        points.radius[i] = r;
+    }
+    if (layout.hasColour) {
+        if (!std::isfinite(v[kRed]) || !std::isfinite(v[kGreen]) || !std::isfinite(v[kBlue]))
+            return "non-finite colour";
+        points.colour[i] = glm::u8vec3(toColourByte(v[kRed], layout.type[kRed]),
+                                       toColourByte(v[kGreen], layout.type[kGreen]),
+                                       toColourByte(v[kBlue], layout.type[kBlue]));
+    }
+    return nullptr;
+}
+
+void sizePoints(PointSet& points, const VertexLayout& layout, std::size_t n) {
+    points.position.resize(n);
+    if (layout.hasNormal) points.normal.resize(n);
+    if (layout.hasRadius) points.radius.resize(n);
+    if (layout.hasColour) points.colour.resize(n);
+}
+
+// Face lists: fan-triangulates one polygon, checking its indices fit in 32 bits (their range
+// against the vertex count is checked once every element has been read).
+const char* addPolygon(std::vector<glm::u32vec3>& triangles, const double* indices, std::size_t n) {
+    if (n < 3) return "fewer than 3 vertices";
+    for (std::size_t k = 0; k < n; ++k) {
+        const double index = indices[k];
+        if (!(index >= 0.0) || index > 4294967295.0 || index != std::floor(index))
+            return "invalid vertex index";
+    }
+    const auto at = [&](std::size_t k) { return static_cast<std::uint32_t>(indices[k]); };
+    for (std::size_t k = 1; k + 1 < n; ++k) triangles.emplace_back(at(0), at(k), at(k + 1));
+    return nullptr;
+}
+
+int faceListIndex(const Element& face) {
+    for (std::string_view name : {"vertex_indices", "vertex_index"}) {
+        const int p = face.find(name);
+        if (p >= 0 && face.properties[p].isList) return p;
+    }
+    return -1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Binary body
+
+template <typename T>
+T byteSwap(T value) {
+    if constexpr (sizeof(T) == 2) return static_cast<T>(__builtin_bswap16(value));
+    else if constexpr (sizeof(T) == 4) return __builtin_bswap32(value);
+    else return __builtin_bswap64(value);
+}
+
+template <bool kSwap, typename Bits>
+Bits loadBits(const unsigned char* p) {
+    Bits bits;
+    std::memcpy(&bits, p, sizeof bits);
+    if constexpr (kSwap) bits = byteSwap(bits);
+    return bits;
+}
+
+template <bool kSwap>
+double loadScalar(const unsigned char* p, ScalarType type) {
+    switch (type) {
+    case ScalarType::Int8: return static_cast<std::int8_t>(p[0]);
+    case ScalarType::UInt8: return p[0];
+    case ScalarType::Int16: return static_cast<std::int16_t>(loadBits<kSwap, std::uint16_t>(p));
+    case ScalarType::UInt16: return loadBits<kSwap, std::uint16_t>(p);
+    case ScalarType::Int32: return static_cast<std::int32_t>(loadBits<kSwap, std::uint32_t>(p));
+    case ScalarType::UInt32: return loadBits<kSwap, std::uint32_t>(p);
+    case ScalarType::Float32: return std::bit_cast<float>(loadBits<kSwap, std::uint32_t>(p));
+    case ScalarType::Float64: return std::bit_cast<double>(loadBits<kSwap, std::uint64_t>(p));
+    }
+    return 0.0;
+}
+
+struct Field {
+    int slot;
+    std::size_t offset; // within a fixed-layout row
+    ScalarType type;
+};
+
+class BinaryReader {
+public:
+    BinaryReader(std::string_view body, std::string_view file, const PlyReadOptions& options)
+        : data_(reinterpret_cast<const unsigned char*>(body.data())), size_(body.size()), file_(file),
+          options_(options) {}
+
+    template <bool kSwap>
+    Result<void> read(const Header& header, const VertexLayout& layout, PlyData& out) {
+        for (const Element& element : header.elements) {
+            const bool isVertex = element.name == "vertex";
+            const bool isFace = element.name == "face" && options_.readFaces;
+            Result<void> result = element.hasLists()
+                                      ? readRows<kSwap>(element, isVertex, isFace, layout, out)
+                                      : readFixed<kSwap>(element, isVertex, isFace, layout, out);
+            if (!result) return result;
+        }
+        return {};
+    }
+
+private:
+    std::size_t remaining() const { return size_ - pos_; }
+
+    Error truncated(const Element& element, std::uint64_t row) const {
+        return fail(file_, fmt::format("truncated binary data ({} {} of {})", printable(element.name), row,
+                                       element.count));
+    }
+
+    // Elements of scalars only: one stride, offsets known in advance.
+    template <bool kSwap>
+    Result<void> readFixed(const Element& element, bool isVertex, bool isFace, const VertexLayout& layout,
+                           PlyData& out) {
+        if (isFace) return fail(file_, "face element has no vertex_indices list");
+        std::size_t stride = 0;
+        std::vector<std::size_t> offsets;
+        for (const Property& p : element.properties) {
+            offsets.push_back(stride);
+            stride += sizeOf(p.type);
+        }
+        if (stride == 0) return {};
+        const std::uint64_t available = remaining() / stride;
+        if (element.count > available) return truncated(element, available);
+        const auto count = static_cast<std::size_t>(element.count);
+        if (isVertex) {
+            std::vector<Field> fields;
+            for (int s = 0; s < kSlotCount; ++s)
+                if (layout.property[s] >= 0)
+                    fields.push_back({s, offsets[layout.property[s]], layout.type[s]});
+            sizePoints(out.points, layout, count);
+            std::array<double, kSlotCount> values{};
+            for (std::size_t i = 0; i < count; ++i) {
+                const unsigned char* row = data_ + pos_ + i * stride;
+                for (const Field& f : fields) values[f.slot] = loadScalar<kSwap>(row + f.offset, f.type);
+                if (const char* problem = storeVertex(out.points, layout, i, values))
+                    return fail(file_, fmt::format("{} at vertex {}", problem, i));
+            }
+        }
+        pos_ += count * stride;
+        return {};
+    }
+
+    // Elements with lists: each row is walked property by property.
+    template <bool kSwap>
+    Result<void> readRows(const Element& element, bool isVertex, bool isFace, const VertexLayout& layout,
+                          PlyData& out) {
+        // Every row holds at least its list counts and scalars: bound the count before allocating.
+        std::size_t minRow = 0;
+        for (const Property& p : element.properties) minRow += sizeOf(p.isList ? p.countType : p.type);
+        const std::uint64_t available = remaining() / minRow;
+        if (element.count > available)
+            return fail(file_, fmt::format("truncated binary data ({} element of {} rows, room for at most {})",
+                                           printable(element.name), element.count, available));
+        const auto count = static_cast<std::size_t>(element.count);
+        if (isVertex) sizePoints(out.points, layout, count);
+        const int faceList = isFace ? faceListIndex(element) : -1;
+        if (isFace && faceList < 0) return fail(file_, "face element has no vertex_indices list");
+        if (isFace) out.triangles.reserve(out.triangles.size() + count);
+
+        std::vector<int> slotOf(element.properties.size(), -1);
+        if (isVertex)
+            for (int s = 0; s < kSlotCount; ++s)
+                if (layout.property[s] >= 0) slotOf[layout.property[s]] = s;
+        std::array<double, kSlotCount> values{};
+        for (std::size_t i = 0; i < count; ++i) {
+            for (std::size_t p = 0; p < element.properties.size(); ++p) {
+                const Property& property = element.properties[p];
+                if (!property.isList) {
+                    const std::size_t size = sizeOf(property.type);
+                    if (remaining() < size) return truncated(element, i);
+                    if (slotOf[p] >= 0) values[slotOf[p]] = loadScalar<kSwap>(data_ + pos_, property.type);
+                    pos_ += size;
+                    continue;
+                }
+                const std::size_t countSize = sizeOf(property.countType);
+                if (remaining() < countSize) return truncated(element, i);
+                const double n = loadScalar<kSwap>(data_ + pos_, property.countType);
+                pos_ += countSize;
+                if (n < 0.0)
+                    return fail(file_, fmt::format("negative list length ({} {})", printable(element.name), i));
+                const auto length = static_cast<std::size_t>(n);
+                const std::size_t itemSize = sizeOf(property.type);
+                if (length > remaining() / itemSize) return truncated(element, i);
+                if (static_cast<int>(p) == faceList) {
+                    indices_.resize(length);
+                    for (std::size_t k = 0; k < length; ++k)
+                        indices_[k] = loadScalar<kSwap>(data_ + pos_ + k * itemSize, property.type);
+                    if (const char* problem = addPolygon(out.triangles, indices_.data(), length))
+                        return fail(file_, fmt::format("{} in face {}", problem, i));
+                }
+                pos_ += length * itemSize;
+            }
+            if (isVertex)
+                if (const char* problem = storeVertex(out.points, layout, i, values))
+                    return fail(file_, fmt::format("{} at vertex {}", problem, i));
+        }
+        return {};
+    }
+
+    const unsigned char* data_;
+    std::size_t size_;
+    std::size_t pos_ = 0;
+    std::string_view file_;
+    const PlyReadOptions& options_;
+    std::vector<double> indices_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Ascii body
+
+class AsciiReader {
+public:
+    AsciiReader(std::string_view body, std::string_view file, const PlyReadOptions& options,
+                std::uint64_t firstLine)
+        : p_(body.data()), end_(body.data() + body.size()), file_(file), options_(options), line_(firstLine) {}
+
+    Result<void> read(const Header& header, const VertexLayout& layout, PlyData& out) {
+        for (const Element& element : header.elements) {
+            Result<void> result = readElement(element, layout, out);
+            if (!result) return result;
+        }
+        return {};
+    }
+
+private:
+    static bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+
+    std::size_t remaining() const { return static_cast<std::size_t>(end_ - p_); }
+
+    std::string_view nextToken() {
+        while (p_ < end_ && isSpace(*p_)) {
+            if (*p_ == '\n') ++line_;
+            ++p_;
+        }
+        const char* start = p_;
+        while (p_ < end_ && !isSpace(*p_)) ++p_;
+        return {start, static_cast<std::size_t>(p_ - start)};
+    }
+
+    // Parses one value of `type`; false when the token is not such a number.
+    static bool parseValue(std::string_view token, ScalarType type, double& value) {
+        const char* first = token.data();
+        const char* last = token.data() + token.size();
+        if (first != last && *first == '+') ++first;
+        if (type == ScalarType::Float32) {
+            float f = 0.0f;
+            const auto [end, ec] = std::from_chars(first, last, f);
+            if (ec != std::errc() || end != last) return false;
+            value = f;
+            return true;
+        }
+        if (type == ScalarType::Float64) {
+            const auto [end, ec] = std::from_chars(first, last, value);
+            return ec == std::errc() && end == last;
+        }
+        std::int64_t i = 0;
+        const auto [end, ec] = std::from_chars(first, last, i);
+        if (ec != std::errc() || end != last) return false;
+        std::int64_t lo = 0;
+        std::int64_t hi = 0;
+        switch (type) {
+        case ScalarType::Int8: lo = INT8_MIN, hi = INT8_MAX; break;
+        case ScalarType::UInt8: hi = UINT8_MAX; break;
+        case ScalarType::Int16: lo = INT16_MIN, hi = INT16_MAX; break;
+        case ScalarType::UInt16: hi = UINT16_MAX; break;
+        case ScalarType::Int32: lo = INT32_MIN, hi = INT32_MAX; break;
+        default: hi = UINT32_MAX; break;
+        }
+        if (i < lo || i > hi) return false;
+        value = static_cast<double>(i);
+        return true;
+    }
+
+    Error truncated(const Element& element, std::uint64_t row) const {
+        return fail(file_, fmt::format("truncated ascii data ({} {} of {})", printable(element.name), row,
+                                       element.count));
+    }
+
+    Result<void> readValue(const Element& element, std::size_t row, ScalarType type, double& value) {
+        const std::string_view token = nextToken();
+        if (token.empty()) return truncated(element, row);
+        if (!parseValue(token, type, value))
+            return fail(file_, fmt::format("bad number '{}' at line {} ({} {})", printable(token), line_,
+                                           printable(element.name), row));
+        return {};
+    }
+
+    Result<void> readElement(const Element& element, const VertexLayout& layout, PlyData& out) {
+        const bool isVertex = element.name == "vertex";
+        const bool isFace = element.name == "face" && options_.readFaces;
+        if (element.properties.empty()) return {};
+        // n values need at least 2n - 1 characters: bound the count before allocating.
+        const std::uint64_t available = (remaining() / 2 + 1) / element.properties.size();
+        if (element.count > available)
+            return fail(file_, fmt::format("truncated ascii data ({} element of {} rows, room for at most {})",
+                                           printable(element.name), element.count, available));
+        const auto count = static_cast<std::size_t>(element.count);
+        const int faceList = isFace ? faceListIndex(element) : -1;
+        if (isFace && faceList < 0) return fail(file_, "face element has no vertex_indices list");
+        if (isVertex) sizePoints(out.points, layout, count);
+        if (isFace) out.triangles.reserve(out.triangles.size() + count);
+
+        std::vector<int> slotOf(element.properties.size(), -1);
+        if (isVertex)
+            for (int s = 0; s < kSlotCount; ++s)
+                if (layout.property[s] >= 0) slotOf[layout.property[s]] = s;
+        std::array<double, kSlotCount> values{};
+        double scratch = 0.0;
+        for (std::size_t i = 0; i < count; ++i) {
+            for (std::size_t p = 0; p < element.properties.size(); ++p) {
+                const Property& property = element.properties[p];
+                if (!property.isList) {
+                    Result<void> r = readValue(element, i, property.type, slotOf[p] >= 0 ? values[slotOf[p]] : scratch);
+                    if (!r) return r;
+                    continue;
+                }
+                double n = 0.0;
+                Result<void> r = readValue(element, i, property.countType, n);
+                if (!r) return r;
+                if (n < 0.0)
+                    return fail(file_, fmt::format("negative list length at line {} ({} {})", line_,
+                                                   printable(element.name), i));
+                const auto length = static_cast<std::size_t>(n);
+                if (length > remaining() / 2 + 1) return truncated(element, i);
+                const bool keep = static_cast<int>(p) == faceList;
+                if (keep) indices_.resize(length);
+                for (std::size_t k = 0; k < length; ++k) {
+                    Result<void> rk = readValue(element, i, property.type, keep ? indices_[k] : scratch);
+                    if (!rk) return rk;
+                }
+                if (keep)
+                    if (const char* problem = addPolygon(out.triangles, indices_.data(), length))
+                        return fail(file_, fmt::format("{} in face {} (line {})", problem, i, line_));
+            }
+            if (isVertex)
+                if (const char* problem = storeVertex(out.points, layout, i, values))
+                    return fail(file_, fmt::format("{} at vertex {} (line {})", problem, i, line_));
+        }
+        return {};
+    }
+
+    const char* p_;
+    const char* end_;
+    std::string_view file_;
+    const PlyReadOptions& options_;
+    std::uint64_t line_;
+    std::vector<double> indices_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Files
+
+std::string errnoMessage(int error) { return std::generic_category().message(error); }
+
+struct FileCloser {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+};
+
+struct FileData {
+    std::unique_ptr<char[]> bytes;
+    std::size_t size = 0;
+    std::string_view view() const { return {bytes.get(), size}; }
+};
+
+Result<FileData> readWholeFile(const fs::path& path, std::string_view file) {
+    std::error_code ec;
+    const fs::file_status status = fs::status(path, ec);
+    if (status.type() == fs::file_type::not_found) return fail(file, "no such file");
+    if (ec) return fail(file, fmt::format("cannot read: {}", ec.message()));
+    if (status.type() == fs::file_type::directory) return fail(file, "is a directory, not a file");
+    if (status.type() != fs::file_type::regular) return fail(file, "not a regular file");
+
+    errno = 0;
+    std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "rb"));
+    if (!f) return fail(file, fmt::format("cannot open: {}", errnoMessage(errno)));
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (ec) return fail(file, fmt::format("cannot read: {}", ec.message()));
+    if (size > std::numeric_limits<std::size_t>::max() / 2) return fail(file, "file too large");
+    FileData data;
+    data.bytes = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(size) + 1);
+    data.size = std::fread(data.bytes.get(), 1, static_cast<std::size_t>(size), f.get());
+    if (std::ferror(f.get())) return fail(file, fmt::format("cannot read: {}", errnoMessage(errno)));
+    return data;
+}
+
+Result<PlyData> readPlyData(const fs::path& path, const PlyReadOptions& options, std::string_view file) {
+    Result<FileData> data = readWholeFile(path, file);
+    if (!data) return data.error();
+    const std::string_view bytes = data->view();
+    Result<Header> header = parseHeader(bytes, file);
+    if (!header) return header.error();
+
+    const Element* vertex = nullptr;
+    for (const Element& e : header->elements)
+        if (e.name == "vertex") vertex = &e;
+    if (!vertex) return fail(file, "no vertex element");
+    Result<VertexLayout> layout = vertexLayout(*vertex, options, file);
+    if (!layout) return layout.error();
+    if (vertex->count == 0) return fail(file, "no points");
+
+    PlyData out;
+    const std::string_view body = bytes.substr(header->bodyOffset);
+    Result<void> read;
+    switch (header->encoding) {
+    case Encoding::Ascii: {
+        const auto headerLines = std::count(bytes.begin(), bytes.begin() + header->bodyOffset, '\n');
+        read = AsciiReader(body, file, options, static_cast<std::uint64_t>(headerLines) + 1).read(*header, *layout, out);
+        break;
+    }
+    case Encoding::BinaryLittleEndian:
+    case Encoding::BinaryBigEndian: {
+        const bool swap = (header->encoding == Encoding::BinaryBigEndian) == (std::endian::native == std::endian::little);
+        BinaryReader reader(body, file, options);
+        read = swap ? reader.read<true>(*header, *layout, out) : reader.read<false>(*header, *layout, out);
+        break;
+    }
+    }
+    if (!read) return read.error();
+
+    const std::size_t n = out.points.size();
+    for (std::size_t t = 0; t < out.triangles.size(); ++t)
+        for (int k = 0; k < 3; ++k)
+            if (out.triangles[t][k] >= n)
+                return fail(file, fmt::format("a face refers to vertex {} but there are only {} vertices",
+                                              out.triangles[t][k], n));
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing
+
+std::string plyHeader(const PointSet& points, PlyFormat format) {
+    std::string header = fmt::format("ply\nformat {} 1.0\ncomment written by pnsplat\nelement vertex {}\n",
+                                     format == PlyFormat::Ascii ? "ascii" : "binary_little_endian", points.size());
+    for (const char* name : {"x", "y", "z", "nx", "ny", "nz"}) header += fmt::format("property float {}\n", name);
+    if (points.hasRadius()) header += "property float radius\n";
+    if (points.hasColour()) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    header += "end_header\n";
+    return header;
+}
+
+void appendFloatBinary(std::string& out, float value) {
+    std::uint32_t bits = std::bit_cast<std::uint32_t>(value);
+    if constexpr (std::endian::native == std::endian::big) bits = byteSwap(bits);
+    char bytes[4];
+    std::memcpy(bytes, &bits, 4);
+    out.append(bytes, 4);
+}
+
+void appendFloatAscii(std::string& out, float value, char separator) {
+    char buffer[32];
+    const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
+    out.append(buffer, end);
+    out += separator;
+}
+
+void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyFormat format) {
+    const glm::vec3& p = points.position[i];
+    const glm::vec3& n = points.normal[i];
+    const float values[7] = {p.x, p.y, p.z, n.x, n.y, n.z, points.hasRadius() ? points.radius[i] : 0.0f};
+    const int floats = points.hasRadius() ? 7 : 6;
+    if (format == PlyFormat::BinaryLittleEndian) {
+        for (int k = 0; k < floats; ++k) appendFloatBinary(out, values[k]);
+        if (points.hasColour())
+            for (int k = 0; k < 3; ++k) out += static_cast<char>(points.colour[i][k]);
+        return;
+    }
+    for (int k = 0; k < floats; ++k)
+        appendFloatAscii(out, values[k], (k + 1 < floats || points.hasColour()) ? ' ' : '\n');
+    if (points.hasColour()) {
+        const glm::u8vec3& c = points.colour[i];
+        fmt::format_to(std::back_inserter(out), "{} {} {}\n", c.x, c.y, c.z);
+    }
+}
+
+// A temporary file that is removed unless committed.
+class TempFile {
+public:
+    explicit TempFile(fs::path path) : path_(std::move(path)) {}
+    TempFile(const TempFile&) = delete;
+    TempFile& operator=(const TempFile&) = delete;
+    ~TempFile() {
+        if (file_) std::fclose(file_);
+        if (!committed_) {
+            std::error_code ec;
+            fs::remove(path_, ec);
+        }
+    }
+
+    bool open() {
+        file_ = std::fopen(path_.c_str(), "wb");
+        return file_ != nullptr;
+    }
+    bool write(std::string_view bytes) { return std::fwrite(bytes.data(), 1, bytes.size(), file_) == bytes.size(); }
+    // Flushes, syncs and closes; false on any error.
+    bool close() {
+        int error = 0;
+        if (std::fflush(file_) != 0 || std::ferror(file_)) error = errno ? errno : EIO;
+        if (!error && ::fsync(::fileno(file_)) != 0) error = errno;
+        if (std::fclose(file_) != 0 && !error) error = errno ? errno : EIO;
+        file_ = nullptr;
+        errno = error;
+        return error == 0;
+    }
+    void commit() { committed_ = true; }
+    const fs::path& path() const { return path_; }
+
+private:
+    fs::path path_;
+    std::FILE* file_ = nullptr;
+    bool committed_ = false;
+};
+
+std::atomic<unsigned> tempCounter{0};
+
+Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyFormat format, std::string_view file) {
+    assert(points.normal.size() == points.size());
+    assert(!points.hasRadius() || points.radius.size() == points.size());
+    assert(!points.hasColour() || points.colour.size() == points.size());
+
+    fs::path tempPath = path;
+    tempPath += fmt::format(".tmp-{}-{}", ::getpid(), tempCounter.fetch_add(1));
+    TempFile temp(tempPath);
+    errno = 0;
+    if (!temp.open()) return fail(file, fmt::format("cannot create a temporary file beside it: {}", errnoMessage(errno)));
+
+    std::string buffer = plyHeader(points, format);
+    buffer.reserve(kWriteChunkBytes + 256);
+    const auto writeError = [&] { return fail(file, fmt::format("cannot write: {}", errnoMessage(errno))); };
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        appendRow(buffer, points, i, format);
+        if (buffer.size() >= kWriteChunkBytes) {
+            if (!temp.write(buffer)) return writeError();
+            buffer.clear();
+        }
+    }
+    if (!temp.write(buffer) || !temp.close()) return writeError();
+
+    std::error_code ec;
+    fs::rename(temp.path(), path, ec);
+    if (ec) return fail(file, fmt::format("cannot replace it with the written file: {}", ec.message()));
+    temp.commit();
+    return {};
+}
+
+} // namespace
+
+Result<PlyData> readPly(const std::filesystem::path& path, const PlyReadOptions& options) {
+    const std::string file = path.string();
+    try {
+        return readPlyData(path, options, file);
+    } catch (const std::bad_alloc&) {
+        return fail(file, "out of memory while reading");
+    } catch (const std::exception& e) {
+        return fail(file, e.what());
+    }
+}
+
+Result<void> writePly(const std::filesystem::path& path, const PointSet& points, PlyFormat format) {
+    const std::string file = path.string();
+    try {
+        return writePlyFile(path, points, format, file);
+    } catch (const std::bad_alloc&) {
+        return fail(file, "out of memory while writing");
+    } catch (const std::exception& e) {
+        return fail(file, e.what());
+    }
+}
+
+} // namespace pnsplat

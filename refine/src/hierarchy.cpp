@@ -17,11 +17,12 @@ PointHierarchy::PointHierarchy(std::span<const glm::vec3> roots) {
     rootOrder_.resize(count);
     std::iota(rootOrder_.begin(), rootOrder_.end(), 0u);
     levelEnd_.push_back(count);
-    bound_.assign(count, 0.0f);
+    spheres_.resize(count);
+    for (std::uint32_t i = 0; i < count; ++i) spheres_[i] = glm::vec4(roots[i], 0.0f);
     if (count > 0) {
         nodes_.reserve(2 * (count / kLeafSize + 1));
         build(0, count, roots);
-        refit(roots);
+        refit();
     }
 }
 
@@ -55,25 +56,25 @@ void PointHierarchy::addLevel(std::vector<std::uint32_t> childBegin) {
     assert(std::is_sorted(childBegin.begin(), childBegin.end()));
     levelEnd_.push_back(childBegin.back());
     children_.push_back(std::move(childBegin));
-    bound_.resize(levelEnd_.back(), 0.0f);
+    spheres_.resize(levelEnd_.back(), glm::vec4(0.0f));
 }
 
-void PointHierarchy::updateBounds(std::span<const glm::vec3> positions, std::span<const float> ownReach) {
-    assert(positions.size() >= pointCount() && ownReach.size() >= pointCount());
+void PointHierarchy::updateBounds(std::span<const glm::vec3> positions) {
+    assert(positions.size() >= pointCount());
     const std::uint32_t lastLevel = levels() - 1;
     // Children have larger indices than their parents: one backward sweep sees every child first.
     for (std::uint32_t i = pointCount(); i-- > 0;) {
-        float bound = ownReach[i];
+        float bound = 0.0f;
         for (std::uint32_t l = levelOf(i); l < lastLevel; ++l) {
             for (std::uint32_t c = children_[l][i]; c < children_[l][i + 1]; ++c)
-                bound = std::max(bound, glm::length(positions[c] - positions[i]) + bound_[c]);
+                bound = std::max(bound, glm::length(positions[c] - positions[i]) + spheres_[c].w);
         }
-        bound_[i] = bound;
+        spheres_[i] = glm::vec4(positions[i], bound);
     }
-    refit(positions);
+    refit();
 }
 
-void PointHierarchy::refit(std::span<const glm::vec3> positions) {
+void PointHierarchy::refit() {
     // Nodes are stored in depth-first preorder, so children follow their parent: sweep backwards.
     for (std::size_t n = nodes_.size(); n-- > 0;) {
         Node& node = nodes_[n];
@@ -81,9 +82,9 @@ void PointHierarchy::refit(std::span<const glm::vec3> positions) {
             node.lo = glm::vec3(std::numeric_limits<float>::max());
             node.hi = glm::vec3(std::numeric_limits<float>::lowest());
             for (std::uint32_t k = node.begin; k < node.end; ++k) {
-                const std::uint32_t i = rootOrder_[k];
-                node.lo = glm::min(node.lo, positions[i] - bound_[i]);
-                node.hi = glm::max(node.hi, positions[i] + bound_[i]);
+                const glm::vec4 sphere = spheres_[rootOrder_[k]];
+                node.lo = glm::min(node.lo, glm::vec3(sphere) - sphere.w);
+                node.hi = glm::max(node.hi, glm::vec3(sphere) + sphere.w);
             }
         } else {
             const Node& left = nodes_[n + 1];

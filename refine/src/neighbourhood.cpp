@@ -6,6 +6,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "pnsplat/refine/fast_math.h"
 #include "pnsplat/refine/pn_triangle.h"
 
 namespace pnsplat {
@@ -18,7 +19,6 @@ TangentFrame::TangentFrame(glm::vec3 normal) : n(normal) {
     v = glm::vec3(b, sign + n.y * n.y * a, -n.y);
 }
 
-float TangentFrame::angleOf(glm::vec3 d) const { return std::atan2(glm::dot(d, v), glm::dot(d, u)); }
 
 void NeighbourSet::clear() {
     index.clear();

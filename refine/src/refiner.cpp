@@ -5,10 +5,12 @@
 //  - Space is cut into cubic cells of side s = kCellFactor · r_lim, r_lim the 99th percentile of
 //    the radii of P(l). Cells are coloured by the parity of their integer coordinates (2×2×2 = 8
 //    colours); two cells of one colour are at least s apart.
-//  - Refining p reads points within r_p + kChildReach·r_q of p and writes points within
-//    kChildReach·r_p of p, so two points further apart than (1 + kChildReach)·r_lim < s never
-//    touch the same memory: cells of one colour are refined concurrently, each by one worker, its
-//    points in increasing index order; the colours follow each other in order 0..7.
+//  - Refining p reads the points of P(l) closer than r_p, their children and the children's
+//    radii; it writes its own children (stored with its cell) and the radii of points closer than
+//    r_p. Two points further apart than 2·r_lim < s never touch the same memory, and the children
+//    it reads belong to its own cell or to cells of other colours: cells of one colour are
+//    refined concurrently, each by one worker, its points in increasing index order; the colours
+//    follow each other in order 0..7.
 //  - Points with r > r_lim (at most 1 %) are refined first, one after the other, in index order.
 // Every point sees exactly the points that the same sequential order would show it, whatever the
 // number of threads, so the output is identical for any thread count.
@@ -35,7 +37,7 @@ namespace {
 
 constexpr float kPi = std::numbers::pi_v<float>;
 constexpr float kTwoPi = 2.0f * kPi;
-constexpr float kCellFactor = 2.25f; // > 1 + kChildReach
+constexpr float kCellFactor = 2.25f; // > 2, see above
 constexpr float kLargeQuantile = 0.99f;
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
@@ -85,7 +87,7 @@ struct Candidate {
 struct WorkerScratch {
     NeighbourSet fan;
     NeighbourhoodScratch neighbourhood;
-    std::vector<std::uint32_t> stack;
+    std::vector<PointHierarchy::StackEntry> stack;
     std::vector<RingMember> ring;  // N'_p
     std::vector<RingMember> outer; // Y_p
     std::vector<Candidate> candidates;
@@ -113,6 +115,54 @@ inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
     return glm::u8vec3((sum + glm::uvec3(1)) / 3u);
 }
 
+// 21-bit spread for Morton codes: bit k of v goes to bit 3k.
+inline std::uint64_t spreadBits(std::uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffull;
+    v = (v | v << 16) & 0x1f0000ff0000ffull;
+    v = (v | v << 8) & 0x100f00f00f00f00full;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
+    v = (v | v << 2) & 0x1249249249249249ull;
+    return v;
+}
+
+// P0 sorted along a Morton curve. Children are stored grouped by parent in parent order, so every
+// level inherits the order: points close in space are close in memory, and the hierarchy walks
+// and neighbourhood gathers touch few cache lines. Ties keep the input order.
+PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
+    const auto count = static_cast<std::uint32_t>(input.size());
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+    for (const glm::vec3& x : input.position) {
+        lo = glm::min(lo, x);
+        hi = glm::max(hi, x);
+    }
+    const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, std::numeric_limits<float>::min()});
+    const float scale = float((1u << 21) - 1) / extent;
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const glm::vec3 q = (input.position[i] - lo) * scale;
+        const auto code = spreadBits(std::uint64_t(q.x)) | spreadBits(std::uint64_t(q.y)) << 1 |
+                          spreadBits(std::uint64_t(q.z)) << 2;
+        keyed[i] = {code, i};
+    }
+    std::sort(keyed.begin(), keyed.end());
+    order.resize(count);
+    PointSet sorted;
+    sorted.position.resize(count);
+    sorted.normal.resize(count);
+    sorted.radius.resize(count);
+    if (input.hasColour()) sorted.colour.resize(count);
+    for (std::uint32_t k = 0; k < count; ++k) {
+        const std::uint32_t i = keyed[k].second;
+        order[k] = i;
+        sorted.position[k] = input.position[i];
+        sorted.normal[k] = input.normal[i];
+        sorted.radius[k] = input.radius[i];
+        if (input.hasColour()) sorted.colour[k] = input.colour[i];
+    }
+    return sorted;
+}
+
 } // namespace
 
 RefineOptions RefineOptions::fast() {
@@ -127,6 +177,7 @@ RefineOptions RefineOptions::fast() {
 struct Refiner::State {
     RefineOptions options;
     WorkerPool pool;
+    std::vector<std::uint32_t> inputOrder; // inputOrder[i] = index in the input of P0 point i
     PointSet points;
     PointHierarchy hierarchy;
 
@@ -138,8 +189,8 @@ struct Refiner::State {
     std::vector<WorkerScratch> scratch;
 
     State(PointSet input, const RefineOptions& o)
-        : options(o), pool(o.threads), points(std::move(input)), hierarchy(points.position),
-          scratch(pool.size()) {}
+        : options(o), pool(o.threads), points(spatialOrder(std::move(input), inputOrder)),
+          hierarchy(points.position), scratch(pool.size()) {}
 
     void refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s);
     LevelStats refineLevel(const ProgressFn& progress);
@@ -162,24 +213,26 @@ void Refiner::State::gatherNeighbourhood(std::uint32_t p, WorkerScratch& s) {
     s.fan.clear();
     s.ring.clear();
     s.outer.clear();
-    hierarchy.query(points.position, x, r, s.stack, [&](std::uint32_t i, float d2) {
+    hierarchy.query(x, r, s.stack, [&](std::uint32_t i, float d2) {
         // Nε_p (eq. 7): points of P(l) closer than r that pass the validity cone (eq. 6).
-        if (d2 < r2 && i != p && validNeighbours(x, n, points.position[i], points.normal[i]))
-            s.fan.push(i, points.position[i], points.normal[i]);
-        // The points already inserted near p are children of refined points q with
-        // |p - q| <= r + kChildReach·r_q (section 7). The distance is tested before the `refined`
-        // flag is read: only points this close are guaranteed not to be refined concurrently.
-        const float reach = r + kChildReach * levelRadius[i];
-        if (d2 > reach * reach || !refined[i]) return;
+        if (!(d2 < r2) || i == p || !validNeighbours(x, n, points.position[i], points.normal[i])) return;
+        s.fan.push(i, points.position[i], points.normal[i]);
+        // The points already inserted near p are the children of its neighbours (section 7). Only
+        // points closer than r_lim can be read here, and none of them is refined concurrently.
+        if (!refined[i]) return;
         const ChildRange range = childRange[i];
         const NewPoint* children = cellPoints[range.cell].data() + range.begin;
         for (std::uint32_t k = 0; k < range.count; ++k) {
             const glm::vec3 d = children[k].position - x;
             const float distance = glm::length(d);
             if (!(distance < r)) continue;
-            RingMember m{range.cell, range.begin + k, children[k].position, children[k].normal, frame.angleOf(d)};
-            if (distance < innerRadius) s.ring.push_back(m); // N'_p (section 5)
-            else if (distance > innerRadius) s.outer.push_back(m); // Y_p (eq. 10)
+            RingMember m{range.cell, range.begin + k, children[k].position, children[k].normal, 0.0f};
+            if (distance < innerRadius) { // N'_p (section 5)
+                m.angle = frame.angleOf(d);
+                s.ring.push_back(m);
+            } else if (distance > innerRadius) { // Y_p (eq. 10); its angle is needed only if it joins N'_p
+                s.outer.push_back(m);
+            }
         }
     });
 }
@@ -331,7 +384,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         }
         if (discarded) {
             ++s.discarded;
-            const RingMember& y = s.outer[closest];
+            RingMember& y = s.outer[closest];
+            y.angle = TangentFrame(n).angleOf(y.position - x);
             const bool present = std::any_of(ring.begin(), ring.end(), [&](const RingMember& m) {
                 return m.cell == y.cell && m.local == y.local;
             });
@@ -398,9 +452,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     stats.pointsBefore = count;
 
     levelRadius = points.radius;
-    std::vector<float> reach(count);
-    for (std::uint32_t i = 0; i < count; ++i) reach[i] = kChildReach * levelRadius[i];
-    hierarchy.updateBounds(points.position, reach);
+    hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
     childRange.assign(count, ChildRange{});
 
@@ -524,6 +576,7 @@ std::size_t Refiner::childEnd(std::uint32_t l, std::size_t i) const {
     return state_->hierarchy.childEnd(l, static_cast<std::uint32_t>(i));
 }
 PointSet Refiner::takePoints() && { return std::move(state_->points); }
+std::span<const std::uint32_t> Refiner::inputOrder() const { return state_->inputOrder; }
 
 Result<void> validateForRefinement(const PointSet& points) {
     if (points.empty()) return Error{"the point set is empty"};

@@ -19,6 +19,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 namespace pnsplat {
 
@@ -44,19 +45,22 @@ public:
     // The block (level of first appearance) of point i.
     std::uint32_t levelOf(std::uint32_t i) const;
 
-    // Recomputes the bounding radii of all points bottom-up:
-    //   bound_i = max(ownReach_i, max over children c of |p_c - p_i| + bound_c),
-    // and refits the kd-tree. `ownReach` (one entry per point) is what a point may still reach
-    // beyond its recorded children (the refinement passes the reach of the level being built).
-    void updateBounds(std::span<const glm::vec3> positions, std::span<const float> ownReach);
-    float bound(std::uint32_t i) const { return bound_[i]; }
+    // Recomputes the bounding radii of all points bottom-up,
+    //   bound_i = max over children c of (|p_c - p_i| + bound_c), 0 without children,
+    // and refits the kd-tree. `positions` holds at least pointCount() points.
+    void updateBounds(std::span<const glm::vec3> positions);
+    float bound(std::uint32_t i) const { return spheres_[i].w; }
 
     // Calls visit(i, squaredDistance) for every point i of P(levels()-1) whose bounding sphere
     // meets the ball (centre, radius): |centre - p_i| <= radius + bound_i. This includes every
-    // point closer than `radius`. `stack` is the caller's scratch memory. Order: deterministic.
+    // point closer than `radius`. Positions are those given to the last updateBounds. `stack` is
+    // the caller's scratch memory. Order: deterministic.
+    struct StackEntry {
+        std::uint32_t index, level;
+        float distance2;
+    };
     template <typename Visit>
-    void query(std::span<const glm::vec3> positions, glm::vec3 centre, float radius,
-               std::vector<std::uint32_t>& stack, Visit&& visit) const;
+    void query(glm::vec3 centre, float radius, std::vector<StackEntry>& stack, Visit&& visit) const;
 
 private:
     struct Node {
@@ -65,47 +69,54 @@ private:
         std::uint32_t right;      // index of the right child, 0 for a leaf (left child = this + 1)
     };
     std::uint32_t build(std::uint32_t begin, std::uint32_t end, std::span<const glm::vec3> roots);
-    void refit(std::span<const glm::vec3> positions);
+    void refit();
 
     std::vector<Node> nodes_;
     std::vector<std::uint32_t> rootOrder_;
     std::vector<std::uint32_t> levelEnd_;                 // levelEnd_[l] = |P(l)|
     std::vector<std::vector<std::uint32_t>> children_;   // children_[l][i], i in P(l)
-    std::vector<float> bound_;
+    std::vector<glm::vec4> spheres_; // (p_i, bound_i), interleaved for the traversal
 };
 
 template <typename Visit>
-void PointHierarchy::query(std::span<const glm::vec3> positions, glm::vec3 centre, float radius,
-                           std::vector<std::uint32_t>& stack, Visit&& visit) const {
+void PointHierarchy::query(glm::vec3 centre, float radius, std::vector<StackEntry>& stack, Visit&& visit) const {
     const std::uint32_t lastLevel = levels() - 1;
-    stack.clear();
-    // Nodes: explicit stack of node indices, then points: the same stack reused per root.
+    // A sphere (p_i, bound_i) meets the query ball when |centre - p_i| <= radius + bound_i.
+    const auto reaches = [&](std::uint32_t i, float& d2) {
+        const glm::vec4 s = spheres_[i];
+        const glm::vec3 d = glm::vec3(s) - centre;
+        d2 = glm::dot(d, d);
+        const float reach = radius + s.w;
+        return d2 <= reach * reach;
+    };
     std::uint32_t nodeStack[64];
     std::uint32_t nodeTop = 0;
     if (!nodes_.empty()) nodeStack[nodeTop++] = 0;
     while (nodeTop > 0) {
-        const Node& node = nodes_[nodeStack[--nodeTop]];
-        const glm::vec3 nearest = glm::clamp(centre, node.lo, node.hi);
-        const glm::vec3 gap = centre - nearest;
+        const std::uint32_t n = nodeStack[--nodeTop];
+        const Node& node = nodes_[n];
+        const glm::vec3 gap = centre - glm::clamp(centre, node.lo, node.hi);
         if (glm::dot(gap, gap) > radius * radius) continue;
         if (node.right != 0) {
             nodeStack[nodeTop++] = node.right;
-            nodeStack[nodeTop++] = static_cast<std::uint32_t>(&node - nodes_.data()) + 1;
+            nodeStack[nodeTop++] = n + 1;
             continue;
         }
         for (std::uint32_t k = node.begin; k < node.end; ++k) {
-            stack.push_back(rootOrder_[k]);
+            float d2;
+            if (!reaches(rootOrder_[k], d2)) continue;
+            stack.clear();
+            stack.push_back(StackEntry{rootOrder_[k], 0, d2});
             while (!stack.empty()) {
-                const std::uint32_t i = stack.back();
+                const StackEntry e = stack.back();
                 stack.pop_back();
-                const glm::vec3 d = positions[i] - centre;
-                const float d2 = glm::dot(d, d);
-                const float reach = radius + bound_[i];
-                if (d2 > reach * reach) continue;
-                visit(i, d2);
-                for (std::uint32_t l = levelOf(i); l < lastLevel; ++l) {
-                    const std::uint32_t* range = children_[l].data() + i;
-                    for (std::uint32_t c = range[1]; c-- > range[0];) stack.push_back(c);
+                visit(e.index, e.distance2);
+                for (std::uint32_t l = e.level; l < lastLevel; ++l) {
+                    const std::uint32_t* range = children_[l].data() + e.index;
+                    for (std::uint32_t c = range[1]; c-- > range[0];) {
+                        float c2;
+                        if (reaches(c, c2)) stack.push_back(StackEntry{c, l + 1, c2});
+                    }
                 }
             }
         }

@@ -12,7 +12,10 @@
 #include <numbers>
 #include <vector>
 
+#include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
+
+#include "pnsplat/refine/fast_math.h"
 
 namespace pnsplat {
 
@@ -21,8 +24,8 @@ namespace pnsplat {
 struct TangentFrame {
     glm::vec3 u, v, n;
     explicit TangentFrame(glm::vec3 normal);
-    // Angle of d's projection onto the tangent plane, in (-π, π].
-    float angleOf(glm::vec3 d) const;
+    // Angle of d's projection onto the tangent plane, in (-π, π] (within 2e-5 rad).
+    float angleOf(glm::vec3 d) const { return fastAtan2(glm::dot(d, v), glm::dot(d, u)); }
 };
 
 // Neighbours of one point as flat arrays. `index` is opaque to this module (the caller's id).

@@ -15,6 +15,8 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
+#include "pnsplat/refine/fast_math.h"
+
 namespace pnsplat {
 
 // Edge control point near `pa` on the edge pa→pb (SPEC 2):
@@ -115,13 +117,7 @@ inline float geodesicDistance(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec
 }
 
 // Unsigned angle a-o-b in [0, π]; 0 when a or b coincides with o.
-inline float angleAt(glm::vec3 o, glm::vec3 a, glm::vec3 b) {
-    const glm::vec3 u = a - o;
-    const glm::vec3 v = b - o;
-    const float denominator = std::sqrt(glm::dot(u, u) * glm::dot(v, v));
-    if (!(denominator > 0.0f)) return 0.0f;
-    return std::acos(std::clamp(glm::dot(u, v) / denominator, -1.0f, 1.0f));
-}
+inline float angleAt(glm::vec3 o, glm::vec3 a, glm::vec3 b) { return angleBetween(a - o, b - o); }
 
 // Curved angle (eq. 5) of p0, p1 seen from p: the angles subtended by the three legs of the control
 // polygon of the curve between p0 and p1, A = ∠(p0,p,b210) + ∠(b210,p,b120) + ∠(b120,p,p1).

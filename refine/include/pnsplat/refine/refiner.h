@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <numbers>
 #include <vector>
 
@@ -27,9 +28,6 @@ enum class NeighbourhoodKind {
 inline constexpr float kLambda1 = 0.57735026918962576f;
 inline constexpr float kLambda2 = 0.5f;
 inline constexpr float kThetaC = std::numbers::pi_v<float> / 2.0f;
-// A point's children lie within kChildReach · r of it: a candidate is the mean of six edge control
-// points of a triangle (p, p_i, p_j) with |p p_i|, |p p_j| < r, each within r/3, 4r/3 or 5r/3 of p.
-inline constexpr float kChildReach = 10.0f / 9.0f;
 
 struct RefineOptions {
     NeighbourhoodKind neighbourhood = NeighbourhoodKind::Accurate;
@@ -94,8 +92,12 @@ public:
     // Builds the next level. Not thread-safe; uses the options' worker threads internally.
     LevelStats refineLevel(const ProgressFn& progress = {});
 
-    // All points so far, level by level: P0 (the input, unchanged but for the radii) first.
+    // All points so far, level by level: P0 (the input points, unchanged but for their radii)
+    // first, in a spatial (Morton) order that keeps neighbours close in memory, then the points
+    // of each level grouped by the point that inserted them.
     const PointSet& points() const;
+    // inputOrder()[i] is the index in the input of point i of P0 (i < levelEnd(0)).
+    std::span<const std::uint32_t> inputOrder() const;
     std::uint32_t levels() const;                 // 0 before the first refineLevel
     std::size_t levelEnd(std::uint32_t l) const;  // |P(l)|
     // Children of point i inserted at the transition l → l+1: [childBegin, childEnd).

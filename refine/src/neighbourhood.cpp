@@ -25,88 +25,79 @@ void NeighbourSet::clear() {
     position.clear();
     normal.clear();
     angle.clear();
-}
-
-void NeighbourSet::push(std::uint32_t i, glm::vec3 p, glm::vec3 n) {
-    index.push_back(i);
-    position.push_back(p);
-    normal.push_back(n);
-}
-
-void NeighbourSet::compact(const std::vector<std::uint8_t>& keep) {
-    std::size_t out = 0;
-    const bool withAngle = angle.size() == index.size();
-    for (std::size_t k = 0; k < index.size(); ++k) {
-        if (!keep[k]) continue;
-        index[out] = index[k];
-        position[out] = position[k];
-        normal[out] = normal[k];
-        if (withAngle) angle[out] = angle[k];
-        ++out;
-    }
-    index.resize(out);
-    position.resize(out);
-    normal.resize(out);
-    angle.resize(withAngle ? out : 0);
-}
-
-float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThetaF) {
-    const glm::vec3 a = pj - p;
-    const glm::vec3 b = pi - pj;
-    const float denominator = std::sqrt(glm::dot(a, a) * glm::dot(b, b));
-    if (!(denominator > 0.0f)) return 0.0f;
-    const float sinAlpha = glm::dot(a, b) / denominator;
-    if (sinAlpha < -sinThetaF) return 0.0f;
-    return 0.5f * (sinAlpha / sinThetaF + 1.0f);
+    nearControl.clear();
+    farControl.clear();
 }
 
 namespace {
 
-// Sorts set by its angles (ties by index, so the order never depends on the input order).
-void sortByAngle(NeighbourSet& set, NeighbourhoodScratch& scratch) {
+constexpr float kPi = std::numbers::pi_v<float>;
+
+// Computes angles and edge control points of every entry (those not yet computed by the caller).
+void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool controlsDone) {
+    const TangentFrame frame(n);
     const std::size_t count = set.size();
-    scratch.order.resize(count);
-    for (std::uint32_t k = 0; k < count; ++k) scratch.order[k] = k;
+    set.angle.resize(count);
+    for (std::size_t k = 0; k < count; ++k) set.angle[k] = frame.angleOf(set.position[k] - p);
+    if (controlsDone) return;
+    set.nearControl.resize(count);
+    set.farControl.resize(count);
+    for (std::size_t k = 0; k < count; ++k) {
+        set.nearControl[k] = edgeControlPoint(p, n, set.position[k]);
+        set.farControl[k] = edgeControlPoint(set.position[k], set.normal[k], p);
+    }
+}
+
+// Rewrites `set` as its entries order[0..count) (a gather through scratch.sorted).
+void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, NeighbourhoodScratch& scratch) {
+    NeighbourSet& out = scratch.sorted;
+    out.clear();
+    for (std::uint32_t k : order) {
+        out.push(set.index[k], set.position[k], set.normal[k]);
+        out.angle.push_back(set.angle[k]);
+        out.nearControl.push_back(set.nearControl[k]);
+        out.farControl.push_back(set.farControl[k]);
+    }
+    std::swap(set, out);
+}
+
+// Sorts the entries listed in scratch.order by angle; ties by index, so the order never depends
+// on the order in which the neighbours were found.
+void sortOrderByAngle(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
     std::sort(scratch.order.begin(), scratch.order.end(), [&](std::uint32_t a, std::uint32_t b) {
         if (set.angle[a] != set.angle[b]) return set.angle[a] < set.angle[b];
         return set.index[a] < set.index[b];
     });
-    NeighbourSet& sorted = scratch.sorted;
-    sorted.clear();
-    for (std::uint32_t k : scratch.order) {
-        sorted.push(set.index[k], set.position[k], set.normal[k]);
-        sorted.angle.push_back(set.angle[k]);
-    }
-    std::swap(set, sorted);
 }
 
 } // namespace
 
 void sortFan(glm::vec3 p, glm::vec3 n, NeighbourSet& set, NeighbourhoodScratch& scratch) {
-    const TangentFrame frame(n);
-    set.angle.resize(set.size());
-    for (std::size_t k = 0; k < set.size(); ++k) set.angle[k] = frame.angleOf(set.position[k] - p);
-    sortByAngle(set, scratch);
+    measure(p, n, set, false);
+    scratch.order.resize(set.size());
+    for (std::uint32_t k = 0; k < set.size(); ++k) scratch.order[k] = k;
+    sortOrderByAngle(set, scratch);
+    gather(set, scratch.order, scratch);
 }
 
 void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourSet& set,
                  NeighbourhoodScratch& scratch) {
     const std::size_t count = set.size();
-    const TangentFrame frame(n);
-    set.angle.resize(count);
+    measure(p, n, set, false);
     scratch.projected.resize(count);
     scratch.direction.resize(count);
     for (std::size_t k = 0; k < count; ++k) {
         const glm::vec3 d = set.position[k] - p;
-        set.angle[k] = frame.angleOf(d);
         glm::vec3 y = set.position[k];
         if (params.geodesicProjection) {
-            // q'_i = p + G(p,p_i) · normalize(q_i - p), q_i the orthogonal projection on the tangent plane.
+            // q'_i = p + G(p,p_i) · normalize(q_i - p), q_i the orthogonal projection on the tangent
+            // plane, G = 2/3 |p p_i| + |b_{p,i} - b_{i,p}| (or |p p_i| for variant 1).
             const glm::vec3 tangent = d - glm::dot(d, n) * n;
             const float tangentLength = glm::length(tangent);
-            const float g = params.euclideanGeodesic ? glm::length(d)
-                                                     : geodesicDistance(p, n, set.position[k], set.normal[k]);
-            y = tangentLength > 0.0f ? p + tangent * (g / tangentLength) : set.position[k];
+            const float g = params.euclideanGeodesic
+                                ? glm::length(d)
+                                : controlPolygonLength(p, set.position[k], set.nearControl[k], set.farControl[k]);
+            if (tangentLength > 0.0f) y = p + tangent * (g / tangentLength);
         }
         scratch.projected[k] = y;
         scratch.direction[k] = glm::normalize(y - p);
@@ -115,31 +106,29 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij, Succ_i the j whose signed angle
     // ∠(q_i, p, q_j) lies in (0, π), Pred_i those in (-π, 0).
     const float sinThetaF = std::sin(params.thetaF);
-    constexpr float kPi = std::numbers::pi_v<float>;
     scratch.worstSucc.assign(count, 0.0f);
     scratch.worstPred.assign(count, 0.0f);
     for (std::size_t i = 0; i < count; ++i) {
         const glm::vec3 yi = scratch.projected[i];
+        float worstSucc = 0.0f, worstPred = 0.0f;
         for (std::size_t j = 0; j < count; ++j) {
             if (j == i) continue;
-            // Inline fuzzyBadness with the precomputed direction of p_j.
-            const glm::vec3 b = yi - scratch.projected[j];
-            const float bLength2 = glm::dot(b, b);
-            if (!(bLength2 > 0.0f)) continue;
-            const float sinAlpha = glm::dot(scratch.direction[j], b) / std::sqrt(bLength2);
-            if (sinAlpha < -sinThetaF) continue;
-            const float w = 0.5f * (sinAlpha / sinThetaF + 1.0f);
+            const float w = fuzzyBadness(scratch.direction[j], yi - scratch.projected[j], sinThetaF);
+            if (w == 0.0f) continue;
             float delta = set.angle[j] - set.angle[i];
             if (delta <= -kPi) delta += 2.0f * kPi;
             else if (delta > kPi) delta -= 2.0f * kPi;
-            if (delta > 0.0f && delta < kPi) scratch.worstSucc[i] = std::max(scratch.worstSucc[i], w);
-            else if (delta < 0.0f && delta > -kPi) scratch.worstPred[i] = std::max(scratch.worstPred[i], w);
+            if (delta > 0.0f && delta < kPi) worstSucc = std::max(worstSucc, w);
+            else if (delta < 0.0f && delta > -kPi) worstPred = std::max(worstPred, w);
         }
+        scratch.worstSucc[i] = worstSucc;
+        scratch.worstPred[i] = worstPred;
     }
-    scratch.keep.resize(count);
-    for (std::size_t i = 0; i < count; ++i) scratch.keep[i] = scratch.worstSucc[i] + scratch.worstPred[i] <= 1.0f;
-    set.compact(scratch.keep);
-    sortByAngle(set, scratch);
+    scratch.order.clear();
+    for (std::uint32_t i = 0; i < count; ++i)
+        if (scratch.worstSucc[i] + scratch.worstPred[i] <= 1.0f) scratch.order.push_back(i);
+    sortOrderByAngle(set, scratch);
+    gather(set, scratch.order, scratch);
 }
 
 } // namespace pnsplat

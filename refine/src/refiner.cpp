@@ -110,6 +110,21 @@ inline double secondsSince(Clock::time_point& t) {
     return s;
 }
 
+// The PN triangle (p, fan[a], fan[b]); the control points on the edges from p come with the fan.
+inline PnTriangle fanTriangle(glm::vec3 p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b) {
+    PnTriangle t;
+    t.b300 = p;
+    t.b030 = fan.position[a];
+    t.b003 = fan.position[b];
+    t.b210 = fan.nearControl[a];
+    t.b120 = fan.farControl[a];
+    t.b021 = edgeControlPoint(fan.position[a], fan.normal[a], fan.position[b]);
+    t.b012 = edgeControlPoint(fan.position[b], fan.normal[b], fan.position[a]);
+    t.b102 = fan.farControl[b];
+    t.b201 = fan.nearControl[b];
+    return t;
+}
+
 inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
     const glm::uvec3 sum = glm::uvec3(a) + glm::uvec3(b) + glm::uvec3(c);
     return glm::u8vec3((sum + glm::uvec3(1)) / 3u);
@@ -259,7 +274,7 @@ void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
             c.normal = glm::normalize(n + na + nb);
         } else {
             // L_p (eq. 12): cog + φ on the PN triangle (p, p_a, p_b), normal from its tangents.
-            const PnTriangle t = makePnTriangle(x, n, pa, na, pb, nb);
+            const PnTriangle t = fanTriangle(x, fan, a, b);
             c.position = cog + smoothingDisplacement(t);
             c.normal = centreNormal(t, n, na, nb);
         }
@@ -397,9 +412,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         NewPoint np{c.position, c.normal, 0.0f, c.colour};
         if (options.centroidCandidates && options.smoothing) {
             // Variant 4: the smoothing operator only for candidates actually inserted.
-            const glm::vec3 pa = s.fan.position[c.a], pb = s.fan.position[c.b];
             const glm::vec3 na = s.fan.normal[c.a], nb = s.fan.normal[c.b];
-            const PnTriangle t = makePnTriangle(x, n, pa, na, pb, nb);
+            const PnTriangle t = fanTriangle(x, s.fan, c.a, c.b);
             np.position = c.position + smoothingDisplacement(t);
             np.normal = centreNormal(t, n, na, nb);
         }

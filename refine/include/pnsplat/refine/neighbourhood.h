@@ -8,6 +8,7 @@
 // Thread use: a NeighbourSet is scratch memory owned by one thread; the functions are pure.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <numbers>
 #include <vector>
@@ -33,13 +34,19 @@ struct NeighbourSet {
     std::vector<std::uint32_t> index;
     std::vector<glm::vec3> position;
     std::vector<glm::vec3> normal;
-    std::vector<float> angle; // filled by sortFan/filterFuzzy: angle around n_p in (-π, π]
+    // Filled by sortFan/filterFuzzy: the angle around n_p in (-π, π], and the two edge control
+    // points of the PN curve between p and the neighbour (SPEC 2): nearControl = b_{p,i} (a third
+    // of the way from p), farControl = b_{i,p}. The triangles of the fan reuse them.
+    std::vector<float> angle;
+    std::vector<glm::vec3> nearControl, farControl;
 
     std::size_t size() const { return index.size(); }
     void clear();
-    void push(std::uint32_t i, glm::vec3 p, glm::vec3 n);
-    // Keeps the entries whose keep[k] is non-zero, in order.
-    void compact(const std::vector<std::uint8_t>& keep);
+    void push(std::uint32_t i, glm::vec3 p, glm::vec3 n) {
+        index.push_back(i);
+        position.push_back(p);
+        normal.push_back(n);
+    }
 };
 
 struct FuzzyParams {
@@ -51,15 +58,27 @@ struct FuzzyParams {
 };
 
 // Badness w_ij of p_i against p_j seen from p (SPEC 3): with sin α = normalize(p_j-p)·normalize(p_i-p_j),
-// 0 when α < -θf, else (sin α / sin θf + 1) / 2.
-float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThetaF);
+// 0 when α < -θf, else (sin α / sin θf + 1) / 2. This form takes the unit direction of p_j - p
+// and the vector p_i - p_j (the filter computes the direction once per neighbour).
+inline float fuzzyBadness(glm::vec3 directionJ, glm::vec3 jToI, float sinThetaF) {
+    const float length2 = glm::dot(jToI, jToI);
+    if (!(length2 > 0.0f)) return 0.0f;
+    const float sinAlpha = glm::dot(directionJ, jToI) / std::sqrt(length2);
+    if (sinAlpha < -sinThetaF) return 0.0f;
+    return 0.5f * (sinAlpha / sinThetaF + 1.0f);
+}
+inline float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThetaF) {
+    const glm::vec3 a = pj - p;
+    const float length2 = glm::dot(a, a);
+    if (!(length2 > 0.0f)) return 0.0f;
+    return fuzzyBadness(a / std::sqrt(length2), pi - pj, sinThetaF);
+}
 
 // Scratch buffers reused across calls (no allocation per point once warm).
 struct NeighbourhoodScratch {
     std::vector<glm::vec3> projected;  // the positions the badness is measured on
     std::vector<glm::vec3> direction;  // normalize(projected - p)
     std::vector<float> worstSucc, worstPred;
-    std::vector<std::uint8_t> keep;
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
 };

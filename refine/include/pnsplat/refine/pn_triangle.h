@@ -110,10 +110,12 @@ inline glm::vec3 centreNormal(const PnTriangle& t, glm::vec3 n0, glm::vec3 n1, g
 
 // Geodesic distance (eq. 5 context): the length of the control polygon of the boundary curve
 // between p0 and p1, G = 2/3 |p0 p1| + |b210 - b120|.
-inline float geodesicDistance(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
-    const glm::vec3 b210 = edgeControlPoint(p0, n0, p1);
-    const glm::vec3 b120 = edgeControlPoint(p1, n1, p0);
+// The same from edge control points already at hand: b210 = b_01 near p0, b120 = b_10 near p1.
+inline float controlPolygonLength(glm::vec3 p0, glm::vec3 p1, glm::vec3 b210, glm::vec3 b120) {
     return (2.0f / 3.0f) * glm::length(p1 - p0) + glm::length(b120 - b210);
+}
+inline float geodesicDistance(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
+    return controlPolygonLength(p0, p1, edgeControlPoint(p0, n0, p1), edgeControlPoint(p1, n1, p0));
 }
 
 // Unsigned angle a-o-b in [0, π]; 0 when a or b coincides with o.

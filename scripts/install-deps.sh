@@ -6,9 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   libglm-dev libgtest-dev googletest
-  libnanoflann-dev libeigen3-dev libcli11-dev libfmt-dev libstb-dev libtbb-dev
-  libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-validationlayers vulkan-tools
-  libglfw3-dev xvfb xauth
+  libnanoflann-dev libcli11-dev libfmt-dev
 )
 
 missing=()

@@ -84,8 +84,9 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
                  NeighbourhoodScratch& scratch) {
     const std::size_t count = set.size();
     measure(p, n, set, false);
-    scratch.projected.resize(count);
-    scratch.direction.resize(count);
+    // The positions the badness is measured on, and their unit directions from p, as flat arrays
+    // (x, y, z apart) so that the O(k²) loop below runs on SIMD lanes.
+    for (auto* v : {&scratch.px, &scratch.py, &scratch.pz, &scratch.dx, &scratch.dy, &scratch.dz}) v->resize(count);
     for (std::size_t k = 0; k < count; ++k) {
         const glm::vec3 d = set.position[k] - p;
         glm::vec3 y = set.position[k];
@@ -99,34 +100,42 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
                                 : controlPolygonLength(p, set.position[k], set.nearControl[k], set.farControl[k]);
             if (tangentLength > 0.0f) y = p + tangent * (g / tangentLength);
         }
-        scratch.projected[k] = y;
-        scratch.direction[k] = glm::normalize(y - p);
+        const glm::vec3 direction = glm::normalize(y - p);
+        scratch.px[k] = y.x, scratch.py[k] = y.y, scratch.pz[k] = y.z;
+        scratch.dx[k] = direction.x, scratch.dy[k] = direction.y, scratch.dz[k] = direction.z;
     }
 
     // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij, Succ_i the j whose signed angle
-    // ∠(q_i, p, q_j) lies in (0, π), Pred_i those in (-π, 0).
+    // ∠(q_i, p, q_j) lies in (0, π), Pred_i those in (-π, 0); w_ij as in fuzzyBadness, written
+    // branch-free (j = i and coincident points give a zero vector and w = 0).
     const float sinThetaF = std::sin(params.thetaF);
-    scratch.worstSucc.assign(count, 0.0f);
-    scratch.worstPred.assign(count, 0.0f);
+    const float inverseSin = 1.0f / sinThetaF;
+    const float* px = scratch.px.data();
+    const float* py = scratch.py.data();
+    const float* pz = scratch.pz.data();
+    const float* dx = scratch.dx.data();
+    const float* dy = scratch.dy.data();
+    const float* dz = scratch.dz.data();
+    const float* angle = set.angle.data();
+    scratch.order.clear();
     for (std::size_t i = 0; i < count; ++i) {
-        const glm::vec3 yi = scratch.projected[i];
         float worstSucc = 0.0f, worstPred = 0.0f;
         for (std::size_t j = 0; j < count; ++j) {
-            if (j == i) continue;
-            const float w = fuzzyBadness(scratch.direction[j], yi - scratch.projected[j], sinThetaF);
-            if (w == 0.0f) continue;
-            float delta = set.angle[j] - set.angle[i];
-            if (delta <= -kPi) delta += 2.0f * kPi;
-            else if (delta > kPi) delta -= 2.0f * kPi;
-            if (delta > 0.0f && delta < kPi) worstSucc = std::max(worstSucc, w);
-            else if (delta < 0.0f && delta > -kPi) worstPred = std::max(worstPred, w);
+            const float bx = px[i] - px[j], by = py[i] - py[j], bz = pz[i] - pz[j];
+            const float length2 = bx * bx + by * by + bz * bz;
+            const float sinAlpha = (dx[j] * bx + dy[j] * by + dz[j] * bz) / std::sqrt(std::max(length2, 1e-30f));
+            const bool counts = (length2 > 0.0f) & (sinAlpha >= -sinThetaF);
+            const float w = counts ? 0.5f * (sinAlpha * inverseSin + 1.0f) : 0.0f;
+            float delta = angle[j] - angle[i];
+            delta += delta <= -kPi ? 2.0f * kPi : 0.0f;
+            delta -= delta > kPi ? 2.0f * kPi : 0.0f;
+            const float succ = (delta > 0.0f) & (delta < kPi) ? w : 0.0f;
+            const float pred = (delta < 0.0f) & (delta > -kPi) ? w : 0.0f;
+            worstSucc = succ > worstSucc ? succ : worstSucc;
+            worstPred = pred > worstPred ? pred : worstPred;
         }
-        scratch.worstSucc[i] = worstSucc;
-        scratch.worstPred[i] = worstPred;
+        if (worstSucc + worstPred <= 1.0f) scratch.order.push_back(static_cast<std::uint32_t>(i));
     }
-    scratch.order.clear();
-    for (std::uint32_t i = 0; i < count; ++i)
-        if (scratch.worstSucc[i] + scratch.worstPred[i] <= 1.0f) scratch.order.push_back(i);
     sortOrderByAngle(set, scratch);
     gather(set, scratch.order, scratch);
 }

@@ -76,10 +76,9 @@ struct RingMember {
 };
 
 // A possible new point of L_p (eq. 12), from the fan triangle (p, fan[a], fan[b]).
+// Normal and colour are computed only for the candidates actually inserted (newPointFrom).
 struct Candidate {
     glm::vec3 position;
-    glm::vec3 normal;
-    glm::u8vec3 colour;
     float angle;
     std::uint32_t a, b;
 };
@@ -214,6 +213,7 @@ private:
     void gatherNeighbourhood(std::uint32_t p, WorkerScratch& s);
     void makeCandidates(std::uint32_t p, WorkerScratch& s) const;
     float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
+    NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const;
     void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
     NewPoint& newPoint(const RingMember& m) { return cellPoints[m.cell][m.local]; }
 };
@@ -258,7 +258,6 @@ void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
     const TangentFrame frame(n);
     const NeighbourSet& fan = s.fan;
     const std::size_t m = fan.size();
-    const bool colour = points.hasColour();
     s.candidates.clear();
     if (m < 2) return;
     for (std::uint32_t a = 0; a < m; ++a) {
@@ -266,25 +265,35 @@ void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
         // Boundary gap (section 6): no triangle across an opening wider than θb.
         if (sweep(fan.angle[a], fan.angle[b]) > options.thetaB) continue;
         Candidate c;
-        const glm::vec3 pa = fan.position[a], pb = fan.position[b];
-        const glm::vec3 na = fan.normal[a], nb = fan.normal[b];
-        const glm::vec3 cog = centreOfGravity(x, pa, pb);
-        if (!options.smoothing || options.centroidCandidates) {
-            c.position = cog;
-            c.normal = glm::normalize(n + na + nb);
-        } else {
-            // L_p (eq. 12): cog + φ on the PN triangle (p, p_a, p_b), normal from its tangents.
-            const PnTriangle t = fanTriangle(x, fan, a, b);
-            c.position = cog + smoothingDisplacement(t);
-            c.normal = centreNormal(t, n, na, nb);
-        }
-        c.colour = colour ? meanColour(points.colour[p], points.colour[fan.index[a]], points.colour[fan.index[b]])
-                          : glm::u8vec3(0);
+        const glm::vec3 cog = centreOfGravity(x, fan.position[a], fan.position[b]);
+        // L_p (eq. 12): cog + φ on the PN triangle (p, p_a, p_b); the plain centroid for the
+        // baseline and for variant 4, which smooths only what it inserts.
+        if (!options.smoothing || options.centroidCandidates) c.position = cog;
+        else c.position = cog + smoothingDisplacement(fanTriangle(x, fan, a, b));
         c.angle = frame.angleOf(c.position - x);
         c.a = a;
         c.b = b;
         s.candidates.push_back(c);
     }
+}
+
+// The point inserted for candidate c of p: its normal from the exact tangents of the PN triangle
+// (section 3), its colour the mean of the corners' (section 8, figure 12).
+NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const {
+    const glm::vec3 x = points.position[p];
+    const glm::vec3 n = points.normal[p];
+    const glm::vec3 na = fan.normal[c.a], nb = fan.normal[c.b];
+    NewPoint np{c.position, glm::vec3(0.0f), 0.0f, glm::u8vec3(0)};
+    if (!options.smoothing) {
+        np.normal = glm::normalize(n + na + nb);
+    } else {
+        const PnTriangle t = fanTriangle(x, fan, c.a, c.b);
+        if (options.centroidCandidates) np.position = c.position + smoothingDisplacement(t);
+        np.normal = centreNormal(t, n, na, nb);
+    }
+    if (points.hasColour())
+        np.colour = meanColour(points.colour[p], points.colour[fan.index[c.a]], points.colour[fan.index[c.b]]);
+    return np;
 }
 
 // The "curved angle" between consecutive members of N'_p (eq. 5), or their plain angle
@@ -409,14 +418,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         }
         Clock::time_point ti;
         if (profile) ti = Clock::now();
-        NewPoint np{c.position, c.normal, 0.0f, c.colour};
-        if (options.centroidCandidates && options.smoothing) {
-            // Variant 4: the smoothing operator only for candidates actually inserted.
-            const glm::vec3 na = s.fan.normal[c.a], nb = s.fan.normal[c.b];
-            const PnTriangle t = fanTriangle(x, s.fan, c.a, c.b);
-            np.position = c.position + smoothingDisplacement(t);
-            np.normal = centreNormal(t, n, na, nb);
-        }
+        const NewPoint np = newPointFrom(p, s.fan, c);
         const auto local = static_cast<std::uint32_t>(cellStore.size());
         cellStore.push_back(np);
         ++s.inserted;

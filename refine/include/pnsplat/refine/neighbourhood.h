@@ -76,9 +76,8 @@ inline float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThet
 
 // Scratch buffers reused across calls (no allocation per point once warm).
 struct NeighbourhoodScratch {
-    std::vector<glm::vec3> projected;  // the positions the badness is measured on
-    std::vector<glm::vec3> direction;  // normalize(projected - p)
-    std::vector<float> worstSucc, worstPred;
+    std::vector<float> px, py, pz;     // the positions the badness is measured on
+    std::vector<float> dx, dy, dz;     // their unit directions from p
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
 };

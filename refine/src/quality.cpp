@@ -567,15 +567,35 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
         reference.isAnalytic() ? analyticSamples.position : reference.points.position;
     const std::size_t m = samples.size();
     report.referencePoints = m;
+    // The tangential variant measures the offset to the nearest of the kTangentialNearest refined
+    // points in the sample's tangent plane only, so that a refined surface lying a little off the
+    // true one (the approximation error of a sparse input) does not count as a hole.
+    const std::vector<glm::vec3>& sampleNormals =
+        reference.isAnalytic() ? analyticSamples.normal : reference.points.normal;
     const auto threshold2 = static_cast<float>(4.0 * spacingMean * spacingMean);
-    std::vector<std::uint8_t> uncovered(m);
+    constexpr std::size_t kTangentialNearest = 8;
+    std::vector<std::uint8_t> uncovered(m), uncoveredTangential(m);
     parallelFor(pool, m, [&](std::size_t begin, std::size_t end) {
-        for (std::size_t j = begin; j < end; ++j) uncovered[j] = nearest(refinedTree, samples[j]).second > threshold2;
+        std::array<std::uint32_t, kTangentialNearest> index;
+        std::array<float, kTangentialNearest> d2;
+        for (std::size_t j = begin; j < end; ++j) {
+            const glm::vec3 q = samples[j];
+            const std::size_t found = refinedTree.knnSearch(&q.x, kTangentialNearest, index.data(), d2.data());
+            uncovered[j] = found == 0 || d2[0] > threshold2;
+            float tangential2 = kInfinity;
+            for (std::size_t k = 0; k < found; ++k) {
+                const glm::vec3 d = refined.position[index[k]] - q;
+                const float along = glm::dot(d, sampleNormals[j]);
+                tangential2 = std::min(tangential2, glm::dot(d, d) - along * along);
+            }
+            uncoveredTangential[j] = tangential2 > threshold2;
+        }
     });
-    std::size_t holes = 0;
-    for (const std::uint8_t u : uncovered) holes += u;
+    std::size_t holes = 0, holesTangential = 0;
+    for (std::size_t j = 0; j < m; ++j) holes += uncovered[j], holesTangential += uncoveredTangential[j];
     report.holeReferencePoints = holes;
     report.holes = m > 0 ? static_cast<double>(holes) / static_cast<double>(m) : 0.0;
+    report.holesTangential = m > 0 ? static_cast<double>(holesTangential) / static_cast<double>(m) : 0.0;
 
     // 4. Input preservation: each input point's 6 floats, bit for bit, among the output's.
     if (input) {
@@ -613,13 +633,13 @@ std::string toJson(const QualityReport& r) {
         "\"distance\": {{\"mean\": {}, \"rms\": {}, \"max\": {}, \"mean_rel\": {}, \"rms_rel\": {}, "
         "\"max_rel\": {}}}, "
         "\"normal_error_deg\": {{\"mean\": {}, \"p95\": {}, \"max\": {}}}, "
-        "\"spacing_mean\": {}, \"uniformity_cv\": {}, \"holes\": {}, "
+        "\"spacing_mean\": {}, \"uniformity_cv\": {}, \"holes\": {}, \"holes_tangential\": {}, "
         "\"input_points\": {}, \"input_preserved\": {}, \"input_missing\": {}}}",
         r.points, jsonString(r.reference), r.referencePoints, r.referenceTriangles, jsonNumber(r.diagonal),
         jsonNumber(r.distanceMean), jsonNumber(r.distanceRms), jsonNumber(r.distanceMax),
         jsonNumber(r.distanceMeanRel), jsonNumber(r.distanceRmsRel), jsonNumber(r.distanceMaxRel),
         jsonNumber(r.normalErrorMeanDeg), jsonNumber(r.normalErrorP95Deg), jsonNumber(r.normalErrorMaxDeg),
-        jsonNumber(r.spacingMean), jsonNumber(r.uniformityCv), jsonNumber(r.holes), inputValue(r.inputPoints),
+        jsonNumber(r.spacingMean), jsonNumber(r.uniformityCv), jsonNumber(r.holes), jsonNumber(r.holesTangential), inputValue(r.inputPoints),
         inputValue(r.inputPreserved), inputValue(r.inputMissing));
 }
 

@@ -10,7 +10,10 @@
 // - uniformity: coefficient of variation (std / mean) of the distance from each refined point to
 //   its nearest other refined point (0 for a perfect grid);
 // - holes: share of the reference points (dense samples of the true surface) farther than twice
-//   the mean refined nearest-neighbour spacing from every refined point;
+//   the mean refined nearest-neighbour spacing from every refined point; holes_tangential is the
+//   same test with distances measured in the sample's tangent plane (to the nearest 8 refined
+//   points), which tells a gap in the sampling from a refined surface that lies slightly off the
+//   true one (for a sparse input, the approximation error can exceed twice the refined spacing);
 // - input preservation: whether every input point appears in the output with bit-identical
 //   position and normal (the method is interpolatory, SPEC 1), and how many do not.
 //
@@ -124,6 +127,7 @@ struct QualityReport {
     double spacingMean = 0.0;   // mean nearest-neighbour distance of the refined points
     double uniformityCv = 0.0;  // std / mean of those distances (population std)
     double holes = 0.0;         // share in [0, 1] of reference points not covered
+    double holesTangential = 0.0; // the same, distances measured in the sample's tangent plane
     std::size_t holeReferencePoints = 0;
 
     bool hasInput = false;       // the fields below are meaningful only with an input
@@ -146,7 +150,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
 // The report as one JSON object with stable keys:
 // {"points", "reference", "reference_points", "reference_triangles", "diagonal",
 //  "distance": {"mean", "rms", "max", "mean_rel", "rms_rel", "max_rel"},
-//  "normal_error_deg": {"mean", "p95", "max"}, "spacing_mean", "uniformity_cv", "holes",
+//  "normal_error_deg": {"mean", "p95", "max"}, "spacing_mean", "uniformity_cv", "holes", "holes_tangential",
 //  "input_points", "input_preserved", "input_missing"}; the input_* values are null without an
 // input. Non-finite numbers are written as null. Ends without a newline.
 std::string toJson(const QualityReport& report);

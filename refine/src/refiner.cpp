@@ -5,12 +5,15 @@
 //  - Space is cut into cubic cells of side s = kCellFactor · r_lim, r_lim the 99th percentile of
 //    the radii of P(l). Cells are coloured by the parity of their integer coordinates (2×2×2 = 8
 //    colours); two cells of one colour are at least s apart.
-//  - Refining p reads the points of P(l) closer than r_p, their children and the children's
-//    radii; it writes its own children (stored with its cell) and the radii of points closer than
-//    r_p. Two points further apart than 2·r_lim < s never touch the same memory, and the children
-//    it reads belong to its own cell or to cells of other colours: cells of one colour are
-//    refined concurrently, each by one worker, its points in increasing index order; the colours
-//    follow each other in order 0..7.
+//  - Refining p reads the points of P(l) closer than its reach (r_p, or kRetryReach·r_p for an
+//    open fan) with their `refined` flags and children, and the radii of new points closer than
+//    r_p; it writes its own flag and children (stored with its cell) and the radii of new points
+//    closer than r_p. With every reach at most 1.5·r_lim and every point of a cell at least s
+//    from the points of another cell of its colour: no flag or child range read by one is being
+//    written by the other (1.5·r_lim < s), no radius either (2·r_lim < s), and the children it
+//    reads belong to its own cell or to cells of other colours, never to storage that another
+//    worker is appending to. So cells of one colour are refined concurrently, each by one
+//    worker, its points in increasing index order; the colours follow each other in order 0..7.
 //  - Points with r > r_lim (at most 1 %) are refined first, one after the other, in index order.
 // Every point sees exactly the points that the same sequential order would show it, whatever the
 // number of threads, so the output is identical for any thread count.
@@ -37,7 +40,8 @@ namespace {
 
 constexpr float kPi = std::numbers::pi_v<float>;
 constexpr float kTwoPi = 2.0f * kPi;
-constexpr float kCellFactor = 2.25f; // > 2, see above
+constexpr float kCellFactor = 2.25f; // > 2 and > kRetryReach, see above
+constexpr float kRetryReach = 1.5f;
 constexpr float kLargeQuantile = 0.99f;
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
@@ -91,7 +95,7 @@ struct WorkerScratch {
     std::vector<RingMember> outer; // Y_p
     std::vector<Candidate> candidates;
     PhaseTimes times;
-    std::size_t inserted = 0, discarded = 0, incomplete = 0;
+    std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0;
 };
 
 // Counter-clockwise sweep from angle a to angle b, in [0, 2π).
@@ -210,7 +214,8 @@ struct Refiner::State {
     LevelStats refineLevel(const ProgressFn& progress);
 
 private:
-    void gatherNeighbourhood(std::uint32_t p, WorkerScratch& s);
+    void gatherNeighbourhood(std::uint32_t p, float reach, WorkerScratch& s);
+    bool fanIsOpen(const NeighbourSet& fan) const;
     void makeCandidates(std::uint32_t p, WorkerScratch& s) const;
     float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
     NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const;
@@ -218,19 +223,19 @@ private:
     NewPoint& newPoint(const RingMember& m) { return cellPoints[m.cell][m.local]; }
 };
 
-void Refiner::State::gatherNeighbourhood(std::uint32_t p, WorkerScratch& s) {
+void Refiner::State::gatherNeighbourhood(std::uint32_t p, float reach, WorkerScratch& s) {
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = points.normal[p];
     const float r = levelRadius[p];
-    const float r2 = r * r;
+    const float reach2 = reach * reach;
     const float innerRadius = kLambda1 * r;
     const TangentFrame frame(n);
     s.fan.clear();
     s.ring.clear();
     s.outer.clear();
-    hierarchy.query(x, r, s.stack, [&](std::uint32_t i, float d2) {
+    hierarchy.query(x, reach, s.stack, [&](std::uint32_t i, float d2) {
         // Nε_p (eq. 7): points of P(l) closer than r that pass the validity cone (eq. 6).
-        if (!(d2 < r2) || i == p || !validNeighbours(x, n, points.position[i], points.normal[i])) return;
+        if (!(d2 < reach2) || i == p || !validNeighbours(x, n, points.position[i], points.normal[i])) return;
         s.fan.push(i, points.position[i], points.normal[i]);
         // The points already inserted near p are the children of its neighbours (section 7). Only
         // points closer than r_lim can be read here, and none of them is refined concurrently.
@@ -275,6 +280,15 @@ void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
         c.b = b;
         s.candidates.push_back(c);
     }
+}
+
+// Whether consecutive fan neighbours leave an opening wider than θb around p (section 6).
+bool Refiner::State::fanIsOpen(const NeighbourSet& fan) const {
+    const std::size_t m = fan.size();
+    if (m < 2) return true;
+    for (std::size_t a = 0; a < m; ++a)
+        if (sweep(fan.angle[a], fan.angle[(a + 1) % m]) > options.thetaB) return true;
+    return false;
 }
 
 // The point inserted for candidate c of p: its normal from the exact tangents of the PN triangle
@@ -324,15 +338,25 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
 
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = points.normal[p];
-    gatherNeighbourhood(p, s);
-    if (profile) s.times.neighbourhood += secondsSince(t0);
-
     FuzzyParams fuzzy;
     fuzzy.thetaF = options.thetaF;
     fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
     fuzzy.euclideanGeodesic = options.euclideanGeodesic;
+    gatherNeighbourhood(p, levelRadius[p], s);
+    if (profile) s.times.neighbourhood += secondsSince(t0);
     filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
     if (profile) s.times.filtering += secondsSince(t0);
+    if (fanIsOpen(s.fan)) {
+        // Choice: a fan open wider than θb may be a boundary, or a radius that fell short of the
+        // natural first ring on one side (the radius update only reaches N'_p). Look once more
+        // within kRetryReach·r before treating it as a boundary; the new one-ring then reaches
+        // across, and the gap is filled at this level instead of staying a hole.
+        ++s.retried;
+        gatherNeighbourhood(p, kRetryReach * levelRadius[p], s);
+        if (profile) s.times.neighbourhood += secondsSince(t0);
+        filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
+        if (profile) s.times.filtering += secondsSince(t0);
+    }
 
     makeCandidates(p, s);
     if (profile) s.times.interpolation += secondsSince(t0);
@@ -518,7 +542,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     cellPoints.assign(cells.size() + 1, {});
     stats.sequentialPoints = large.size();
 
-    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0;
+    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0, s.retried = 0;
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
     for (std::uint32_t i : large) refinePoint(i, largeCell, scratch[0]);
@@ -563,6 +587,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         stats.inserted += s.inserted;
         stats.discarded += s.discarded;
         stats.incomplete += s.incomplete;
+        stats.retried += s.retried;
         stats.phases.neighbourhood += s.times.neighbourhood;
         stats.phases.filtering += s.times.filtering;
         stats.phases.selection += s.times.selection;

@@ -71,6 +71,7 @@ struct LevelStats {
     std::size_t inserted = 0;
     std::size_t discarded = 0;       // candidates that fell in the discard space
     std::size_t incomplete = 0;      // points whose new one-ring N'_p stayed incomplete
+    std::size_t retried = 0;         // points whose fan was open and was searched again wider
     double seconds = 0;              // wall clock
     PhaseTimes phases;               // filled when RefineOptions::profile
     std::size_t sequentialPoints = 0; // points too large for the parallel colouring

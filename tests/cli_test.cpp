@@ -1,1 +1,374 @@
-// being written
+// End-to-end tests of the `pnsplat` program: help texts, the README's first command (the embedded
+// default model), option conflicts, thread-count independence of the written file, `eval` JSON,
+// and bad input (STYLE.md "Errors": one line naming the file and the problem, a non-zero exit,
+// never a crash, and no output file left behind).
+//
+// The program runs through std::system with stdout and stderr redirected to files of a private
+// temporary folder; every test works in its own folder, removed at the end.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/shapes.h"
+#include "test_data.h"
+
+namespace pnsplat {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh folder under the system's temporary directory, removed with everything in it.
+class TempDir {
+  public:
+    TempDir() {
+        static std::atomic<unsigned> counter{0};
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        std::string name = info ? std::string(info->test_suite_name()) + "-" + info->name() : "test";
+        std::replace(name.begin(), name.end(), '/', '-');
+        path_ = fs::temp_directory_path() /
+                ("pnsplat-cli-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" + name);
+        fs::remove_all(path_);
+        fs::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ignored;
+        fs::remove_all(path_, ignored);
+    }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+
+    const fs::path& path() const { return path_; }
+    fs::path operator/(const std::string& name) const { return path_ / name; }
+
+    // Names of the files and folders directly inside.
+    std::set<std::string> entries() const {
+        std::set<std::string> names;
+        for (const auto& e : fs::directory_iterator(path_)) names.insert(e.path().filename().string());
+        return names;
+    }
+
+  private:
+    fs::path path_;
+};
+
+std::string quote(const std::string& s) {
+    std::string q = "'";
+    for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
+}
+std::string quote(const fs::path& p) {
+    return quote(p.string());
+}
+
+// The whole file ("" when it cannot be read).
+std::string readText(const fs::path& path) {
+    std::error_code ec;
+    const auto size = fs::file_size(path, ec);
+    if (ec) return {};
+    std::string bytes(static_cast<std::size_t>(size), '\0');
+    std::ifstream in(path, std::ios::binary);
+    in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    bytes.resize(static_cast<std::size_t>(in.gcount()));
+    return bytes;
+}
+
+void writeText(const fs::path& path, const std::string& text) {
+    std::ofstream out(path, std::ios::binary);
+    out << text;
+}
+
+struct RunResult {
+    bool exited = false;  // ended by exit(), not by a signal
+    int exitCode = -1;    // valid when exited
+    std::string out, err; // standard output and standard error
+};
+
+// Runs `pnsplat <args>` (args already quoted as needed).
+RunResult run(const std::string& args) {
+    static const TempDir captures; // outside every test's own folder
+    static std::atomic<unsigned> counter{0};
+    const unsigned k = counter++;
+    const fs::path out = captures / ("out-" + std::to_string(k)),
+                   err = captures / ("err-" + std::to_string(k));
+    const std::string command =
+        quote(test::programPath()) + " " + args + " >" + quote(out) + " 2>" + quote(err);
+    const int status = std::system(command.c_str());
+    RunResult r;
+    // The shell may exec the program (a signal shows in the status) or report it as 128 + signal.
+    r.exited = status != -1 && WIFEXITED(status) && WEXITSTATUS(status) < 128;
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = readText(out);
+    r.err = readText(err);
+    fs::remove(out);
+    fs::remove(err);
+    return r;
+}
+
+std::vector<std::string> lines(const std::string& text) {
+    std::vector<std::string> result;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) result.push_back(line);
+    return result;
+}
+
+enum class Usage { Allowed, NotAllowed };
+
+// A clean failure: a normal exit with a non-zero status below 128 (not a signal), and on stderr
+// exactly one line "pnsplat: ...", or (Usage::Allowed, for option errors) CLI11's usage error:
+// one message line followed by "Run with --help for more information.".
+::testing::AssertionResult failsCleanly(const RunResult& r, Usage usage = Usage::NotAllowed) {
+    if (!r.exited) return ::testing::AssertionFailure() << "crashed or killed by a signal; stderr: " << r.err;
+    if (r.exitCode == 0) return ::testing::AssertionFailure() << "exit status 0; stderr: " << r.err;
+    const std::vector<std::string> l = lines(r.err);
+    if (l.size() == 1 && l[0].rfind("pnsplat: ", 0) == 0 && l[0].size() > 9)
+        return ::testing::AssertionSuccess();
+    if (usage == Usage::Allowed && l.size() == 2 && !l[0].empty() &&
+        l[1] == "Run with --help for more information.")
+        return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "stderr is not one error line (" << l.size() << " lines):\n"
+                                         << r.err;
+}
+
+std::string headerAscii(std::size_t count) {
+    return "ply\nformat ascii 1.0\nelement vertex " + std::to_string(count) +
+           "\nproperty float x\nproperty float y\nproperty float z\n"
+           "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(CliHelp, ProgramAndSubcommandsPrintTheirOptions) {
+    struct Case {
+        std::string args;
+        std::vector<std::string> mentions;
+    };
+    const std::vector<Case> cases = {
+        {"--help", {"refine", "eval", "bench"}},
+        {"refine --help",
+         {"--output", "--levels", "--target-points", "--threads", "--fast", "--neighbourhood",
+          "--no-smoothing", "--euclidean-geodesic", "--plain-angle", "--centroid-candidates"}},
+        {"eval --help",
+         {"--reference", "--input", "--output", "sphere:R", "torus:R,r", "uniformity_cv", "holes"}},
+        {"bench --help", {"refine"}},
+        {"bench refine --help", {"--sphere-points", "--target-points", "--repeat", "--output"}},
+    };
+    for (const Case& c : cases) {
+        const RunResult r = run(c.args);
+        EXPECT_TRUE(r.exited && r.exitCode == 0) << c.args << ": exit " << r.exitCode << "\n" << r.err;
+        for (const std::string& m : c.mentions)
+            EXPECT_NE(r.out.find(m), std::string::npos) << c.args << " lacks " << m;
+    }
+}
+
+TEST(CliRefine, DefaultModelTwoLevels) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    const RunResult r = run("refine -o " + quote(out) + " -l 2");
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    std::cout << "[refine -l 2] " << r.out;
+    EXPECT_NE(r.out.find("2000 points in"), std::string::npos) << r.out;
+    EXPECT_EQ(lines(r.out).size(), 1u) << r.out;
+    const auto data = readPly(out);
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    const PointSet& points = data->points;
+    // Two √3-like levels multiply the count by about 9 (measured 2,000 -> 18,066).
+    EXPECT_GT(points.size(), 2000u * 6);
+    EXPECT_TRUE(points.hasColour());
+    EXPECT_TRUE(points.hasRadius());
+    EXPECT_NE(r.out.find(std::to_string(points.size()) + " out"), std::string::npos) << r.out;
+}
+
+TEST(CliRefine, LevelsAndTargetPointsAreExclusive) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    const RunResult r = run("refine -o " + quote(out) + " --levels 2 --target-points 20000");
+    EXPECT_TRUE(failsCleanly(r, Usage::Allowed));
+    EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(CliRefine, TargetPointsStopsAtTheFirstLevelReachingIt) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    const RunResult r = run("refine -o " + quote(out) + " --target-points 20000");
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    std::cout << "[refine --target-points 20000] " << r.out;
+    const auto data = readPly(out);
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    EXPECT_GE(data->points.size(), 20000u);
+    // The level before had fewer than 20,000 points and a level about triples them.
+    EXPECT_LT(data->points.size(), 80000u);
+}
+
+TEST(CliRefine, ThreadCountDoesNotChangeTheFile) {
+    const TempDir dir;
+    const fs::path one = dir / "one.ply", two = dir / "two.ply";
+    const RunResult r1 = run("refine -l 3 --threads 1 -o " + quote(one));
+    const RunResult r2 = run("refine -l 3 --threads 2 -o " + quote(two));
+    ASSERT_TRUE(r1.exited && r1.exitCode == 0) << r1.err;
+    ASSERT_TRUE(r2.exited && r2.exitCode == 0) << r2.err;
+    const std::string a = readText(one), b = readText(two);
+    std::cout << "[refine -l 3] files for 1 and 2 threads: " << a.size() << " and " << b.size()
+              << " bytes, identical: " << (a == b ? "yes" : "NO") << "\n";
+    ASSERT_GT(a.size(), 100000u);
+    EXPECT_TRUE(a == b);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Acceptance 7: bad input.
+
+struct BadInput {
+    std::string name;
+    std::string content; // the input file's bytes; empty: no file at all
+    Usage usage = Usage::NotAllowed;
+};
+
+std::string validBinaryPly(const TempDir& dir) {
+    const fs::path p = dir / "valid.ply";
+    EXPECT_TRUE(writePly(p, sampleSphereUniform(600, 1.0f)).ok());
+    std::string bytes = readText(p);
+    fs::remove(p);
+    return bytes;
+}
+
+TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
+    const TempDir dir;
+    const std::string valid = validBinaryPly(dir);
+    const std::size_t bodyStart = valid.find("end_header\n") + 11;
+    ASSERT_LT(bodyStart, valid.size());
+    // Cut in the middle of a vertex record.
+    const std::string truncated = valid.substr(0, bodyStart + (valid.size() - bodyStart) / 2 + 5);
+
+    std::vector<BadInput> cases = {
+        {"missing file", "", Usage::Allowed},
+        {"truncated binary", truncated},
+        {"header cut short", valid.substr(0, bodyStart / 2)},
+        {"malformed vertex count",
+         "ply\nformat binary_little_endian 1.0\nelement vertex many\nproperty float x\nend_header\n"},
+        {"unknown format",
+         "ply\nformat binary_middle_endian 1.0\nelement vertex 1\nproperty float x\nend_header\n"},
+        {"not a PLY", "solid cube\nfacet normal 0 0 1\n"},
+        {"no normals",
+         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "end_header\n0 0 0\n1 0 0\n0 1 0\n"},
+        {"NaN coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\nnan 1 0 0 0 1\n1 1 0 0 0 1\n"},
+        {"infinite coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 inf 0 0 0 1\n1 1 0 0 0 1\n"},
+        {"zero normal", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 0\n0 1 0 0 0 1\n1 1 0 0 0 1\n"},
+        {"empty set", headerAscii(0)},
+        {"single point", headerAscii(1) + "0 0 0 0 0 1\n"},
+        {"two points", headerAscii(2) + "0 0 0 0 0 1\n1 0 0 0 0 1\n"},
+        {"three coincident points",
+         headerAscii(3) + "0.5 0.5 0.5 0 0 1\n0.5 0.5 0.5 0 0 1\n0.5 0.5 0.5 0 0 1\n"},
+        {"negative radius",
+         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
+         "0 0 0 0 0 1 0.5\n1 0 0 0 0 1 -0.5\n0 1 0 0 0 1 0.5\n"},
+    };
+    for (const BadInput& c : cases) {
+        SCOPED_TRACE(c.name);
+        const fs::path in = dir / "in.ply", out = dir / "out.ply";
+        if (!c.content.empty()) writeText(in, c.content);
+        const std::set<std::string> before = dir.entries();
+        const RunResult r = run("refine " + quote(in) + " -l 1 -o " + quote(out));
+        std::cout << "[refine, " << c.name << "] exit " << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r, c.usage));
+        EXPECT_FALSE(fs::exists(out));
+        EXPECT_EQ(dir.entries(), before) << "files left behind";
+        EXPECT_NE(r.err.find(in.string()), std::string::npos) << "the message names the file: " << r.err;
+        fs::remove(in);
+    }
+}
+
+TEST(CliBadInput, OutputInMissingFolderFailsAndLeavesNothing) {
+    const TempDir dir;
+    const fs::path out = dir / "no" / "such" / "folder" / "out.ply";
+    const std::set<std::string> before = dir.entries();
+    const RunResult r = run("refine -l 1 -o " + quote(out));
+    std::cout << "[refine, output in a missing folder] exit " << r.exitCode << ": " << r.err;
+    EXPECT_TRUE(failsCleanly(r));
+    EXPECT_FALSE(fs::exists(out));
+    EXPECT_FALSE(fs::exists(dir / "no"));
+    EXPECT_EQ(dir.entries(), before);
+}
+
+TEST(CliBadInput, EvalRejectsBadReferencesAndInputs) {
+    const TempDir dir;
+    const fs::path refined = dir / "refined.ply", report = dir / "report.json";
+    ASSERT_TRUE(writePly(refined, sampleSphereUniform(600, 1.0f)).ok());
+    const std::vector<std::string> references = {"sphere:abc",
+                                                 "sphere:-1",
+                                                 "sphere:",
+                                                 "torus:1",
+                                                 "torus:0.5,1",
+                                                 "cube:2",
+                                                 (dir / "missing-mesh.ply").string()};
+    for (const std::string& ref : references) {
+        SCOPED_TRACE(ref);
+        const RunResult r =
+            run("eval " + quote(refined) + " --reference " + quote(ref) + " -o " + quote(report));
+        std::cout << "[eval --reference " << ref << "] exit " << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r, Usage::Allowed));
+        EXPECT_FALSE(fs::exists(report));
+        EXPECT_EQ(r.out, "");
+    }
+    // A missing refined file and a missing --input.
+    const RunResult noRefined =
+        run("eval " + quote(dir / "missing.ply") + " --reference sphere:1 -o " + quote(report));
+    std::cout << "[eval missing.ply] exit " << noRefined.exitCode << ": " << noRefined.err;
+    EXPECT_TRUE(failsCleanly(noRefined, Usage::Allowed));
+    const RunResult noInput = run("eval " + quote(refined) + " --reference sphere:1 --input " +
+                                  quote(dir / "missing-input.ply") + " -o " + quote(report));
+    std::cout << "[eval --input missing-input.ply] exit " << noInput.exitCode << ": " << noInput.err;
+    EXPECT_TRUE(failsCleanly(noInput, Usage::Allowed));
+    EXPECT_FALSE(fs::exists(report));
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
+    const TempDir dir;
+    const fs::path in = dir / "sphere-600.ply", out = dir / "refined.ply", other = dir / "sphere-601.ply",
+                   report = dir / "report.json";
+    ASSERT_TRUE(writePly(in, sampleSphereUniform(600, 1.0f)).ok());
+    ASSERT_TRUE(writePly(other, sampleSphereUniform(601, 1.0f)).ok());
+    const RunResult refine = run("refine " + quote(in) + " -l 3 -o " + quote(out));
+    ASSERT_TRUE(refine.exited && refine.exitCode == 0) << refine.err;
+
+    const RunResult eval = run("eval " + quote(out) + " --reference sphere:1 --input " + quote(in));
+    ASSERT_TRUE(eval.exited && eval.exitCode == 0) << eval.err;
+    std::cout << "[eval, sphere 600 refined 3 levels] " << eval.out;
+    EXPECT_NE(eval.out.find("\"input_preserved\": true"), std::string::npos) << eval.out;
+    EXPECT_NE(eval.out.find("\"input_missing\": 0"), std::string::npos) << eval.out;
+    EXPECT_NE(eval.out.find("\"input_points\": 600"), std::string::npos) << eval.out;
+    EXPECT_NE(eval.out.find("\"holes\": 0,"), std::string::npos) << eval.out;
+    EXPECT_EQ(eval.out.front(), '{');
+    EXPECT_EQ(eval.out.substr(eval.out.size() - 2), "}\n");
+
+    // The same report to a file.
+    const RunResult toFile =
+        run("eval " + quote(out) + " --reference sphere:1 --input " + quote(in) + " -o " + quote(report));
+    ASSERT_TRUE(toFile.exited && toFile.exitCode == 0) << toFile.err;
+    EXPECT_EQ(toFile.out, "");
+    EXPECT_EQ(readText(report), eval.out);
+
+    // Oracle for the check itself: another sampling is not preserved.
+    const RunResult wrong = run("eval " + quote(out) + " --reference sphere:1 --input " + quote(other));
+    ASSERT_TRUE(wrong.exited && wrong.exitCode == 0) << wrong.err;
+    EXPECT_NE(wrong.out.find("\"input_preserved\": false"), std::string::npos) << wrong.out;
+}
+
+} // namespace
+} // namespace pnsplat

@@ -17,8 +17,16 @@ int main(int argc, char** argv) {
     pnsplat::tools::addBenchCommand(app);
     try {
         app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
+    } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        // One line, like every other error.
+        fmt::print(stderr, "pnsplat: {} (see --help)\n", e.what());
+        return e.get_exit_code();
     } catch (const pnsplat::tools::CommandError& e) {
         fmt::print(stderr, "pnsplat: {}\n", e.what());
         return 1;

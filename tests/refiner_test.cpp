@@ -349,13 +349,16 @@ TEST(RefinerConvergence, SphereRadiiShrinkByCBetaPerLevel) {
 }
 
 TEST(RefinerConvergence, TorusRadiiShrinkByCBetaPerLevel) {
-    // Some points violate the bound here, so this asserts on their share instead (at most 2 in
-    // 1,000, about twice the measured worst) and that no radius grows. Measured: 2 of 3,500,
-    // 9 of 9,950 and 19 to 23 of ~28,500 points (worst ratios 0.983, 0.991, 0.999 to 1.0). They
-    // sit in under-sampled spots of the random sampling: their new one-ring stays incomplete
-    // (0 or 1 child), and ratio-1 ones are level-1 points whose radius reaches only 1 or 2 points
-    // of P(2), so nothing is inserted around them. See closing note.
-    expectRadiiShrink(withRadii(sampleTorusRandom(3500, 1.0f, 0.4f, 7)), 3, "torus 3500 random", 2e-3);
+    // Every point, every level, on irregular input too: a Y_p substitute farther than c_β,max · r
+    // is not taken into N'_p, and an empty N'_p shrinks by c_β,max (refiner.cpp).
+    expectRadiiShrink(withRadii(sampleTorusRandom(3500, 1.0f, 0.4f, 7)), 4, "torus 3500 random", 0.0);
+}
+
+TEST(RefinerConvergence, RealModelRadiiShrinkByCBetaPerLevel) {
+    PNSPLAT_REQUIRE_DATA("bunny-3500-random.ply");
+    auto data = readPly(test::dataDir() / "bunny-3500-random.ply");
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    expectRadiiShrink(withRadii(std::move(data->points)), 3, "bunny 3500 random", 0.0);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -10,6 +10,9 @@ namespace pnsplat {
 
 namespace {
 constexpr std::uint32_t kLeafSize = 8;
+// Bounds are rounded up so that the float test |c - p_i|² <= (radius + bound_i)² in query() can
+// never exclude a descendant the bound covers in exact arithmetic.
+constexpr float kBoundRoundUp = 1.0f + 1.0f / (1u << 18);
 }
 
 PointHierarchy::PointHierarchy(std::span<const glm::vec3> roots) {
@@ -67,7 +70,7 @@ void PointHierarchy::updateBounds(std::span<const glm::vec3> positions) {
         float bound = 0.0f;
         for (std::uint32_t l = levelOf(i); l < lastLevel; ++l) {
             for (std::uint32_t c = children_[l][i]; c < children_[l][i + 1]; ++c)
-                bound = std::max(bound, glm::length(positions[c] - positions[i]) + spheres_[c].w);
+                bound = std::max(bound, (glm::length(positions[c] - positions[i]) + spheres_[c].w) * kBoundRoundUp);
         }
         spheres_[i] = glm::vec4(positions[i], bound);
     }

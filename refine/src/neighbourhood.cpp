@@ -107,7 +107,9 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
 
     // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij, Succ_i the j whose signed angle
     // ∠(q_i, p, q_j) lies in (0, π), Pred_i those in (-π, 0); w_ij as in fuzzyBadness, written
-    // branch-free (j = i and coincident points give a zero vector and w = 0).
+    // branch-free (j = i and coincident points give a zero vector and w = 0). Choice: a j at
+    // exactly the same angle counts as a successor; with the paper's open intervals a point
+    // straight behind another (w_ij = 1.5) would be in neither set and survive.
     const float sinThetaF = std::sin(params.thetaF);
     const float inverseSin = 1.0f / sinThetaF;
     const float* px = scratch.px.data();
@@ -129,7 +131,7 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
             float delta = angle[j] - angle[i];
             delta += delta <= -kPi ? 2.0f * kPi : 0.0f;
             delta -= delta > kPi ? 2.0f * kPi : 0.0f;
-            const float succ = (delta > 0.0f) & (delta < kPi) ? w : 0.0f;
+            const float succ = (delta >= 0.0f) & (delta < kPi) ? w : 0.0f;
             const float pred = (delta < 0.0f) & (delta > -kPi) ? w : 0.0f;
             worstSucc = succ > worstSucc ? succ : worstSucc;
             worstPred = pred > worstPred ? pred : worstPred;

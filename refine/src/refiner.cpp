@@ -42,6 +42,8 @@ constexpr float kPi = std::numbers::pi_v<float>;
 constexpr float kTwoPi = 2.0f * kPi;
 constexpr float kCellFactor = 2.25f; // > 2 and > kRetryReach, see above
 constexpr float kRetryReach = 1.5f;
+// c_β,max = max over β of (5/6 + 5/6 + cos(β/2) + 2/3 sin(β/2)) / 3 = (5/3 + √(13)/3) / 3 (eq. 14).
+constexpr float kCBetaMax = 0.956172f; // rounded down
 constexpr float kLargeQuantile = 0.99f;
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
@@ -437,7 +439,10 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             const bool present = std::any_of(ring.begin(), ring.end(), [&](const RingMember& m) {
                 return m.cell == y.cell && m.local == y.local;
             });
-            if (!present) insertIntoRing(ring, y);
+            // Choice: a substitute farther than c_β,max · r from p would break the convergence
+            // bound of section 8.1 (the proof assumes the farthest new neighbour is a PN centre);
+            // such a point is left out and nothing joins N'_p.
+            if (!present && glm::length(y.position - x) <= kCBetaMax * levelRadius[p]) insertIntoRing(ring, y);
             continue;
         }
         Clock::time_point ti;
@@ -460,7 +465,9 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     if (!complete) ++s.incomplete;
 
     // Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
-    // neighbours in the new ring.
+    // neighbours in the new ring. Choice for an empty N'_p (nothing found, nothing inserted: the
+    // paper's maximum is undefined): r' = c_β,max · r, so every radius still converges (8.1).
+    if (ring.empty()) points.radius[p] = kCBetaMax * levelRadius[p];
     if (!ring.empty()) {
         float newRadius = 0.0f;
         const std::size_t m = ring.size();

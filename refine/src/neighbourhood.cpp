@@ -34,12 +34,14 @@ namespace {
 constexpr float kPi = std::numbers::pi_v<float>;
 
 // Computes angles and edge control points of every entry (those not yet computed by the caller).
-void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool controlsDone) {
+void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls) {
     const TangentFrame frame(n);
     const std::size_t count = set.size();
     set.angle.resize(count);
     for (std::size_t k = 0; k < count; ++k) set.angle[k] = frame.angleOf(set.position[k] - p);
-    if (controlsDone) return;
+    set.nearControl.clear();
+    set.farControl.clear();
+    if (!withControls) return;
     set.nearControl.resize(count);
     set.farControl.resize(count);
     for (std::size_t k = 0; k < count; ++k) {
@@ -55,8 +57,10 @@ void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, Neighbou
     for (std::uint32_t k : order) {
         out.push(set.index[k], set.position[k], set.normal[k]);
         out.angle.push_back(set.angle[k]);
-        out.nearControl.push_back(set.nearControl[k]);
-        out.farControl.push_back(set.farControl[k]);
+        if (!set.nearControl.empty()) {
+            out.nearControl.push_back(set.nearControl[k]);
+            out.farControl.push_back(set.farControl[k]);
+        }
     }
     std::swap(set, out);
 }
@@ -73,7 +77,7 @@ void sortOrderByAngle(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
 } // namespace
 
 void sortFan(glm::vec3 p, glm::vec3 n, NeighbourSet& set, NeighbourhoodScratch& scratch) {
-    measure(p, n, set, false);
+    measure(p, n, set, true);
     scratch.order.resize(set.size());
     for (std::uint32_t k = 0; k < set.size(); ++k) scratch.order[k] = k;
     sortOrderByAngle(set, scratch);
@@ -83,7 +87,8 @@ void sortFan(glm::vec3 p, glm::vec3 n, NeighbourSet& set, NeighbourhoodScratch& 
 void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourSet& set,
                  NeighbourhoodScratch& scratch) {
     const std::size_t count = set.size();
-    measure(p, n, set, false);
+    const bool geodesic = params.geodesicProjection && !params.euclideanGeodesic;
+    measure(p, n, set, geodesic || params.edgeControls);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
     // (x, y, z apart) so that the O(k²) loop below runs on SIMD lanes.
     for (auto* v : {&scratch.px, &scratch.py, &scratch.pz, &scratch.dx, &scratch.dy, &scratch.dz}) v->resize(count);

@@ -115,18 +115,20 @@ inline double secondsSince(Clock::time_point& t) {
     return s;
 }
 
-// The PN triangle (p, fan[a], fan[b]); the control points on the edges from p come with the fan.
-inline PnTriangle fanTriangle(glm::vec3 p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b) {
+// The PN triangle (p, fan[a], fan[b]); the control points on the edges from p come with the fan
+// when the filter computed them.
+inline PnTriangle fanTriangle(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b) {
     PnTriangle t;
     t.b300 = p;
     t.b030 = fan.position[a];
     t.b003 = fan.position[b];
-    t.b210 = fan.nearControl[a];
-    t.b120 = fan.farControl[a];
+    const bool cached = !fan.nearControl.empty();
+    t.b210 = cached ? fan.nearControl[a] : edgeControlPoint(p, n, fan.position[a]);
+    t.b120 = cached ? fan.farControl[a] : edgeControlPoint(fan.position[a], fan.normal[a], p);
     t.b021 = edgeControlPoint(fan.position[a], fan.normal[a], fan.position[b]);
     t.b012 = edgeControlPoint(fan.position[b], fan.normal[b], fan.position[a]);
-    t.b102 = fan.farControl[b];
-    t.b201 = fan.nearControl[b];
+    t.b102 = cached ? fan.farControl[b] : edgeControlPoint(fan.position[b], fan.normal[b], p);
+    t.b201 = cached ? fan.nearControl[b] : edgeControlPoint(p, n, fan.position[b]);
     return t;
 }
 
@@ -276,7 +278,7 @@ void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
         // L_p (eq. 12): cog + φ on the PN triangle (p, p_a, p_b); the plain centroid for the
         // baseline and for variant 4, which smooths only what it inserts.
         if (!options.smoothing || options.centroidCandidates) c.position = cog;
-        else c.position = cog + smoothingDisplacement(fanTriangle(x, fan, a, b));
+        else c.position = cog + smoothingDisplacement(fanTriangle(x, n, fan, a, b));
         c.angle = frame.angleOf(c.position - x);
         c.a = a;
         c.b = b;
@@ -303,7 +305,7 @@ NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, 
     if (!options.smoothing) {
         np.normal = glm::normalize(n + na + nb);
     } else {
-        const PnTriangle t = fanTriangle(x, fan, c.a, c.b);
+        const PnTriangle t = fanTriangle(x, n, fan, c.a, c.b);
         if (options.centroidCandidates) np.position = c.position + smoothingDisplacement(t);
         np.normal = centreNormal(t, n, na, nb);
     }
@@ -344,6 +346,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     fuzzy.thetaF = options.thetaF;
     fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
     fuzzy.euclideanGeodesic = options.euclideanGeodesic;
+    fuzzy.edgeControls = options.smoothing && !options.centroidCandidates; // every candidate is a PN centre
     gatherNeighbourhood(p, levelRadius[p], s);
     if (profile) s.times.neighbourhood += secondsSince(t0);
     filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);

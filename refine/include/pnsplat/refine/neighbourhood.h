@@ -36,7 +36,8 @@ struct NeighbourSet {
     std::vector<glm::vec3> normal;
     // Filled by sortFan/filterFuzzy: the angle around n_p in (-π, π], and the two edge control
     // points of the PN curve between p and the neighbour (SPEC 2): nearControl = b_{p,i} (a third
-    // of the way from p), farControl = b_{i,p}. The triangles of the fan reuse them.
+    // of the way from p), farControl = b_{i,p}; the triangles of the fan reuse them. The control
+    // points are left empty by a filterFuzzy that neither uses nor was asked for them.
     std::vector<float> angle;
     std::vector<glm::vec3> nearControl, farControl;
 
@@ -55,6 +56,8 @@ struct FuzzyParams {
     bool geodesicProjection = true;
     // SPEC 10 (1): G(p,p_i) ≈ |p p_i| (only with geodesicProjection).
     bool euclideanGeodesic = false;
+    // Fill NeighbourSet::nearControl/farControl even when the filter itself does not need them.
+    bool edgeControls = true;
 };
 
 // Badness w_ij of p_i against p_j seen from p (SPEC 3): with sin α = normalize(p_j-p)·normalize(p_i-p_j),

@@ -16,16 +16,17 @@
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/hierarchy.h"
+#include "test_random.h"
 
 namespace pnsplat {
 namespace {
 
+using test::randomUnit;
+using test::uniform;
+using test::uniform01;
+
 constexpr std::uint32_t kNoParent = 0xffffffffu;
 
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
-float uniform(std::mt19937_64& rng, double lo, double hi) {
-    return static_cast<float>(lo + (hi - lo) * uniform01(rng));
-}
 glm::vec3 randomInCube(std::mt19937_64& rng) { return {uniform(rng, 0, 1), uniform(rng, 0, 1), uniform(rng, 0, 1)}; }
 glm::vec3 randomInBall(std::mt19937_64& rng, float radius) {
     for (;;) {

@@ -21,24 +21,18 @@
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/shapes.h"
+#include "test_random.h"
 
 namespace pnsplat {
 namespace {
 
+using test::randomUnit;
+using test::uniform;
+using test::uniform01;
+
 constexpr double kPi = std::numbers::pi;
 constexpr float kPiF = std::numbers::pi_v<float>;
 
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
-float uniform(std::mt19937_64& rng, double lo, double hi) {
-    return static_cast<float>(lo + (hi - lo) * uniform01(rng));
-}
-glm::vec3 randomUnit(std::mt19937_64& rng) {
-    for (;;) {
-        const glm::dvec3 v(2.0 * uniform01(rng) - 1.0, 2.0 * uniform01(rng) - 1.0, 2.0 * uniform01(rng) - 1.0);
-        const double l2 = glm::dot(v, v);
-        if (l2 > 1e-4 && l2 <= 1.0) return glm::vec3(v / std::sqrt(l2));
-    }
-}
 
 glm::vec3 polar(double radius, double degrees, float z = 0.0f) {
     const double a = degrees * kPi / 180.0;

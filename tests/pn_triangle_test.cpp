@@ -16,24 +16,18 @@
 
 #include "pnsplat/refine/fast_math.h"
 #include "pnsplat/refine/pn_triangle.h"
+#include "test_random.h"
 
 namespace pnsplat {
 namespace {
 
+using test::randomUnit;
+using test::uniform;
+using test::uniform01;
+
 constexpr double kPi = std::numbers::pi;
 
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
-float uniform(std::mt19937_64& rng, double lo, double hi) {
-    return static_cast<float>(lo + (hi - lo) * uniform01(rng));
-}
 
-glm::vec3 randomUnit(std::mt19937_64& rng) {
-    for (;;) {
-        const glm::dvec3 v(2.0 * uniform01(rng) - 1.0, 2.0 * uniform01(rng) - 1.0, 2.0 * uniform01(rng) - 1.0);
-        const double l2 = glm::dot(v, v);
-        if (l2 > 1e-4 && l2 <= 1.0) return glm::vec3(v / std::sqrt(l2));
-    }
-}
 
 double angleDeg(glm::vec3 a, glm::vec3 b) {
     const glm::dvec3 da(a), db(b);

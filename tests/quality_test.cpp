@@ -14,11 +14,15 @@
 #include "pnsplat/refine/quality.h"
 #include "pnsplat/refine/shapes.h"
 #include "test_data.h"
+#include "test_random.h"
 
 namespace pnsplat {
 namespace {
 
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+using test::randomUnit;
+using test::uniform;
+using test::uniform01;
+
 
 glm::vec3 randomVec(std::mt19937_64& rng, float scale) {
     return scale * glm::vec3(static_cast<float>(2.0 * uniform01(rng) - 1.0), static_cast<float>(2.0 * uniform01(rng) - 1.0),

@@ -312,6 +312,19 @@ void sizePoints(PointSet& points, const VertexLayout& layout, std::size_t n) {
     if (layout.hasColour) points.colour.resize(n);
 }
 
+// Sizes the outputs for `count` rows of `element` and maps each property index to its vertex
+// slot (-1 for properties that are skipped).
+std::vector<int> prepareRows(const Element& element, bool isVertex, bool isFace, const VertexLayout& layout,
+                             std::size_t count, PlyData& out) {
+    if (isVertex) sizePoints(out.points, layout, count);
+    if (isFace) out.triangles.reserve(out.triangles.size() + count);
+    std::vector<int> slotOf(element.properties.size(), -1);
+    if (isVertex)
+        for (int s = 0; s < kSlotCount; ++s)
+            if (layout.property[s] >= 0) slotOf[layout.property[s]] = s;
+    return slotOf;
+}
+
 // Face lists: fan-triangulates one polygon, checking its indices fit in 32 bits (their range
 // against the vertex count is checked once every element has been read).
 const char* addPolygon(std::vector<glm::u32vec3>& triangles, const double* indices, std::size_t n) {
@@ -445,15 +458,9 @@ private:
             return fail(file_, fmt::format("truncated binary data ({} element of {} rows, room for at most {})",
                                            printable(element.name), element.count, available));
         const auto count = static_cast<std::size_t>(element.count);
-        if (isVertex) sizePoints(out.points, layout, count);
         const int faceList = isFace ? faceListIndex(element) : -1;
         if (isFace && faceList < 0) return fail(file_, "face element has no vertex_indices list");
-        if (isFace) out.triangles.reserve(out.triangles.size() + count);
-
-        std::vector<int> slotOf(element.properties.size(), -1);
-        if (isVertex)
-            for (int s = 0; s < kSlotCount; ++s)
-                if (layout.property[s] >= 0) slotOf[layout.property[s]] = s;
+        const std::vector<int> slotOf = prepareRows(element, isVertex, isFace, layout, count, out);
         std::array<double, kSlotCount> values{};
         for (std::size_t i = 0; i < count; ++i) {
             for (std::size_t p = 0; p < element.properties.size(); ++p) {
@@ -590,13 +597,7 @@ private:
         const auto count = static_cast<std::size_t>(element.count);
         const int faceList = isFace ? faceListIndex(element) : -1;
         if (isFace && faceList < 0) return fail(file_, "face element has no vertex_indices list");
-        if (isVertex) sizePoints(out.points, layout, count);
-        if (isFace) out.triangles.reserve(out.triangles.size() + count);
-
-        std::vector<int> slotOf(element.properties.size(), -1);
-        if (isVertex)
-            for (int s = 0; s < kSlotCount; ++s)
-                if (layout.property[s] >= 0) slotOf[layout.property[s]] = s;
+        const std::vector<int> slotOf = prepareRows(element, isVertex, isFace, layout, count, out);
         std::array<double, kSlotCount> values{};
         double scratch = 0.0;
         for (std::size_t i = 0; i < count; ++i) {

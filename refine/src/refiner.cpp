@@ -26,6 +26,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <ranges>
+#include <span>
 
 #include <glm/geometric.hpp>
 
@@ -89,7 +91,13 @@ struct Candidate {
     std::uint32_t a, b;
 };
 
+struct NearbyPoint {
+    glm::vec3 position;
+    std::uint32_t index;
+};
+
 struct WorkerScratch {
+    std::vector<NearbyPoint> nearby; // candidates for the Euclidean neighbourhoods of a cell
     NeighbourSet fan;
     NeighbourhoodScratch neighbourhood;
     std::vector<PointHierarchy::StackEntry> stack;
@@ -218,6 +226,8 @@ struct Refiner::State {
     LevelStats refineLevel(const ProgressFn& progress);
 
 private:
+    template <typename Points>
+    void gatherNearby(const Points& group, WorkerScratch& s);
     void gatherNeighbourhood(std::uint32_t p, float reach, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
     void makeCandidates(std::uint32_t p, WorkerScratch& s) const;
@@ -226,6 +236,29 @@ private:
     void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
     NewPoint& newPoint(const RingMember& m) { return cellPoints[m.cell][m.local]; }
 };
+
+// The points of P(l) that the refinement of a group of points (one cell, or one large point) may
+// need: every point within kRetryReach·r_max of the group's box, found once through the
+// bounding-sphere hierarchy (section 7). Each point of the group then picks its Euclidean
+// neighbourhood from this short list, which costs far less than one hierarchy walk per point.
+template <typename Points>
+void Refiner::State::gatherNearby(const Points& group, WorkerScratch& s) {
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+    float largest = 0.0f;
+    for (const std::uint32_t p : group) {
+        lo = glm::min(lo, points.position[p]);
+        hi = glm::max(hi, points.position[p]);
+        largest = std::max(largest, levelRadius[p]);
+    }
+    const float margin = kRetryReach * largest;
+    Clock::time_point t0;
+    if (options.profile) t0 = Clock::now();
+    s.nearby.clear();
+    hierarchy.queryBox(lo, hi, margin, s.stack, [&](std::uint32_t i, float d2) {
+        if (d2 <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i});
+    });
+    if (options.profile) s.times.neighbourhood += secondsSince(t0);
+}
 
 void Refiner::State::gatherNeighbourhood(std::uint32_t p, float reach, WorkerScratch& s) {
     const glm::vec3 x = points.position[p];
@@ -237,13 +270,17 @@ void Refiner::State::gatherNeighbourhood(std::uint32_t p, float reach, WorkerScr
     s.fan.clear();
     s.ring.clear();
     s.outer.clear();
-    hierarchy.query(x, reach, s.stack, [&](std::uint32_t i, float d2) {
+    for (const NearbyPoint& candidate : s.nearby) {
+        const glm::vec3 toCandidate = candidate.position - x;
+        const std::uint32_t i = candidate.index;
         // Nε_p (eq. 7): points of P(l) closer than r that pass the validity cone (eq. 6).
-        if (!(d2 < reach2) || i == p || !validNeighbours(x, n, points.position[i], points.normal[i])) return;
-        s.fan.push(i, points.position[i], points.normal[i]);
+        if (!(glm::dot(toCandidate, toCandidate) < reach2) || i == p ||
+            !validNeighbours(x, n, candidate.position, points.normal[i]))
+            continue;
+        s.fan.push(i, candidate.position, points.normal[i]);
         // The points already inserted near p are the children of its neighbours (section 7). Only
-        // points closer than r_lim can be read here, and none of them is refined concurrently.
-        if (!refined[i]) return;
+        // points closer than 1.5·r_lim are read here, and none of them is refined concurrently.
+        if (!refined[i]) continue;
         const ChildRange range = childRange[i];
         const NewPoint* children = cellPoints[range.cell].data() + range.begin;
         for (std::uint32_t k = 0; k < range.count; ++k) {
@@ -258,7 +295,7 @@ void Refiner::State::gatherNeighbourhood(std::uint32_t p, float reach, WorkerScr
                 s.outer.push_back(m);
             }
         }
-    });
+    }
 }
 
 void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
@@ -555,13 +592,19 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0, s.retried = 0;
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
-    for (std::uint32_t i : large) refinePoint(i, largeCell, scratch[0]);
+    for (std::uint32_t i : large) {
+        gatherNearby(std::array<std::uint32_t, 1>{i}, scratch[0]);
+        refinePoint(i, largeCell, scratch[0]);
+    }
     done += large.size();
     if (progress) progress(done, stats.refinedPoints);
     std::atomic<std::size_t> processed{0};
     for (const std::vector<std::uint32_t>& group : cellsByColour) {
         pool.parallelFor(group.size(), [&](std::size_t item, unsigned worker) {
             const Cell cell = cells[group[item]];
+            const auto members = std::span(keyed).subspan(cell.begin, cell.end - cell.begin) |
+                                 std::views::transform([](const auto& entry) { return entry.second; });
+            gatherNearby(members, scratch[worker]);
             for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], scratch[worker]);
             const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
             if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, stats.refinedPoints);

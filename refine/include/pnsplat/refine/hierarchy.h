@@ -18,6 +18,7 @@
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
@@ -60,7 +61,14 @@ public:
         float distance2;
     };
     template <typename Visit>
-    void query(glm::vec3 centre, float radius, std::vector<StackEntry>& stack, Visit&& visit) const;
+    void query(glm::vec3 centre, float radius, std::vector<StackEntry>& stack, Visit&& visit) const {
+        queryBox(centre, centre, radius, stack, visit);
+    }
+    // The same for the box [lo, hi] grown by `margin`: visit(i, d2) for every point whose sphere
+    // meets it, d2 the squared distance from p_i to the box [lo, hi]. This includes every point
+    // within `margin` of the box. Precondition: lo <= hi.
+    template <typename Visit>
+    void queryBox(glm::vec3 lo, glm::vec3 hi, float margin, std::vector<StackEntry>& stack, Visit&& visit) const;
 
 private:
     struct Node {
@@ -79,24 +87,26 @@ private:
 };
 
 template <typename Visit>
-void PointHierarchy::query(glm::vec3 centre, float radius, std::vector<StackEntry>& stack, Visit&& visit) const {
+void PointHierarchy::queryBox(glm::vec3 lo, glm::vec3 hi, float margin, std::vector<StackEntry>& stack,
+                              Visit&& visit) const {
     const std::uint32_t lastLevel = levels() - 1;
-    // A sphere (p_i, bound_i) meets the query ball when |centre - p_i| <= radius + bound_i.
+    // A sphere (p_i, bound_i) meets the grown box when dist(p_i, [lo, hi]) <= margin + bound_i.
     const auto reaches = [&](std::uint32_t i, float& d2) {
         const glm::vec4 s = spheres_[i];
-        const glm::vec3 d = glm::vec3(s) - centre;
+        const glm::vec3 centre(s);
+        const glm::vec3 d = centre - glm::clamp(centre, lo, hi);
         d2 = glm::dot(d, d);
-        const float reach = radius + s.w;
+        const float reach = margin + s.w;
         return d2 <= reach * reach;
     };
+    const glm::vec3 grownLo = lo - margin, grownHi = hi + margin;
     std::uint32_t nodeStack[64];
     std::uint32_t nodeTop = 0;
     if (!nodes_.empty()) nodeStack[nodeTop++] = 0;
     while (nodeTop > 0) {
         const std::uint32_t n = nodeStack[--nodeTop];
         const Node& node = nodes_[n];
-        const glm::vec3 gap = centre - glm::clamp(centre, node.lo, node.hi);
-        if (glm::dot(gap, gap) > radius * radius) continue;
+        if (glm::any(glm::lessThan(node.hi, grownLo)) || glm::any(glm::greaterThan(node.lo, grownHi))) continue;
         if (node.right != 0) {
             nodeStack[nodeTop++] = node.right;
             nodeStack[nodeTop++] = n + 1;

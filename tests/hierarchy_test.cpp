@@ -351,3 +351,44 @@ TEST(PointHierarchy, DuplicatePositions) {
 
 } // namespace
 } // namespace pnsplat
+
+namespace pnsplat {
+namespace {
+
+// queryBox against brute force: every point within `margin` of the box is visited, every visited
+// point's sphere meets the grown box, and the reported distance is the distance to the box.
+TEST(PointHierarchy, BoxQueriesMatchBruteForce) {
+    std::mt19937_64 rng(305);
+    Synthetic s = makeRoots(rng, 300);
+    PointHierarchy h(s.positions);
+    for (int l = 0; l < 3; ++l) addRandomLevel(s, h, rng, 3, 0.05f / static_cast<float>(1 << l));
+    h.updateBounds(s.positions);
+    std::vector<PointHierarchy::StackEntry> stack;
+    std::size_t nonEmpty = 0;
+    for (int q = 0; q < 300; ++q) {
+        const glm::vec3 a = randomInCube(rng), b = a + glm::vec3(uniform(rng, 0, 0.1), uniform(rng, 0, 0.1), uniform(rng, 0, 0.1));
+        const float margin = q % 7 == 0 ? 0.0f : uniform(rng, 0.0, 0.08);
+        std::vector<std::uint32_t> visited;
+        h.queryBox(a, b, margin, stack, [&](std::uint32_t i, float d2) {
+            const glm::vec3 d = s.positions[i] - glm::clamp(s.positions[i], a, b);
+            EXPECT_FLOAT_EQ(d2, glm::dot(d, d));
+            const float reach = margin + h.bound(i);
+            EXPECT_LE(d2, reach * reach);
+            visited.push_back(i);
+        });
+        std::sort(visited.begin(), visited.end());
+        std::size_t within = 0;
+        for (std::uint32_t i = 0; i < s.positions.size(); ++i) {
+            const glm::vec3 d = s.positions[i] - glm::clamp(s.positions[i], a, b);
+            if (glm::dot(d, d) <= margin * margin) {
+                ++within;
+                EXPECT_TRUE(std::binary_search(visited.begin(), visited.end(), i)) << "query " << q << " point " << i;
+            }
+        }
+        nonEmpty += within > 0;
+    }
+    EXPECT_GT(nonEmpty, 100u);
+}
+
+} // namespace
+} // namespace pnsplat

@@ -48,6 +48,18 @@ RunResult refineOnce(const PointSet& input, const RefineOptions& options, std::s
     return result;
 }
 
+// The processor's name from /proc/cpuinfo ("unknown" elsewhere), for the JSON record.
+std::string cpuName() {
+    std::ifstream in("/proc/cpuinfo");
+    std::string line;
+    while (std::getline(in, line)) {
+        if (line.rfind("model name", 0) != 0) continue;
+        const std::size_t colon = line.find(':');
+        if (colon != std::string::npos && colon + 2 <= line.size()) return line.substr(colon + 2);
+    }
+    return "unknown";
+}
+
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     return v[v.size() / 2];
@@ -110,11 +122,12 @@ void runBenchRefine(const BenchArgs& args) {
     runs.push_back(benchConfig("full", sphere, configs[0].options, 2, args));
     runs.push_back(benchConfig("fast (all variants)", sphere, configs[1].options, 2, args));
     const std::string json = fmt::format(
-        R"({{"benchmark": "refine", "case": "sphere {} uniform points to >= {} points", "hardware_threads": {}, "repeat": {}, "runs": [
+        R"({{"benchmark": "refine", "case": "sphere {} uniform points to >= {} points", "cpu": "{}", "hardware_threads": {}, "repeat": {}, "runs": [
   {}
 ]}})"
         "\n",
-        args.spherePoints, args.targetPoints, std::thread::hardware_concurrency(), args.repeat, fmt::join(runs, ",\n  "));
+        args.spherePoints, args.targetPoints, cpuName(), std::thread::hardware_concurrency(), args.repeat,
+        fmt::join(runs, ",\n  "));
     if (args.output.empty()) {
         fmt::print("{}", json);
     } else {

@@ -32,7 +32,7 @@ struct RefineArgs {
     bool ascii = false;
     bool estimateRadii = false;
     double thetaFDegrees = 30.0;
-    double thetaBDegrees = 180.0;
+    double thetaBDegrees = 165.0;
 };
 
 constexpr unsigned kDefaultLevels = 4;

@@ -105,7 +105,7 @@ struct WorkerScratch {
     std::vector<RingMember> outer; // Y_p
     std::vector<Candidate> candidates;
     PhaseTimes times;
-    std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0;
+    std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0, boundaryInserted = 0;
 };
 
 // Counter-clockwise sweep from angle a to angle b, in [0, 2π).
@@ -218,12 +218,24 @@ struct Refiner::State {
     std::vector<std::vector<NewPoint>> cellPoints;
     std::vector<WorkerScratch> scratch;
 
+    // Boundary segments (section 6), found at the first step and kept explicitly. A segment is
+    // split by the refinement of its first point, `a`, at every odd step.
+    struct Segment {
+        std::uint32_t a, b;
+    };
+    std::vector<Segment> segments;
+    std::vector<std::uint32_t> segmentsOf;      // segment indices grouped by first point (this level)
+    std::vector<std::uint32_t> segmentsOfBegin; // per point of P(l): range into segmentsOf
+    std::vector<std::uint32_t> segmentChild;    // per segment: offset of its first new point among a's children
+
     State(PointSet input, const RefineOptions& o)
         : options(o), pool(o.threads), points(spatialOrder(std::move(input), inputOrder)),
           hierarchy(points.position), scratch(pool.size()) {}
 
     void refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s);
     LevelStats refineLevel(const ProgressFn& progress);
+    void findBoundarySegments();
+    bool splitsSegments() const { return options.boundaries && hierarchy.levels() % 2 == 1; }
 
 private:
     template <typename Points>
@@ -234,6 +246,7 @@ private:
     float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
     NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const;
     void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
+    void splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s);
     NewPoint& newPoint(const RingMember& m) { return cellPoints[m.cell][m.local]; }
 };
 
@@ -372,6 +385,87 @@ void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMem
     ring[(k + ring.size() - 1) % ring.size()].gapStale = true;
 }
 
+// Boundaries (section 6): a segment (a, b) receives two new points, at the thirds of the cubic
+// Bézier curve a, b_ab, b_ba, b whose inner control points are the edge control points of SPEC 2
+// (tangents in the tangent planes), at every odd step; never one at the middle. They are
+// children of a; the one next to a joins N'_a. Normal and colour: interpolated along the curve
+// (choice: the paper gives none for boundary points).
+void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s) {
+    auto& cellStore = cellPoints[cell];
+    const glm::vec3 x = points.position[p];
+    const glm::vec3 n = points.normal[p];
+    for (std::uint32_t k = segmentsOfBegin[p]; k < segmentsOfBegin[p + 1]; ++k) {
+        const std::uint32_t segment = segmentsOf[k];
+        const std::uint32_t b = segments[segment].b;
+        const glm::vec3 pb = points.position[b], nb = points.normal[b];
+        const glm::vec3 c1 = edgeControlPoint(x, n, pb), c2 = edgeControlPoint(pb, nb, x);
+        segmentChild[segment] = static_cast<std::uint32_t>(cellStore.size()) - firstChild;
+        glm::vec3 curve[2];
+        for (int third = 1; third <= 2; ++third) {
+            const float t = static_cast<float>(third) / 3.0f, u = 1.0f - t;
+            curve[third - 1] = u * u * u * x + 3.0f * u * u * t * c1 + 3.0f * u * t * t * c2 + t * t * t * pb;
+        }
+        for (int third = 1; third <= 2; ++third) {
+            const float t = static_cast<float>(third) / 3.0f;
+            const glm::vec3 q = curve[third - 1];
+            const glm::vec3 before = third == 1 ? x : curve[0], after = third == 1 ? curve[1] : pb;
+            NewPoint np{q, glm::normalize((1.0f - t) * n + t * nb),
+                        kRadiusMargin * std::max(glm::length(q - before), glm::length(q - after)), glm::u8vec3(0)};
+            if (points.hasColour())
+                np.colour = glm::u8vec3(glm::round(glm::mix(glm::vec3(points.colour[p]), glm::vec3(points.colour[b]), t)));
+            const auto local = static_cast<std::uint32_t>(cellStore.size());
+            cellStore.push_back(np);
+            ++s.inserted;
+            ++s.boundaryInserted;
+            if (third == 1) insertIntoRing(s.ring, RingMember{cell, local, q, np.normal, TangentFrame(n).angleOf(q - x)});
+        }
+    }
+}
+
+// Potential boundary points (section 6): points of P0 whose fan leaves an opening wider than θb
+// (after the wider second search). The two fan neighbours at the ends of the opening, when they
+// are potential boundary points too, make boundary segments with the point.
+void Refiner::State::findBoundarySegments() {
+    const auto count = static_cast<std::uint32_t>(points.size());
+    std::vector<std::uint8_t> potential(count, 0);
+    std::vector<std::array<std::uint32_t, 2>> ends(count);
+    FuzzyParams fuzzy;
+    fuzzy.thetaF = options.thetaF;
+    fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
+    fuzzy.euclideanGeodesic = options.euclideanGeodesic;
+    fuzzy.edgeControls = false;
+    pool.parallelFor(count, [&](std::size_t item, unsigned worker) {
+        const auto p = static_cast<std::uint32_t>(item);
+        WorkerScratch& s = scratch[worker];
+        const glm::vec3 x = points.position[p], n = points.normal[p];
+        gatherNearby(std::array<std::uint32_t, 1>{p}, s);
+        for (const float reach : {levelRadius[p], kRetryReach * levelRadius[p]}) {
+            gatherNeighbourhood(p, reach, s);
+            filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
+            if (!fanIsOpen(s.fan)) return;
+        }
+        const std::size_t m = s.fan.size();
+        if (m < 2) return; // isolated: no direction to follow
+        std::size_t widest = 0;
+        for (std::size_t a = 1; a < m; ++a)
+            if (sweep(s.fan.angle[a], s.fan.angle[(a + 1) % m]) > sweep(s.fan.angle[widest], s.fan.angle[(widest + 1) % m]))
+                widest = a;
+        potential[p] = 1;
+        ends[p] = {s.fan.index[widest], s.fan.index[(widest + 1) % m]};
+    });
+    segments.clear();
+    for (std::uint32_t p = 0; p < count; ++p) {
+        if (!potential[p]) continue;
+        for (const std::uint32_t q : ends[p])
+            if (potential[q]) segments.push_back(Segment{std::min(p, q), std::max(p, q)});
+    }
+    std::sort(segments.begin(), segments.end(),
+              [](const Segment& u, const Segment& v) { return u.a != v.a ? u.a < v.a : u.b < v.b; });
+    segments.erase(std::unique(segments.begin(), segments.end(),
+                               [](const Segment& u, const Segment& v) { return u.a == v.a && u.b == v.b; }),
+                   segments.end());
+}
+
 void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) {
     const bool profile = options.profile;
     Clock::time_point t0;
@@ -415,6 +509,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     auto& cellStore = cellPoints[cell];
     const auto firstChild = static_cast<std::uint32_t>(cellStore.size());
     double interpolationSeconds = 0;
+    if (splitsSegments()) splitSegments(p, cell, firstChild, s);
 
     while (!candidates.empty()) {
         // 1. The pair of consecutive members of N'_p with the largest curved angle that is not
@@ -482,7 +577,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             // Choice: a substitute farther than c_β,max · r from p would break the convergence
             // bound of section 8.1 (the proof assumes the farthest new neighbour is a PN centre);
             // such a point is left out and nothing joins N'_p.
-            if (!present && glm::length(y.position - x) <= kCBetaMax * levelRadius[p]) insertIntoRing(ring, y);
+            if (!present && kRadiusMargin * glm::length(y.position - x) <= kCBetaMax * levelRadius[p]) insertIntoRing(ring, y);
             continue;
         }
         Clock::time_point ti;
@@ -542,6 +637,16 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
     childRange.assign(count, ChildRange{});
+    if (options.boundaries && stats.level == 1) findBoundarySegments();
+    if (splitsSegments()) {
+        segmentsOfBegin.assign(count + 1, 0);
+        for (const Segment& segment : segments) ++segmentsOfBegin[segment.a + 1];
+        for (std::uint32_t i = 0; i < count; ++i) segmentsOfBegin[i + 1] += segmentsOfBegin[i];
+        segmentsOf.resize(segments.size());
+        std::vector<std::uint32_t> fill(segmentsOfBegin.begin(), segmentsOfBegin.end() - 1);
+        for (std::uint32_t k = 0; k < segments.size(); ++k) segmentsOf[fill[segments[k].a]++] = k;
+        segmentChild.assign(segments.size(), 0);
+    }
 
     // Colouring (see the top of this file).
     std::vector<float> sortedRadii = levelRadius;
@@ -589,7 +694,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     cellPoints.assign(cells.size() + 1, {});
     stats.sequentialPoints = large.size();
 
-    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0, s.retried = 0;
+    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0, s.retried = 0, s.boundaryInserted = 0;
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
     for (std::uint32_t i : large) {
@@ -633,6 +738,18 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             if (points.hasColour()) points.colour[o] = np.colour;
         }
     }
+    if (splitsSegments()) {
+        // Each segment becomes three: (a, q1), (q1, q2), (q2, b).
+        std::vector<Segment> split;
+        split.reserve(3 * segments.size());
+        for (std::uint32_t k = 0; k < segments.size(); ++k) {
+            const Segment segment = segments[k];
+            const std::uint32_t q1 = childBegin[segment.a] + segmentChild[k], q2 = q1 + 1;
+            split.insert(split.end(), {Segment{segment.a, q1}, Segment{q1, q2}, Segment{q2, segment.b}});
+        }
+        segments = std::move(split);
+    }
+    stats.boundarySegments = segments.size();
     hierarchy.addLevel(std::move(childBegin));
     cellPoints.clear();
 
@@ -641,6 +758,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         stats.discarded += s.discarded;
         stats.incomplete += s.incomplete;
         stats.retried += s.retried;
+        stats.boundaryInserted += s.boundaryInserted;
         stats.phases.neighbourhood += s.times.neighbourhood;
         stats.phases.filtering += s.times.filtering;
         stats.phases.selection += s.times.selection;

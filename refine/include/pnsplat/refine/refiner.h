@@ -33,8 +33,12 @@ struct RefineOptions {
     NeighbourhoodKind neighbourhood = NeighbourhoodKind::Accurate;
     float thetaF = std::numbers::pi_v<float> / 6.0f; // fuzzy-plane tolerance θf
     // Boundary gap θb ∈ (2π/3, π] (section 6): consecutive fan neighbours further apart than this
-    // around p make no candidate. Default π: only gaps that cannot be interior are skipped.
-    float thetaB = std::numbers::pi_v<float>;
+    // around p make no candidate, and mark p as a potential boundary point. Default 165°: wide
+    // enough that interior fans are rarely taken for boundaries, narrow enough to find real ones.
+    float thetaB = std::numbers::pi_v<float> * (165.0f / 180.0f);
+    // Boundary segments (section 6): found among the potential boundary points of P0 at the first
+    // step, each receives two points on its cubic curve at every odd step.
+    bool boundaries = true;
 
     // The faster variants of section 7 ("Simplifications"), SPEC 10, each a separate switch:
     bool euclideanGeodesic = false;  // (1) G(p0,p1) ≈ |p0 p1|
@@ -72,6 +76,8 @@ struct LevelStats {
     std::size_t discarded = 0;       // candidates that fell in the discard space
     std::size_t incomplete = 0;      // points whose new one-ring N'_p stayed incomplete
     std::size_t retried = 0;         // points whose fan was open and was searched again wider
+    std::size_t boundaryInserted = 0; // points inserted on boundary segments (section 6)
+    std::size_t boundarySegments = 0; // boundary segments after this level
     double seconds = 0;              // wall clock
     PhaseTimes phases;               // filled when RefineOptions::profile
     std::size_t sequentialPoints = 0; // points too large for the parallel colouring

@@ -31,19 +31,24 @@ void NeighbourSet::clear() {
 
 namespace {
 
-constexpr float kPi = std::numbers::pi_v<float>;
-
-// Computes angles and edge control points of every entry (those not yet computed by the caller).
-void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls) {
+// Angles around n (and tangent-plane coordinates in scratch.su/sv) of every entry, and the edge
+// control points when asked for.
+void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls, NeighbourhoodScratch& scratch) {
     const TangentFrame frame(n);
     const std::size_t count = set.size();
     set.angle.resize(count);
-    for (std::size_t k = 0; k < count; ++k) set.angle[k] = frame.angleOf(set.position[k] - p);
-    set.nearControl.clear();
-    set.farControl.clear();
+    scratch.su.resize(count);
+    scratch.sv.resize(count);
+    for (std::size_t k = 0; k < count; ++k) {
+        const glm::vec3 d = set.position[k] - p;
+        const float u = glm::dot(d, frame.u), v = glm::dot(d, frame.v);
+        scratch.su[k] = u;
+        scratch.sv[k] = v;
+        set.angle[k] = fastAtan2(v, u);
+    }
+    set.nearControl.resize(withControls ? count : 0);
+    set.farControl.resize(withControls ? count : 0);
     if (!withControls) return;
-    set.nearControl.resize(count);
-    set.farControl.resize(count);
     for (std::size_t k = 0; k < count; ++k) {
         set.nearControl[k] = edgeControlPoint(p, n, set.position[k]);
         set.farControl[k] = edgeControlPoint(set.position[k], set.normal[k], p);
@@ -54,10 +59,11 @@ void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls) {
 void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, NeighbourhoodScratch& scratch) {
     NeighbourSet& out = scratch.sorted;
     out.clear();
+    const bool controls = !set.nearControl.empty();
     for (std::uint32_t k : order) {
         out.push(set.index[k], set.position[k], set.normal[k]);
         out.angle.push_back(set.angle[k]);
-        if (!set.nearControl.empty()) {
+        if (controls) {
             out.nearControl.push_back(set.nearControl[k]);
             out.farControl.push_back(set.farControl[k]);
         }
@@ -66,18 +72,24 @@ void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, Neighbou
 }
 
 // Sorts the entries listed in scratch.order by angle; ties by index, so the order never depends
-// on the order in which the neighbours were found.
+// on the order in which the neighbours were found. Insertion sort: fans are short.
 void sortOrderByAngle(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
-    std::sort(scratch.order.begin(), scratch.order.end(), [&](std::uint32_t a, std::uint32_t b) {
-        if (set.angle[a] != set.angle[b]) return set.angle[a] < set.angle[b];
-        return set.index[a] < set.index[b];
-    });
+    std::vector<std::uint32_t>& order = scratch.order;
+    const auto before = [&](std::uint32_t a, std::uint32_t b) {
+        return set.angle[a] != set.angle[b] ? set.angle[a] < set.angle[b] : set.index[a] < set.index[b];
+    };
+    for (std::size_t k = 1; k < order.size(); ++k) {
+        const std::uint32_t moving = order[k];
+        std::size_t j = k;
+        for (; j > 0 && before(moving, order[j - 1]); --j) order[j] = order[j - 1];
+        order[j] = moving;
+    }
 }
 
 } // namespace
 
 void sortFan(glm::vec3 p, glm::vec3 n, NeighbourSet& set, NeighbourhoodScratch& scratch) {
-    measure(p, n, set, true);
+    measure(p, n, set, true, scratch);
     scratch.order.resize(set.size());
     for (std::uint32_t k = 0; k < set.size(); ++k) scratch.order[k] = k;
     sortOrderByAngle(set, scratch);
@@ -88,9 +100,9 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
                  NeighbourhoodScratch& scratch) {
     const std::size_t count = set.size();
     const bool geodesic = params.geodesicProjection && !params.euclideanGeodesic;
-    measure(p, n, set, geodesic || params.edgeControls);
+    measure(p, n, set, geodesic || params.edgeControls, scratch);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
-    // (x, y, z apart) so that the O(k²) loop below runs on SIMD lanes.
+    // (x, y, z apart) for the O(k²) loop below.
     for (auto* v : {&scratch.px, &scratch.py, &scratch.pz, &scratch.dx, &scratch.dy, &scratch.dz}) v->resize(count);
     for (std::size_t k = 0; k < count; ++k) {
         const glm::vec3 d = set.position[k] - p;
@@ -111,10 +123,11 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     }
 
     // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij, Succ_i the j whose signed angle
-    // ∠(q_i, p, q_j) lies in (0, π), Pred_i those in (-π, 0); w_ij as in fuzzyBadness, written
-    // branch-free (j = i and coincident points give a zero vector and w = 0). Choice: a j at
-    // exactly the same angle counts as a successor; with the paper's open intervals a point
-    // straight behind another (w_ij = 1.5) would be in neither set and survive.
+    // ∠(q_i, p, q_j) lies in (0, π), Pred_i those in (-π, 0): the sign of the tangent-plane cross
+    // product q_i × q_j. w_ij as in fuzzyBadness, written branch-free (j = i and coincident points
+    // give a zero vector and w = 0). Choice: a j in exactly the same direction as i counts as a
+    // successor; with the paper's open intervals a point straight behind another (w_ij = 1.5)
+    // would be in neither set and survive.
     const float sinThetaF = std::sin(params.thetaF);
     const float inverseSin = 1.0f / sinThetaF;
     const float* px = scratch.px.data();
@@ -123,7 +136,8 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     const float* dx = scratch.dx.data();
     const float* dy = scratch.dy.data();
     const float* dz = scratch.dz.data();
-    const float* angle = set.angle.data();
+    const float* su = scratch.su.data();
+    const float* sv = scratch.sv.data();
     scratch.order.clear();
     for (std::size_t i = 0; i < count; ++i) {
         float worstSucc = 0.0f, worstPred = 0.0f;
@@ -133,11 +147,10 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
             const float sinAlpha = (dx[j] * bx + dy[j] * by + dz[j] * bz) / std::sqrt(std::max(length2, 1e-30f));
             const bool counts = (length2 > 0.0f) & (sinAlpha >= -sinThetaF);
             const float w = counts ? 0.5f * (sinAlpha * inverseSin + 1.0f) : 0.0f;
-            float delta = angle[j] - angle[i];
-            delta += delta <= -kPi ? 2.0f * kPi : 0.0f;
-            delta -= delta > kPi ? 2.0f * kPi : 0.0f;
-            const float succ = (delta >= 0.0f) & (delta < kPi) ? w : 0.0f;
-            const float pred = (delta < 0.0f) & (delta > -kPi) ? w : 0.0f;
+            const float cross = su[i] * sv[j] - sv[i] * su[j];
+            const float along = su[i] * su[j] + sv[i] * sv[j];
+            const float succ = (cross > 0.0f) | ((cross == 0.0f) & (along > 0.0f)) ? w : 0.0f;
+            const float pred = cross < 0.0f ? w : 0.0f;
             worstSucc = succ > worstSucc ? succ : worstSucc;
             worstPred = pred > worstPred ? pred : worstPred;
         }

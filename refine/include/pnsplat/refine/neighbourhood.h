@@ -81,6 +81,7 @@ inline float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThet
 struct NeighbourhoodScratch {
     std::vector<float> px, py, pz;     // the positions the badness is measured on
     std::vector<float> dx, dy, dz;     // their unit directions from p
+    std::vector<float> su, sv;         // tangent-plane coordinates of the neighbours
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
 };

@@ -6,7 +6,8 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   libglm-dev libgtest-dev googletest
-  libnanoflann-dev libcli11-dev libfmt-dev
+  libnanoflann-dev libcli11-dev libfmt-dev libstb-dev
+  libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools
 )
 
 missing=()

@@ -7,9 +7,8 @@
 #include <fmt/core.h>
 
 #include "commands.h"
-#include "progress.h"
+#include "refine_run.h"
 #include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
 
@@ -47,8 +46,6 @@ void runRefine(const RefineArgs& args) {
     } else {
         points = unwrap(readPly(args.input)).points;
     }
-    if (points.size() < 3)
-        throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
 
     RefineOptions options = args.fast ? RefineOptions::fast() : RefineOptions{};
     if (!args.fast) options.neighbourhood = args.neighbourhood == "fuzzy" ? NeighbourhoodKind::Fuzzy : NeighbourhoodKind::Accurate;
@@ -61,29 +58,17 @@ void runRefine(const RefineArgs& args) {
     options.threads = args.threads;
 
     const auto start = Clock::now();
-    if (!points.hasRadius() || args.estimateRadii) estimateRadii(points, args.threads);
-    if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
-
     const std::size_t inputCount = points.size();
     const unsigned levels = args.levels != 0 ? args.levels : (args.targetPoints != 0 ? 64u : kDefaultLevels);
-    Refiner refiner(std::move(points), options);
-    ProgressBar bar("refining");
-    double refineSeconds = 0;
-    unsigned done = 0;
-    while (done < levels && (args.targetPoints == 0 || refiner.points().size() < args.targetPoints)) {
-        bar.setLabel(fmt::format("level {}", done + 1));
-        const LevelStats stats = refiner.refineLevel([&](std::size_t d, std::size_t t) { bar.update(d, t); });
-        refineSeconds += stats.seconds;
-        ++done;
-        if (stats.inserted == 0) break; // converged: nothing more to insert
-    }
-    bar.finish();
-    const std::size_t outputCount = refiner.points().size();
+    const RefineRun run = refineWithProgress(std::move(points), options, levels, args.targetPoints, args.estimateRadii, inputName);
+    const double refineSeconds = run.seconds;
+    const unsigned done = run.levels;
+    const std::size_t outputCount = run.points.size();
 
     std::string output = args.output;
     if (output.empty())
         output = (args.input.empty() ? std::string("default") : std::filesystem::path(args.input).stem().string()) + "-refined.ply";
-    unwrap(writePly(output, refiner.points(), args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
+    unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - inputCount) / refineSeconds : 0.0;
     fmt::print("{}: {} points in, {} out, {} level(s), {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",

@@ -26,5 +26,7 @@ T unwrap(Result<T>&& result) {
 void addRefineCommand(CLI::App& app);
 void addEvalCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
+void addRenderCommand(CLI::App& app);
+void addDiffCommand(CLI::App& app);
 
 } // namespace pnsplat::tools

@@ -1,4 +1,4 @@
-// pnsplat: refine, evaluate and benchmark oriented point sets (see README.md).
+// pnsplat: refine, render, compare, evaluate and benchmark oriented point sets (see README.md).
 #include <cstdio>
 #include <exception>
 
@@ -14,6 +14,8 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", "pnsplat 0.1.0");
     pnsplat::tools::addRefineCommand(app);
     pnsplat::tools::addEvalCommand(app);
+    pnsplat::tools::addRenderCommand(app);
+    pnsplat::tools::addDiffCommand(app);
     pnsplat::tools::addBenchCommand(app);
     try {
         app.parse(argc, argv);

@@ -1,0 +1,30 @@
+// Buffers with their own memory (one allocation each: the engine holds a handful of large ones).
+#pragma once
+
+#include <cstddef>
+
+#include "pnsplat/engine/context.h"
+
+namespace pnsplat::engine {
+
+enum class MemoryUse {
+    Device,   // device-local, filled by the GPU or through upload()
+    Upload,   // host-visible and coherent, written by the CPU every frame (uniforms, node lists)
+    Readback, // host-visible and coherent, preferably cached: results copied back for the CPU
+};
+
+struct Buffer {
+    Unique<VkBuffer> buffer;
+    Unique<VkDeviceMemory> memory;
+    VkDeviceSize size = 0;
+    void* mapped = nullptr; // set for Upload and Readback, and for Device memory that is host-visible
+};
+
+// Throws VulkanError on failure. size must be positive.
+Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use);
+
+// Copies `size` bytes into the start of a Device buffer (created with TRANSFER_DST usage): directly
+// when its memory is host-visible (lavapipe, integrated GPUs), else through a staging buffer.
+void upload(Context& context, const Buffer& destination, const void* data, std::size_t size);
+
+} // namespace pnsplat::engine

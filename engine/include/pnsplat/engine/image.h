@@ -1,0 +1,43 @@
+// 8-bit RGBA images on the CPU: what the renderer reads back, PNG files in and out, and the
+// comparison behind `pnsplat diff`. No Vulkan here.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include <glm/gtc/type_precision.hpp>
+
+#include "pnsplat/refine/result.h"
+
+namespace pnsplat::engine {
+
+struct RgbaImage {
+    std::uint32_t width = 0, height = 0;
+    std::vector<std::uint8_t> pixels; // RGBA, rows top to bottom, 4 · width · height bytes
+
+    RgbaImage() = default;
+    RgbaImage(std::uint32_t w, std::uint32_t h) : width(w), height(h), pixels(std::size_t{4} * w * h, 0) {}
+    glm::u8vec4 at(std::uint32_t x, std::uint32_t y) const {
+        const std::uint8_t* p = &pixels[(std::size_t{y} * width + x) * 4];
+        return {p[0], p[1], p[2], p[3]};
+    }
+};
+
+// Writes an RGBA PNG; the file appears complete or not at all (temporary file, then rename).
+Result<void> writePng(const std::filesystem::path& path, const RgbaImage& image);
+// Reads any PNG (converted to RGBA); a one-line error names the file.
+Result<RgbaImage> readPng(const std::filesystem::path& path);
+
+struct ImageDifference {
+    double rmse = 0.0;           // over R, G, B, in 0..255 units
+    double psnr = 0.0;           // dB over R, G, B; +infinity for identical images
+    double ssim = 1.0;           // mean SSIM of luma (11×11 Gaussian window, σ 1.5; Wang et al. 2004)
+    double differingShare = 0.0; // share of pixels whose largest channel difference exceeds the threshold
+    RgbaImage heatmap;           // per-pixel largest difference: black (none), red, yellow, white (255)
+};
+
+// Compares two images of the same size (else an error). Alpha is ignored.
+Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, int pixelThreshold = 2);
+
+} // namespace pnsplat::engine

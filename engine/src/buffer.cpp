@@ -1,0 +1,57 @@
+#include "pnsplat/engine/buffer.h"
+
+#include <cstring>
+
+namespace pnsplat::engine {
+
+Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use) {
+    const VkDevice device = context.device();
+    Buffer result;
+    result.size = size;
+    VkBufferCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    info.size = size;
+    info.usage = usage;
+    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateBuffer(device, &info, nullptr, &buffer));
+    result.buffer = Unique<VkBuffer>(device, buffer, vkDestroyBuffer);
+
+    VkMemoryRequirements requirements;
+    vkGetBufferMemoryRequirements(device, buffer, &requirements);
+    constexpr VkMemoryPropertyFlags kHost = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    VkMemoryPropertyFlags required = 0, preferred = 0;
+    switch (use) {
+    case MemoryUse::Device: required = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT; break;
+    case MemoryUse::Upload: required = kHost; preferred = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT; break;
+    case MemoryUse::Readback: required = kHost; preferred = VK_MEMORY_PROPERTY_HOST_CACHED_BIT; break;
+    }
+    VkMemoryAllocateInfo alloc{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    alloc.allocationSize = requirements.size;
+    alloc.memoryTypeIndex = context.memoryType(requirements.memoryTypeBits, required, preferred);
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkAllocateMemory(device, &alloc, nullptr, &memory));
+    result.memory = Unique<VkDeviceMemory>(device, memory, vkFreeMemory);
+    PNSPLAT_VK_CHECK(vkBindBufferMemory(device, buffer, memory, 0));
+
+    VkPhysicalDeviceMemoryProperties properties;
+    vkGetPhysicalDeviceMemoryProperties(context.physicalDevice(), &properties);
+    const VkMemoryPropertyFlags flags = properties.memoryTypes[alloc.memoryTypeIndex].propertyFlags;
+    if ((flags & kHost) == kHost) PNSPLAT_VK_CHECK(vkMapMemory(device, memory, 0, VK_WHOLE_SIZE, 0, &result.mapped));
+    return result;
+}
+
+void upload(Context& context, const Buffer& destination, const void* data, std::size_t size) {
+    if (size == 0) return;
+    if (destination.mapped != nullptr) {
+        std::memcpy(destination.mapped, data, size);
+        return;
+    }
+    const Buffer staging = createBuffer(context, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUse::Upload);
+    std::memcpy(staging.mapped, data, size);
+    context.submitAndWait([&](VkCommandBuffer cmd) {
+        const VkBufferCopy region{0, 0, size};
+        vkCmdCopyBuffer(cmd, staging.buffer.get(), destination.buffer.get(), 1, &region);
+    });
+}
+
+} // namespace pnsplat::engine

@@ -1,0 +1,618 @@
+#include "pnsplat/engine/splat_renderer.h"
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "gpu_types.h"
+#include "pnsplat/engine/buffer.h"
+#include "spirv/compute_accumulate_comp.h"
+#include "spirv/compute_normalize_comp.h"
+#include "spirv/compute_visibility_comp.h"
+#include "spirv/fullscreen_vert.h"
+#include "spirv/graphics_accumulate_frag.h"
+#include "spirv/graphics_normalize_frag.h"
+#include "spirv/graphics_visibility_frag.h"
+#include "spirv/splat_vert.h"
+
+namespace pnsplat::engine {
+
+namespace {
+
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkFormat kAccumFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+constexpr VkFormat kOutputFormat = VK_FORMAT_R8G8B8A8_UNORM;
+constexpr std::uint32_t kDepthCleared = 0x7F800000u; // +infinity as float bits
+
+template <std::size_t N>
+Unique<VkShaderModule> shaderModule(VkDevice device, const std::uint32_t (&code)[N]) {
+    VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    info.codeSize = sizeof(code);
+    info.pCode = code;
+    VkShaderModule module = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateShaderModule(device, &info, nullptr, &module));
+    return {device, module, vkDestroyShaderModule};
+}
+
+struct Image {
+    Unique<VkImage> image;
+    Unique<VkDeviceMemory> memory;
+    Unique<VkImageView> view;
+};
+
+Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+    const VkDevice device = context.device();
+    Image result;
+    VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = format;
+    info.extent = {extent.width, extent.height, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = 1;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    info.usage = usage;
+    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    VkImage image = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateImage(device, &info, nullptr, &image));
+    result.image = Unique<VkImage>(device, image, vkDestroyImage);
+    VkMemoryRequirements requirements;
+    vkGetImageMemoryRequirements(device, image, &requirements);
+    VkMemoryAllocateInfo alloc{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    alloc.allocationSize = requirements.size;
+    alloc.memoryTypeIndex = context.memoryType(requirements.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkAllocateMemory(device, &alloc, nullptr, &memory));
+    result.memory = Unique<VkDeviceMemory>(device, memory, vkFreeMemory);
+    PNSPLAT_VK_CHECK(vkBindImageMemory(device, image, memory, 0));
+    VkImageViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    viewInfo.image = image;
+    viewInfo.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    viewInfo.format = format;
+    viewInfo.subresourceRange = {aspect, 0, 1, 0, 1};
+    VkImageView view = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateImageView(device, &viewInfo, nullptr, &view));
+    result.view = Unique<VkImageView>(device, view, vkDestroyImageView);
+    return result;
+}
+
+void bufferBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,
+                   VkPipelineStageFlags dstStage, VkAccessFlags dstAccess) {
+    VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    barrier.srcAccessMask = srcAccess;
+    barrier.dstAccessMask = dstAccess;
+    vkCmdPipelineBarrier(cmd, srcStage, dstStage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+}
+
+// One subpass, the given attachments; `dependencies` order it after earlier passes and before
+// later readers.
+Unique<VkRenderPass> createRenderPass(VkDevice device, const std::vector<VkAttachmentDescription>& attachments,
+                                      std::uint32_t colourCount, bool depth,
+                                      const std::vector<VkSubpassDependency>& dependencies) {
+    std::vector<VkAttachmentReference> colours;
+    for (std::uint32_t i = 0; i < colourCount; ++i) colours.push_back({i, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+    const VkAttachmentReference depthRef{colourCount, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+    VkSubpassDescription subpass{};
+    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+    subpass.colorAttachmentCount = colourCount;
+    subpass.pColorAttachments = colours.data();
+    subpass.pDepthStencilAttachment = depth ? &depthRef : nullptr;
+    VkRenderPassCreateInfo info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+    info.attachmentCount = static_cast<std::uint32_t>(attachments.size());
+    info.pAttachments = attachments.data();
+    info.subpassCount = 1;
+    info.pSubpasses = &subpass;
+    info.dependencyCount = static_cast<std::uint32_t>(dependencies.size());
+    info.pDependencies = dependencies.data();
+    VkRenderPass pass = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateRenderPass(device, &info, nullptr, &pass));
+    return {device, pass, vkDestroyRenderPass};
+}
+
+VkAttachmentDescription attachment(VkFormat format, VkAttachmentLoadOp load, VkImageLayout initial, VkImageLayout final) {
+    VkAttachmentDescription a{};
+    a.format = format;
+    a.samples = VK_SAMPLE_COUNT_1_BIT;
+    a.loadOp = load;
+    a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    a.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    a.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    a.initialLayout = initial;
+    a.finalLayout = final;
+    return a;
+}
+
+struct GraphicsPipelineDesc {
+    VkShaderModule vertex, fragment;
+    VkRenderPass renderPass;
+    std::uint32_t colourCount;
+    bool depthTest, depthWrite, additive;
+};
+
+} // namespace
+
+struct SplatRenderer::Impl {
+    Context& context;
+    RenderSettings settings;
+    VkDevice device;
+    Buffer uniforms, ranges, readback;
+    Unique<VkQueryPool> timestamps;
+    Unique<VkDescriptorSetLayout> setLayout;
+    Unique<VkPipelineLayout> pipelineLayout;
+    Unique<VkDescriptorPool> descriptorPool;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    std::array<Unique<VkPipeline>, 3> pipelines; // visibility, accumulation, normalization
+    // Compute path.
+    Buffer depthBits, accum, output;
+    // Graphics path.
+    Image depth, accumColour, accumNormal, outputImage;
+    Unique<VkSampler> sampler;
+    std::array<Unique<VkRenderPass>, 3> renderPasses;
+    std::array<Unique<VkFramebuffer>, 3> framebuffers;
+
+    Impl(Context& c, const RenderSettings& s) : context(c), settings(s), device(c.device()) {}
+
+    VkExtent2D extent() const { return {settings.width, settings.height}; }
+    std::size_t pixelCount() const { return std::size_t{settings.width} * settings.height; }
+    bool compute() const { return settings.path == RenderPath::Compute; }
+
+    void createCommon();
+    void createCompute();
+    void createGraphics();
+    Unique<VkPipeline> computePipeline(VkShaderModule module);
+    Unique<VkPipeline> graphicsPipeline(const GraphicsPipelineDesc& desc);
+    void ensureRangeCapacity(std::size_t nodes);
+    void writeDescriptors(const SplatScene& scene);
+    void recordCompute(VkCommandBuffer cmd, int pass, std::uint32_t visibleNodes);
+    void recordGraphics(VkCommandBuffer cmd, int pass, const std::vector<std::array<std::uint32_t, 2>>& draws);
+    RgbaImage render(const SplatScene& scene, const Camera& camera, FrameStats& stats);
+};
+
+void SplatRenderer::Impl::createCommon() {
+    uniforms = createBuffer(context, sizeof(gpu::FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, MemoryUse::Upload);
+    ensureRangeCapacity(1);
+    readback = createBuffer(context, pixelCount() * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUse::Readback);
+    if (context.properties().limits.timestampComputeAndGraphics) {
+        VkQueryPoolCreateInfo info{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+        info.queryType = VK_QUERY_TYPE_TIMESTAMP;
+        info.queryCount = 6;
+        VkQueryPool pool = VK_NULL_HANDLE;
+        PNSPLAT_VK_CHECK(vkCreateQueryPool(device, &info, nullptr, &pool));
+        timestamps = Unique<VkQueryPool>(device, pool, vkDestroyQueryPool);
+    }
+
+    // One set for all three passes of a path: 0 frame uniforms, 1 splats, then the path's own.
+    std::vector<VkDescriptorSetLayoutBinding> bindings;
+    const auto add = [&](std::uint32_t binding, VkDescriptorType type) {
+        bindings.push_back({binding, type, 1, VK_SHADER_STAGE_ALL, nullptr});
+    };
+    add(0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+    add(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
+    if (compute()) {
+        for (std::uint32_t b = 2; b <= 5; ++b) add(b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER); // ranges, depth, accum, output
+    } else {
+        add(2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
+        add(3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
+    }
+    VkDescriptorSetLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    layoutInfo.bindingCount = static_cast<std::uint32_t>(bindings.size());
+    layoutInfo.pBindings = bindings.data();
+    VkDescriptorSetLayout layout = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateDescriptorSetLayout(device, &layoutInfo, nullptr, &layout));
+    setLayout = Unique<VkDescriptorSetLayout>(device, layout, vkDestroyDescriptorSetLayout);
+
+    VkPipelineLayoutCreateInfo pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    pipelineInfo.setLayoutCount = 1;
+    pipelineInfo.pSetLayouts = &layout;
+    VkPipelineLayout pipelineLayoutHandle = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreatePipelineLayout(device, &pipelineInfo, nullptr, &pipelineLayoutHandle));
+    pipelineLayout = Unique<VkPipelineLayout>(device, pipelineLayoutHandle, vkDestroyPipelineLayout);
+
+    const std::array<VkDescriptorPoolSize, 3> sizes{{{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                                    {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
+                                                    {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}}};
+    VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    poolInfo.maxSets = 1;
+    poolInfo.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
+    poolInfo.pPoolSizes = sizes.data();
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateDescriptorPool(device, &poolInfo, nullptr, &pool));
+    descriptorPool = Unique<VkDescriptorPool>(device, pool, vkDestroyDescriptorPool);
+    VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    alloc.descriptorPool = pool;
+    alloc.descriptorSetCount = 1;
+    alloc.pSetLayouts = &layout;
+    PNSPLAT_VK_CHECK(vkAllocateDescriptorSets(device, &alloc, &set));
+}
+
+Unique<VkPipeline> SplatRenderer::Impl::computePipeline(VkShaderModule module) {
+    VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    info.stage.module = module;
+    info.stage.pName = "main";
+    info.layout = pipelineLayout.get();
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
+    return {device, pipeline, vkDestroyPipeline};
+}
+
+void SplatRenderer::Impl::createCompute() {
+    constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    depthBits = createBuffer(context, pixelCount() * 4, kStorage, MemoryUse::Device);
+    accum = createBuffer(context, pixelCount() * gpu::kAccumStride * 4, kStorage, MemoryUse::Device);
+    output = createBuffer(context, pixelCount() * 4, kStorage, MemoryUse::Device);
+    const auto visibility = shaderModule(device, k_compute_visibility_comp);
+    const auto accumulate = shaderModule(device, k_compute_accumulate_comp);
+    const auto normalize = shaderModule(device, k_compute_normalize_comp);
+    pipelines = {computePipeline(visibility.get()), computePipeline(accumulate.get()), computePipeline(normalize.get())};
+}
+
+Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineDesc& desc) {
+    std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
+    stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+    stages[0].module = desc.vertex;
+    stages[0].pName = "main";
+    stages[1] = stages[0];
+    stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+    stages[1].module = desc.fragment;
+    VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+    VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+    assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+    const VkViewport viewport{0.0f, 0.0f, float(settings.width), float(settings.height), 0.0f, 1.0f};
+    const VkRect2D scissor{{0, 0}, extent()};
+    VkPipelineViewportStateCreateInfo viewportState{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+    viewportState.viewportCount = 1;
+    viewportState.pViewports = &viewport;
+    viewportState.scissorCount = 1;
+    viewportState.pScissors = &scissor;
+    VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+    raster.polygonMode = VK_POLYGON_MODE_FILL;
+    raster.cullMode = VK_CULL_MODE_NONE; // back-facing splats are dropped by the vertex shader
+    raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+    raster.lineWidth = 1.0f;
+    VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+    multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+    VkPipelineDepthStencilStateCreateInfo depthState{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+    depthState.depthTestEnable = desc.depthTest;
+    depthState.depthWriteEnable = desc.depthWrite;
+    depthState.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+    VkPipelineColorBlendAttachmentState blend{};
+    blend.blendEnable = desc.additive;
+    blend.srcColorBlendFactor = VK_BLEND_FACTOR_ONE;
+    blend.dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
+    blend.colorBlendOp = VK_BLEND_OP_ADD;
+    blend.srcAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
+    blend.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
+    blend.alphaBlendOp = VK_BLEND_OP_ADD;
+    blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    const std::vector<VkPipelineColorBlendAttachmentState> blends(desc.colourCount, blend);
+    VkPipelineColorBlendStateCreateInfo blendState{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+    blendState.attachmentCount = desc.colourCount;
+    blendState.pAttachments = blends.data();
+
+    VkGraphicsPipelineCreateInfo info{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+    info.stageCount = 2;
+    info.pStages = stages.data();
+    info.pVertexInputState = &vertexInput;
+    info.pInputAssemblyState = &assembly;
+    info.pViewportState = &viewportState;
+    info.pRasterizationState = &raster;
+    info.pMultisampleState = &multisample;
+    info.pDepthStencilState = &depthState;
+    info.pColorBlendState = &blendState;
+    info.layout = pipelineLayout.get();
+    info.renderPass = desc.renderPass;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
+    return {device, pipeline, vkDestroyPipeline};
+}
+
+void SplatRenderer::Impl::createGraphics() {
+    depth = createImage(context, extent(), kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
+    constexpr VkImageUsageFlags kAccumUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+    accumColour = createImage(context, extent(), kAccumFormat, kAccumUsage, VK_IMAGE_ASPECT_COLOR_BIT);
+    accumNormal = createImage(context, extent(), kAccumFormat, kAccumUsage, VK_IMAGE_ASPECT_COLOR_BIT);
+    outputImage = createImage(context, extent(), kOutputFormat,
+                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
+
+    VkSamplerCreateInfo samplerInfo{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_NEAREST;
+    samplerInfo.addressModeU = samplerInfo.addressModeV = samplerInfo.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    VkSampler samplerHandle = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &samplerHandle));
+    sampler = Unique<VkSampler>(device, samplerHandle, vkDestroySampler);
+
+    constexpr VkPipelineStageFlags kTests = VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    constexpr VkAccessFlags kDepthRW = VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    // Pass 1: depth only.
+    renderPasses[0] = createRenderPass(
+        device,
+        {attachment(kDepthFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL)},
+        0, true, {{VK_SUBPASS_EXTERNAL, 0, kTests, kTests, kDepthRW, kDepthRW, 0}});
+    // Pass 2: two float targets, depth read (after pass 1; the targets after the last frame's pass 3).
+    renderPasses[1] = createRenderPass(
+        device,
+        {attachment(kAccumFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+         attachment(kAccumFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+         attachment(kDepthFormat, VK_ATTACHMENT_LOAD_OP_LOAD, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                    VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL)},
+        2, true,
+        {{VK_SUBPASS_EXTERNAL, 0, kTests | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+          kTests | VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+          kDepthRW | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, 0},
+         {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+          VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, 0}});
+    // Pass 3: the 8-bit output, then copied to the read-back buffer.
+    renderPasses[2] = createRenderPass(
+        device,
+        {attachment(kOutputFormat, VK_ATTACHMENT_LOAD_OP_DONT_CARE, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL)},
+        1, false,
+        {{VK_SUBPASS_EXTERNAL, 0, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+          VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+          VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, 0},
+         {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+          VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT, 0}});
+
+    const std::array<std::vector<VkImageView>, 3> views{
+        {{depth.view.get()}, {accumColour.view.get(), accumNormal.view.get(), depth.view.get()}, {outputImage.view.get()}}};
+    for (int k = 0; k < 3; ++k) {
+        VkFramebufferCreateInfo info{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+        info.renderPass = renderPasses[k].get();
+        info.attachmentCount = static_cast<std::uint32_t>(views[k].size());
+        info.pAttachments = views[k].data();
+        info.width = settings.width;
+        info.height = settings.height;
+        info.layers = 1;
+        VkFramebuffer framebuffer = VK_NULL_HANDLE;
+        PNSPLAT_VK_CHECK(vkCreateFramebuffer(device, &info, nullptr, &framebuffer));
+        framebuffers[k] = Unique<VkFramebuffer>(device, framebuffer, vkDestroyFramebuffer);
+    }
+
+    const auto splatVert = shaderModule(device, k_splat_vert);
+    const auto visibilityFrag = shaderModule(device, k_graphics_visibility_frag);
+    const auto accumulateFrag = shaderModule(device, k_graphics_accumulate_frag);
+    const auto fullscreenVert = shaderModule(device, k_fullscreen_vert);
+    const auto normalizeFrag = shaderModule(device, k_graphics_normalize_frag);
+    pipelines = {graphicsPipeline({splatVert.get(), visibilityFrag.get(), renderPasses[0].get(), 0, true, true, false}),
+                 graphicsPipeline({splatVert.get(), accumulateFrag.get(), renderPasses[1].get(), 2, true, false, true}),
+                 graphicsPipeline({fullscreenVert.get(), normalizeFrag.get(), renderPasses[2].get(), 1, false, false, false})};
+}
+
+void SplatRenderer::Impl::ensureRangeCapacity(std::size_t nodes) {
+    const VkDeviceSize bytes = std::max<std::size_t>(nodes, 1) * 2 * sizeof(std::uint32_t);
+    if (ranges.size >= bytes) return;
+    ranges = createBuffer(context, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUse::Upload);
+}
+
+void SplatRenderer::Impl::writeDescriptors(const SplatScene& scene) {
+    std::vector<VkDescriptorBufferInfo> buffers;
+    buffers.reserve(6);
+    std::vector<VkDescriptorImageInfo> images;
+    images.reserve(2);
+    std::vector<VkWriteDescriptorSet> writes;
+    const auto writeBuffer = [&](std::uint32_t binding, VkDescriptorType type, const Buffer& buffer) {
+        buffers.push_back({buffer.buffer.get(), 0, VK_WHOLE_SIZE});
+        VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+        w.dstSet = set;
+        w.dstBinding = binding;
+        w.descriptorCount = 1;
+        w.descriptorType = type;
+        w.pBufferInfo = &buffers.back();
+        writes.push_back(w);
+    };
+    writeBuffer(0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, uniforms);
+    writeBuffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, scene.splats());
+    if (compute()) {
+        writeBuffer(2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, ranges);
+        writeBuffer(3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits);
+        writeBuffer(4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum);
+        writeBuffer(5, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output);
+    } else {
+        for (std::uint32_t binding : {2u, 3u}) {
+            images.push_back({sampler.get(), (binding == 2 ? accumColour : accumNormal).view.get(),
+                              VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
+            VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+            w.dstSet = set;
+            w.dstBinding = binding;
+            w.descriptorCount = 1;
+            w.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+            w.pImageInfo = &images.back();
+            writes.push_back(w);
+        }
+    }
+    vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
+}
+
+void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass, std::uint32_t visibleNodes) {
+    constexpr VkPipelineStageFlags kCompute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
+    constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+    if (pass == 0) {
+        // After the last frame's passes, clear depth to +infinity and the sums to zero.
+        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+        vkCmdFillBuffer(cmd, depthBits.buffer.get(), 0, VK_WHOLE_SIZE, kDepthCleared);
+        vkCmdFillBuffer(cmd, accum.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
+        bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
+    } else {
+        bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
+    }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines[pass].get());
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout.get(), 0, 1, &set, 0, nullptr);
+    if (pass < 2) {
+        if (visibleNodes > 0) vkCmdDispatch(cmd, gpu::kChunkSize / gpu::kLocalSize, visibleNodes, 1);
+    } else {
+        vkCmdDispatch(cmd, (settings.width + 7) / 8, (settings.height + 7) / 8, 1);
+    }
+}
+
+void SplatRenderer::Impl::recordGraphics(VkCommandBuffer cmd, int pass,
+                                         const std::vector<std::array<std::uint32_t, 2>>& draws) {
+    std::array<VkClearValue, 3> clears{};
+    std::uint32_t clearCount = 0;
+    if (pass == 0) {
+        clears[0].depthStencil = {1.0f, 0};
+        clearCount = 1;
+    } else if (pass == 1) {
+        clearCount = 2; // the two float targets, to zero
+    }
+    VkRenderPassBeginInfo begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+    begin.renderPass = renderPasses[pass].get();
+    begin.framebuffer = framebuffers[pass].get();
+    begin.renderArea = {{0, 0}, extent()};
+    begin.clearValueCount = clearCount;
+    begin.pClearValues = clears.data();
+    vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines[pass].get());
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout.get(), 0, 1, &set, 0, nullptr);
+    if (pass < 2) {
+        for (const auto& [first, count] : draws) vkCmdDraw(cmd, 6 * count, 1, 6 * first, 0);
+    } else {
+        vkCmdDraw(cmd, 3, 1, 0, 0);
+    }
+    vkCmdEndRenderPass(cmd);
+}
+
+RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& camera, FrameStats& stats) {
+    using Clock = std::chrono::steady_clock;
+    const float aspect = float(settings.width) / float(settings.height);
+    const float maxRadius = scene.maxRadius() * settings.radiusScale;
+    Sphere bounds = scene.bounds();
+    bounds.radius += maxRadius;
+    const DepthRange range = depthRange(camera, bounds);
+    const glm::mat4 view = camera.view();
+    const float tanY = std::tan(camera.fovY * 0.5f);
+    const Frustum frustum{tanY * aspect, tanY, range};
+
+    // Visible nodes: as a list for the compute dispatch, as merged runs for the draws.
+    ensureRangeCapacity(scene.nodes().size());
+    auto* rangeOut = static_cast<std::uint32_t*>(ranges.mapped);
+    std::vector<std::array<std::uint32_t, 2>> draws;
+    stats = {};
+    stats.splats = scene.size();
+    stats.nodes = scene.nodes().size();
+    for (const SceneNode& node : scene.nodes()) {
+        const glm::vec3 c = glm::vec3(view * glm::vec4(node.bounds.centre, 1.0f));
+        if (!frustum.intersects(c, node.bounds.radius + maxRadius)) continue;
+        rangeOut[2 * stats.nodesVisible] = node.first;
+        rangeOut[2 * stats.nodesVisible + 1] = node.count;
+        ++stats.nodesVisible;
+        stats.splatsDrawn += node.count;
+        if (!draws.empty() && draws.back()[0] + draws.back()[1] == node.first) draws.back()[1] += node.count;
+        else draws.push_back({node.first, node.count});
+    }
+
+    gpu::FrameUniforms frame{};
+    frame.view = view;
+    frame.projection = projection(camera.fovY, aspect, range);
+    const auto linear = [](float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); };
+    frame.background = {linear(settings.background.x), linear(settings.background.y), linear(settings.background.z), 1.0f};
+    frame.viewport = {float(settings.width), float(settings.height), 1.0f / float(settings.width), 1.0f / float(settings.height)};
+    frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
+    frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, 0.0f};
+    frame.flags = {settings.normalize ? 1u : 0u, 0u, 0u, 0u};
+    std::memcpy(uniforms.mapped, &frame, sizeof(frame));
+    writeDescriptors(scene);
+
+    const auto start = Clock::now();
+    for (int pass = 0; pass < 3; ++pass) {
+        context.submitAndWait([&](VkCommandBuffer cmd) {
+            if (timestamps) {
+                vkCmdResetQueryPool(cmd, timestamps.get(), std::uint32_t(2 * pass), 2);
+                vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass));
+            }
+            if (compute()) recordCompute(cmd, pass, static_cast<std::uint32_t>(stats.nodesVisible));
+            else recordGraphics(cmd, pass, draws);
+            if (timestamps)
+                vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass + 1));
+            if (pass < 2) return;
+            // Read back the 8-bit result.
+            if (compute()) {
+                bufferBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                              VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
+                const VkBufferCopy region{0, 0, pixelCount() * 4};
+                vkCmdCopyBuffer(cmd, output.buffer.get(), readback.buffer.get(), 1, &region);
+            } else {
+                VkBufferImageCopy region{};
+                region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+                region.imageExtent = {settings.width, settings.height, 1};
+                vkCmdCopyImageToBuffer(cmd, outputImage.image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                       readback.buffer.get(), 1, &region);
+            }
+            bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                          VK_ACCESS_HOST_READ_BIT);
+        });
+    }
+    RgbaImage image(settings.width, settings.height);
+    std::memcpy(image.pixels.data(), readback.mapped, image.pixels.size());
+    stats.wallMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+
+    if (timestamps) {
+        std::array<std::uint64_t, 6> ticks{};
+        PNSPLAT_VK_CHECK(vkGetQueryPoolResults(device, timestamps.get(), 0, 6, sizeof(ticks), ticks.data(),
+                                               sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        const double period = double(context.properties().limits.timestampPeriod) * 1e-6;
+        stats.visibilityMs = double(ticks[1] - ticks[0]) * period;
+        stats.accumulationMs = double(ticks[3] - ticks[2]) * period;
+        stats.normalizationMs = double(ticks[5] - ticks[4]) * period;
+    }
+    return image;
+}
+
+Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context, const RenderSettings& settings) {
+    const auto& limits = context.properties().limits;
+    if (settings.width == 0 || settings.height == 0)
+        return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) + " is empty"};
+    if (settings.width > limits.maxImageDimension2D || settings.height > limits.maxImageDimension2D)
+        return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
+                     " exceeds the device's limit of " + std::to_string(limits.maxImageDimension2D)};
+    if (!(settings.radiusScale > 0.0f) || !std::isfinite(settings.radiusScale) || !(settings.depthOffset >= 0.0f) ||
+        !std::isfinite(settings.depthOffset) || !(settings.sharpness >= 0.0f) || !std::isfinite(settings.sharpness))
+        return Error{"render settings: radius scale must be positive, depth offset and sharpness non-negative"};
+    if (settings.path == RenderPath::Compute) {
+        if (!context.hasFloatAtomicAdd())
+            return Error{"the compute path needs shaderBufferFloat32AtomicAdd, which " + context.deviceName() +
+                         " lacks; use the graphics path"};
+        const std::size_t accumBytes = std::size_t{settings.width} * settings.height * gpu::kAccumStride * 4;
+        if (accumBytes > limits.maxStorageBufferRange)
+            return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
+                         " is too large for the compute path on this device; use the graphics path"};
+    }
+    auto impl = std::make_unique<Impl>(context, settings);
+    try {
+        impl->createCommon();
+        if (impl->compute()) impl->createCompute();
+        else impl->createGraphics();
+    } catch (const VulkanError& e) {
+        return Error{std::string("Vulkan: ") + e.what()};
+    }
+    return std::unique_ptr<SplatRenderer>(new SplatRenderer(std::move(impl)));
+}
+
+SplatRenderer::SplatRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+SplatRenderer::~SplatRenderer() = default;
+
+const RenderSettings& SplatRenderer::settings() const {
+    return impl_->settings;
+}
+
+Result<RgbaImage> SplatRenderer::render(const SplatScene& scene, const Camera& camera, FrameStats* stats) {
+    if (!camera.valid())
+        return Error{"camera: eye and target must differ, up must not be parallel to the view direction, "
+                     "and the field of view must lie in (0, 180) degrees"};
+    FrameStats local;
+    try {
+        return impl_->render(scene, camera, stats != nullptr ? *stats : local);
+    } catch (const VulkanError& e) {
+        return Error{std::string("Vulkan: ") + e.what()};
+    }
+}
+
+} // namespace pnsplat::engine

@@ -1,0 +1,58 @@
+// GPU structs and constants shared by C++ (engine/) and GLSL (shaders/). One definition, two
+// languages: in C++ the GLSL types map to GLM and engine/src/gpu_layout.cpp checks every size and
+// offset with static_assert. Splat is std430 (a storage buffer); FrameUniforms is std140 (a
+// uniform buffer), so every member of it is 16-byte aligned.
+#ifndef PNSPLAT_GPU_TYPES_H
+#define PNSPLAT_GPU_TYPES_H
+
+#ifdef __cplusplus
+#include <cstdint>
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+namespace pnsplat::gpu {
+using vec3 = glm::vec3;
+using vec4 = glm::vec4;
+using uvec4 = glm::uvec4;
+using mat4 = glm::mat4;
+using uint = std::uint32_t;
+#define PNSPLAT_CONST inline constexpr
+#else
+#define PNSPLAT_CONST const
+#endif
+
+// Compute path: invocations per workgroup, and splats per node (chunk) of the scene. A node's
+// splats are contiguous; a dispatch covers the visible nodes, kChunkSize / kLocalSize groups each.
+PNSPLAT_CONST uint kLocalSize = 64;
+PNSPLAT_CONST uint kChunkSize = 1024;
+// Floats per pixel of the compute path's accumulation buffer: w·rgb, w·normal, w.
+PNSPLAT_CONST uint kAccumStride = 7;
+
+// One splat: an oriented disk. colour is sRGB, packed as R | G << 8 | B << 16 (alpha unused).
+struct Splat {
+    vec3 position;
+    float radius;
+    vec3 normal;
+    uint colour;
+};
+
+struct FrameUniforms {
+    mat4 view;       // world to view space (rigid: rotation and translation only)
+    mat4 projection; // view to Vulkan clip space: y down, depth 0 (near) to 1 (far)
+    vec4 background; // linear RGB; a unused
+    vec4 viewport;   // width, height, 1 / width, 1 / height in pixels
+    // The view-space ray of pixel centre (x, y) is (ndc.x * rayScale.x, -ndc.y * rayScale.y, -1),
+    // ndc = 2 (x + 0.5) / size - 1; z = near plane distance, w = unused.
+    vec4 rayScale;
+    // x: radius scale, y: depth offset ε as a multiple of the splat radius, z: Gaussian
+    // sharpness k (w = exp(-k ρ²), ρ the distance from the centre over the radius), w: unused.
+    vec4 splat;
+    // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y, z, w: unused.
+    uvec4 flags;
+};
+
+#ifdef __cplusplus
+} // namespace pnsplat::gpu
+#endif
+#undef PNSPLAT_CONST
+#endif

@@ -1,0 +1,77 @@
+// Splat geometry and shading shared by the compute path and the graphics path, so that the two
+// paths differ only in how footprints reach pixels (SPEC 11).
+#include "gpu_types.h"
+
+layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; };
+layout(set = 0, binding = 1, std430) readonly buffer SplatBlock { Splat splats[]; };
+
+// A splat in view space: centre, unit normal, radius (after the radius scale).
+struct ViewSplat {
+    vec3 centre;
+    vec3 normal;
+    float radius;
+    vec3 colour; // linear RGB
+};
+
+vec3 srgbToLinear(vec3 c) {
+    return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), greaterThan(c, vec3(0.04045)));
+}
+
+vec3 linearToSrgb(vec3 c) {
+    c = clamp(c, 0.0, 1.0);
+    return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, greaterThan(c, vec3(0.0031308)));
+}
+
+ViewSplat toView(Splat s) {
+    ViewSplat v;
+    v.centre = (frame.view * vec4(s.position, 1.0)).xyz;
+    v.normal = mat3(frame.view) * s.normal;
+    v.radius = s.radius * frame.splat.x;
+    v.colour = srgbToLinear(unpackUnorm4x8(s.colour).rgb);
+    return v;
+}
+
+// Splats seen edge-on or from behind are skipped (one-sided splats: normals face outwards).
+bool frontFacing(ViewSplat v) {
+    return dot(v.normal, v.centre) < 0.0;
+}
+
+// Any unit vector orthogonal to n, chosen continuously enough that the disk's bounding square is
+// well defined; the second axis is cross(n, u).
+vec3 tangentOf(vec3 n) {
+    vec3 a = abs(n.x) < 0.6 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+    return normalize(cross(n, a));
+}
+
+// The view-space ray through the centre of pixel p (not normalized; its z is -1, so the ray
+// parameter of a point is its linear depth).
+vec3 pixelRay(vec2 pixelCentre) {
+    vec2 ndc = pixelCentre * frame.viewport.zw * 2.0 - 1.0;
+    return vec3(ndc.x * frame.rayScale.x, -ndc.y * frame.rayScale.y, -1.0);
+}
+
+// Linear depth pushed back along the view ray by ε·radius (the visibility pass's offset): a point
+// at depth t on ray d moves to t + ε r / |d|.
+float pushedDepth(float t, vec3 ray, float radius) {
+    return t + frame.splat.y * radius / length(ray);
+}
+
+// Gaussian weight at squared normalized distance rho2 from the centre (rho2 <= 1 inside the disk).
+float splatWeight(float rho2) {
+    return exp(-frame.splat.z * rho2);
+}
+
+// Deferred shading of one pixel from its accumulated sums (w·rgb, w·normal, w); ray as pixelRay.
+// Headlight Blinn–Phong: the light sits at the eye, so the half vector is the view vector.
+// Returns the sRGB-encoded colour written to the 8-bit output.
+vec3 shadePixel(vec3 sumColour, vec3 sumNormal, float sumWeight, vec3 ray) {
+    if (!(sumWeight > 0.0)) return linearToSrgb(frame.background.rgb);
+    if (frame.flags.x == 0u) return linearToSrgb(sumColour);
+    vec3 albedo = sumColour / sumWeight;
+    float len = length(sumNormal);
+    vec3 n = len > 0.0 ? sumNormal / len : vec3(0.0, 0.0, 1.0);
+    vec3 toEye = -normalize(ray);
+    float ndl = max(dot(n, toEye), 0.0);
+    float specular = 0.25 * pow(ndl, 48.0);
+    return linearToSrgb(albedo * (0.12 + 0.88 * ndl) + vec3(specular));
+}

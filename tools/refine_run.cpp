@@ -1,0 +1,33 @@
+#include "refine_run.h"
+
+#include <fmt/core.h>
+
+#include "commands.h"
+#include "progress.h"
+#include "pnsplat/refine/radius_estimation.h"
+
+namespace pnsplat::tools {
+
+RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsigned levels, std::size_t targetPoints,
+                             bool estimate, const std::string& inputName) {
+    if (points.size() < 3)
+        throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
+    if (!points.hasRadius() || estimate) estimateRadii(points, options.threads);
+    if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
+
+    Refiner refiner(std::move(points), options);
+    ProgressBar bar("refining");
+    RefineRun run;
+    while (run.levels < levels && (targetPoints == 0 || refiner.points().size() < targetPoints)) {
+        bar.setLabel(fmt::format("level {}", run.levels + 1));
+        const LevelStats stats = refiner.refineLevel([&](std::size_t d, std::size_t t) { bar.update(d, t); });
+        run.seconds += stats.seconds;
+        ++run.levels;
+        if (stats.inserted == 0) break; // converged: nothing more to insert
+    }
+    bar.finish();
+    run.points = refiner.points();
+    return run;
+}
+
+} // namespace pnsplat::tools

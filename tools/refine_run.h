@@ -1,0 +1,23 @@
+// Level-by-level refinement with a progress bar, shared by `refine` and `render --refine-levels`.
+#pragma once
+
+#include <cstddef>
+
+#include "pnsplat/refine/point_set.h"
+#include "pnsplat/refine/refiner.h"
+
+namespace pnsplat::tools {
+
+struct RefineRun {
+    PointSet points;
+    unsigned levels = 0;       // levels run (fewer than asked when nothing more was inserted)
+    double seconds = 0.0;      // time spent refining (not estimating radii)
+};
+
+// Estimates radii when `points` has none (or when `estimateRadii`), checks the input
+// (CommandError naming `inputName`), then refines up to `levels` levels, stopping early once
+// `targetPoints` (0: no target) is reached or a level inserts nothing.
+RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsigned levels, std::size_t targetPoints,
+                             bool estimateRadii, const std::string& inputName);
+
+} // namespace pnsplat::tools

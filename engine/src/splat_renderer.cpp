@@ -500,7 +500,7 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     stats.nodes = scene.nodes().size();
     for (const SceneNode& node : scene.nodes()) {
         const glm::vec3 c = glm::vec3(view * glm::vec4(node.bounds.centre, 1.0f));
-        if (!frustum.intersects(c, node.bounds.radius + maxRadius)) continue;
+        if (settings.cullNodes && !frustum.intersects(c, node.bounds.radius + maxRadius)) continue;
         rangeOut[2 * stats.nodesVisible] = node.first;
         rangeOut[2 * stats.nodesVisible + 1] = node.count;
         ++stats.nodesVisible;

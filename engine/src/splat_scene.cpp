@@ -50,12 +50,12 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
     scene.size_ = count;
     std::vector<std::uint32_t> order(count);
     std::iota(order.begin(), order.end(), 0u);
+    std::vector<std::uint32_t> code(count);
     if (count > 0) {
         scene.bounds_ = boundingSphere(points.position, order.data(), count);
         // Morton codes on a 1024³ grid over the bounding cube; ties keep input order.
         const glm::vec3 lo = scene.bounds_.centre - glm::vec3(scene.bounds_.radius);
         const float scale = scene.bounds_.radius > 0.0f ? 1023.0f / (2.0f * scene.bounds_.radius) : 0.0f;
-        std::vector<std::uint32_t> code(count);
         for (std::size_t i = 0; i < count; ++i) {
             const glm::vec3 g = glm::clamp((points.position[i] - lo) * scale, glm::vec3(0.0f), glm::vec3(1023.0f));
             code[i] = spread(static_cast<std::uint32_t>(g.x)) | spread(static_cast<std::uint32_t>(g.y)) << 1 |
@@ -75,12 +75,31 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
         splats[k] = {points.position[i], points.radius[i], points.normal[i], colour};
         scene.maxRadius_ = std::max(scene.maxRadius_, points.radius[i]);
     }
-    for (std::size_t first = 0; first < count; first += gpu::kChunkSize) {
-        const std::size_t n = std::min<std::size_t>(gpu::kChunkSize, count - first);
-        scene.nodes_.push_back({boundingSphere(points.position, order.data() + first, n),
-                                static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(n)});
-    }
-
+    // Nodes: the cells of an octree over the Morton codes, split until a cell holds at most
+    // kChunkSize splats (cells are contiguous ranges of the sorted order, and compact in space, so
+    // their bounding spheres cull well); a full-depth cell with more is cut by count.
+    std::vector<std::uint32_t> sortedCode(count);
+    for (std::size_t k = 0; k < count; ++k) sortedCode[k] = code[order[k]];
+    const auto addNode = [&](std::size_t first, std::size_t n) {
+        scene.nodes_.push_back({boundingSphere(points.position, order.data() + first, n), static_cast<std::uint32_t>(first),
+                                static_cast<std::uint32_t>(n)});
+    };
+    const auto split = [&](const auto& self, std::size_t begin, std::size_t end, int shift) -> void {
+        if (end - begin <= gpu::kChunkSize || shift < 0) {
+            for (std::size_t first = begin; first < end; first += gpu::kChunkSize)
+                addNode(first, std::min<std::size_t>(gpu::kChunkSize, end - first));
+            return;
+        }
+        std::size_t first = begin;
+        while (first < end) {
+            const std::uint32_t cell = sortedCode[first] >> shift;
+            std::size_t last = first;
+            while (last < end && (sortedCode[last] >> shift) == cell) ++last;
+            self(self, first, last, shift - 3);
+            first = last;
+        }
+    };
+    if (count > 0) split(split, 0, count, 27);
     try {
         scene.buffer_ = createBuffer(context, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                      MemoryUse::Device);

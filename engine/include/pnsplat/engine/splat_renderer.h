@@ -36,7 +36,8 @@ struct RenderSettings {
     // Gaussian w = exp(-k ρ²) with ρ the distance from the centre over the radius. Choice: k = 2
     // (σ = r / 2): weight 0.14 at the rim, so the disk's cut-off barely shows.
     float sharpness = 2.0f;
-    bool normalize = true; // false shows raw accumulated colour (a switch for tests)
+    bool normalize = true;  // false shows raw accumulated colour (a switch for tests)
+    bool cullNodes = true;  // false draws every node (a switch for tests of the culling)
 };
 
 struct FrameStats {

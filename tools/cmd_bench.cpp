@@ -1,5 +1,6 @@
 // `pnsplat bench`: performance harness printing JSON (warm-up, then timed runs; medians).
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <string>
 #include <thread>
@@ -9,6 +10,8 @@
 #include <fmt/format.h>
 
 #include "commands.h"
+#include "pnsplat/engine/context.h"
+#include "pnsplat/engine/splat_renderer.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
@@ -58,6 +61,16 @@ std::string cpuName() {
         if (colon != std::string::npos && colon + 2 <= line.size()) return line.substr(colon + 2);
     }
     return "unknown";
+}
+
+void writeJson(const std::string& output, const std::string& json) {
+    if (output.empty()) {
+        fmt::print("{}", json);
+        return;
+    }
+    std::ofstream out(output);
+    out << json;
+    if (!out) throw CommandError(output + ": cannot write");
 }
 
 double median(std::vector<double> v) {
@@ -128,13 +141,92 @@ void runBenchRefine(const BenchArgs& args) {
         "\n",
         args.spherePoints, args.targetPoints, cpuName(), std::thread::hardware_concurrency(), args.repeat,
         fmt::join(runs, ",\n  "));
-    if (args.output.empty()) {
-        fmt::print("{}", json);
-    } else {
-        std::ofstream out(args.output);
-        out << json;
-        if (!out) throw CommandError(args.output + ": cannot write");
+    writeJson(args.output, json);
+}
+
+struct BenchRenderArgs {
+    std::vector<std::size_t> sizes{100000, 1000000, 4000000};
+    std::vector<float> splatPixels{2.0f, 4.0f, 8.0f};
+    std::uint32_t width = 1280, height = 720;
+    unsigned repeat = 5;
+    std::string device;
+    std::string output;
+};
+
+struct RenderTiming {
+    double visibility = 0, accumulation = 0, normalization = 0, wall = 0; // medians, ms
+    double gpu() const { return visibility + accumulation + normalization; }
+};
+
+RenderTiming timeRenders(engine::Context& context, const engine::SplatScene& scene, const engine::RenderSettings& settings,
+                         const engine::Camera& camera, unsigned repeat) {
+    auto renderer = unwrap(engine::SplatRenderer::create(context, settings));
+    engine::FrameStats stats;
+    unwrap(renderer->render(scene, camera, &stats)); // warm-up
+    std::vector<double> v, a, n, w;
+    for (unsigned k = 0; k < repeat; ++k) {
+        unwrap(renderer->render(scene, camera, &stats));
+        v.push_back(stats.visibilityMs);
+        a.push_back(stats.accumulationMs);
+        n.push_back(stats.normalizationMs);
+        w.push_back(stats.wallMs);
     }
+    return {median(v), median(a), median(n), median(w)};
+}
+
+// Splats of a sphere seen whole at 1280x720 (it fills the image height), every splat given the
+// radius that projects to `pixels` in diameter at the sphere's front; against the same points
+// drawn once as plain 1-pixel points by the raster pipeline.
+void runBenchRender(const BenchRenderArgs& args) {
+    engine::ContextOptions contextOptions;
+    contextOptions.deviceName = args.device;
+    auto context = unwrap(engine::Context::create(contextOptions));
+    const float fov = 0.7f;
+    const float aspect = float(args.width) / float(args.height);
+    const engine::Camera camera = engine::frameSphere({{0, 0, 0}, 1.0f}, aspect, fov, 0.0f);
+    const float front = glm::length(camera.eye) - 1.0f;
+    const float focalPixels = float(args.height) * 0.5f / std::tan(fov * 0.5f);
+    fmt::print(stderr, "bench render: {}x{} on {} ({}), {} timed runs each\n", args.width, args.height, context->deviceName(),
+               context->driverName(), args.repeat);
+
+    std::vector<std::string> runs;
+    for (std::size_t n : args.sizes) {
+        PointSet sphere = sampleSphereUniform(n, 1.0f);
+        const float basePixels = args.splatPixels.front();
+        sphere.radius.assign(n, basePixels * front / (2.0f * focalPixels));
+        const engine::SplatScene scene = unwrap(engine::SplatScene::create(*context, sphere));
+        engine::RenderSettings plain;
+        plain.width = args.width;
+        plain.height = args.height;
+        plain.path = engine::RenderPath::PlainPoints;
+        const RenderTiming baseline = timeRenders(*context, scene, plain, camera, args.repeat);
+        fmt::print(stderr, "  {:>8} splats: plain 1-px points {:.1f} ms (GPU), {:.1f} ms (wall)\n", n, baseline.gpu(), baseline.wall);
+        for (float pixels : args.splatPixels) {
+            for (engine::RenderPath path : {engine::RenderPath::Compute, engine::RenderPath::Graphics}) {
+                engine::RenderSettings settings = plain;
+                settings.path = path;
+                settings.radiusScale = pixels / basePixels;
+                const RenderTiming t = timeRenders(*context, scene, settings, camera, args.repeat);
+                const char* name = path == engine::RenderPath::Compute ? "compute" : "graphics";
+                fmt::print(stderr, "  {:>8} splats, {} px, {:<8}: {:.1f} + {:.1f} + {:.1f} ms = {:.1f} ms, ratio to points {:.2f}\n", n,
+                           pixels, name, t.visibility, t.accumulation, t.normalization, t.gpu(), t.gpu() / baseline.gpu());
+                runs.push_back(fmt::format(
+                    R"({{"splats": {}, "splat_pixels": {}, "path": "{}", "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, )"
+                    R"("normalization_ms": {:.2f}, "passes_ms": {:.2f}, "wall_ms": {:.2f}, "splats_per_second": {:.0f}, )"
+                    R"("plain_points_ms": {:.2f}, "plain_points_wall_ms": {:.2f}, "ratio_to_plain_points": {:.3f}, "wall_ratio_to_plain_points": {:.3f}}})",
+                    n, pixels, name, t.visibility, t.accumulation, t.normalization, t.gpu(), t.wall,
+                    double(n) / (t.gpu() * 1e-3), baseline.gpu(), baseline.wall, t.gpu() / baseline.gpu(), t.wall / baseline.wall));
+            }
+        }
+    }
+    const std::string json = fmt::format(
+        R"({{"benchmark": "render", "width": {}, "height": {}, "device": "{}", "driver": "{}", "cpu": "{}", "repeat": {}, )"
+        R"("default_path": "compute", "runs": [
+  {}
+]}})"
+        "\n",
+        args.width, args.height, context->deviceName(), context->driverName(), cpuName(), args.repeat, fmt::join(runs, ",\n  "));
+    writeJson(args.output, json);
 }
 
 } // namespace
@@ -151,6 +243,23 @@ void addBenchCommand(CLI::App& app) {
         ->capture_default_str();
     refine->add_option("-o,--output", args->output, "write the JSON here instead of standard output");
     refine->callback([args] { runBenchRefine(*args); });
+
+    auto renderArgs = std::make_shared<BenchRenderArgs>();
+    CLI::App* render = bench->add_subcommand(
+        "render", "Time per pass and splats per second for both paths, against plain 1-pixel points (Vulkan)");
+    render->add_option("--sizes", renderArgs->sizes, "splat counts")->delimiter(',')->capture_default_str();
+    render->add_option("--splat-pixels", renderArgs->splatPixels, "splat diameters in pixels")
+        ->delimiter(',')
+        ->check(CLI::Range(0.1, 256.0))
+        ->capture_default_str();
+    render->add_option("--width", renderArgs->width, "image width")->check(CLI::Range(1u, 16384u))->capture_default_str();
+    render->add_option("--height", renderArgs->height, "image height")->check(CLI::Range(1u, 16384u))->capture_default_str();
+    render->add_option("--repeat", renderArgs->repeat, "timed frames per configuration (after one warm-up)")
+        ->check(CLI::Range(1u, 100u))
+        ->capture_default_str();
+    render->add_option("--device", renderArgs->device, "Vulkan device whose name contains this text");
+    render->add_option("-o,--output", renderArgs->output, "write the JSON here instead of standard output");
+    render->callback([renderArgs] { runBenchRender(*renderArgs); });
 }
 
 } // namespace pnsplat::tools

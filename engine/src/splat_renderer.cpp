@@ -17,6 +17,8 @@
 #include "spirv/graphics_accumulate_frag.h"
 #include "spirv/graphics_normalize_frag.h"
 #include "spirv/graphics_visibility_frag.h"
+#include "spirv/plain_point_frag.h"
+#include "spirv/plain_point_vert.h"
 #include "spirv/splat_vert.h"
 
 namespace pnsplat::engine {
@@ -127,6 +129,7 @@ VkAttachmentDescription attachment(VkFormat format, VkAttachmentLoadOp load, VkI
 }
 
 struct GraphicsPipelineDesc {
+    VkPrimitiveTopology topology;
     VkShaderModule vertex, fragment;
     VkRenderPass renderPass;
     std::uint32_t colourCount;
@@ -159,10 +162,13 @@ struct SplatRenderer::Impl {
     VkExtent2D extent() const { return {settings.width, settings.height}; }
     std::size_t pixelCount() const { return std::size_t{settings.width} * settings.height; }
     bool compute() const { return settings.path == RenderPath::Compute; }
+    bool plain() const { return settings.path == RenderPath::PlainPoints; }
+    int passCount() const { return plain() ? 1 : 3; }
 
     void createCommon();
     void createCompute();
     void createGraphics();
+    void createPlainPoints();
     Unique<VkPipeline> computePipeline(VkShaderModule module);
     Unique<VkPipeline> graphicsPipeline(const GraphicsPipelineDesc& desc);
     void ensureRangeCapacity(std::size_t nodes);
@@ -194,7 +200,7 @@ void SplatRenderer::Impl::createCommon() {
     add(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
     if (compute()) {
         for (std::uint32_t b = 2; b <= 5; ++b) add(b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER); // ranges, depth, accum, output
-    } else {
+    } else if (!plain()) {
         add(2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
         add(3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
     }
@@ -264,7 +270,7 @@ Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineD
     stages[1].module = desc.fragment;
     VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
     VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-    assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+    assembly.topology = desc.topology;
     const VkViewport viewport{0.0f, 0.0f, float(settings.width), float(settings.height), 0.0f, 1.0f};
     const VkRect2D scissor{{0, 0}, extent()};
     VkPipelineViewportStateCreateInfo viewportState{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
@@ -381,9 +387,45 @@ void SplatRenderer::Impl::createGraphics() {
     const auto accumulateFrag = shaderModule(device, k_graphics_accumulate_frag);
     const auto fullscreenVert = shaderModule(device, k_fullscreen_vert);
     const auto normalizeFrag = shaderModule(device, k_graphics_normalize_frag);
-    pipelines = {graphicsPipeline({splatVert.get(), visibilityFrag.get(), renderPasses[0].get(), 0, true, true, false}),
-                 graphicsPipeline({splatVert.get(), accumulateFrag.get(), renderPasses[1].get(), 2, true, false, true}),
-                 graphicsPipeline({fullscreenVert.get(), normalizeFrag.get(), renderPasses[2].get(), 1, false, false, false})};
+    constexpr VkPrimitiveTopology kTriangles = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+    pipelines = {graphicsPipeline({kTriangles, splatVert.get(), visibilityFrag.get(), renderPasses[0].get(), 0, true, true, false}),
+                 graphicsPipeline({kTriangles, splatVert.get(), accumulateFrag.get(), renderPasses[1].get(), 2, true, false, true}),
+                 graphicsPipeline({kTriangles, fullscreenVert.get(), normalizeFrag.get(), renderPasses[2].get(), 1, false, false, false})};
+}
+
+void SplatRenderer::Impl::createPlainPoints() {
+    depth = createImage(context, extent(), kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
+    outputImage = createImage(context, extent(), kOutputFormat,
+                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
+    constexpr VkPipelineStageFlags kStages = VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT |
+                                             VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    renderPasses[0] = createRenderPass(
+        device,
+        {attachment(kOutputFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+         attachment(kDepthFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL)},
+        1, true,
+        {{VK_SUBPASS_EXTERNAL, 0, kStages | VK_PIPELINE_STAGE_TRANSFER_BIT, kStages,
+          VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+          VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
+              VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+          0},
+         {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+          VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT, 0}});
+    const std::array<VkImageView, 2> views{outputImage.view.get(), depth.view.get()};
+    VkFramebufferCreateInfo info{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+    info.renderPass = renderPasses[0].get();
+    info.attachmentCount = 2;
+    info.pAttachments = views.data();
+    info.width = settings.width;
+    info.height = settings.height;
+    info.layers = 1;
+    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateFramebuffer(device, &info, nullptr, &framebuffer));
+    framebuffers[0] = Unique<VkFramebuffer>(device, framebuffer, vkDestroyFramebuffer);
+    const auto vert = shaderModule(device, k_plain_point_vert);
+    const auto frag = shaderModule(device, k_plain_point_frag);
+    pipelines[0] = graphicsPipeline({VK_PRIMITIVE_TOPOLOGY_POINT_LIST, vert.get(), frag.get(), renderPasses[0].get(), 1, true, true, false});
 }
 
 void SplatRenderer::Impl::ensureRangeCapacity(std::size_t nodes) {
@@ -415,7 +457,7 @@ void SplatRenderer::Impl::writeDescriptors(const SplatScene& scene) {
         writeBuffer(3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits);
         writeBuffer(4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum);
         writeBuffer(5, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output);
-    } else {
+    } else if (!plain()) {
         for (std::uint32_t binding : {2u, 3u}) {
             images.push_back({sampler.get(), (binding == 2 ? accumColour : accumNormal).view.get(),
                               VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
@@ -457,7 +499,11 @@ void SplatRenderer::Impl::recordGraphics(VkCommandBuffer cmd, int pass,
                                          const std::vector<std::array<std::uint32_t, 2>>& draws) {
     std::array<VkClearValue, 3> clears{};
     std::uint32_t clearCount = 0;
-    if (pass == 0) {
+    if (plain()) {
+        clears[0].color = {{0.0f, 0.0f, 0.0f, 1.0f}};
+        clears[1].depthStencil = {1.0f, 0};
+        clearCount = 2;
+    } else if (pass == 0) {
         clears[0].depthStencil = {1.0f, 0};
         clearCount = 1;
     } else if (pass == 1) {
@@ -472,7 +518,9 @@ void SplatRenderer::Impl::recordGraphics(VkCommandBuffer cmd, int pass,
     vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines[pass].get());
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout.get(), 0, 1, &set, 0, nullptr);
-    if (pass < 2) {
+    if (plain()) {
+        for (const auto& [first, count] : draws) vkCmdDraw(cmd, count, 1, first, 0);
+    } else if (pass < 2) {
         for (const auto& [first, count] : draws) vkCmdDraw(cmd, 6 * count, 1, 6 * first, 0);
     } else {
         vkCmdDraw(cmd, 3, 1, 0, 0);
@@ -522,7 +570,7 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     writeDescriptors(scene);
 
     const auto start = Clock::now();
-    for (int pass = 0; pass < 3; ++pass) {
+    for (int pass = 0; pass < passCount(); ++pass) {
         context.submitAndWait([&](VkCommandBuffer cmd) {
             if (timestamps) {
                 vkCmdResetQueryPool(cmd, timestamps.get(), std::uint32_t(2 * pass), 2);
@@ -532,7 +580,7 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
             else recordGraphics(cmd, pass, draws);
             if (timestamps)
                 vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass + 1));
-            if (pass < 2) return;
+            if (pass + 1 < passCount()) return;
             // Read back the 8-bit result.
             if (compute()) {
                 bufferBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
@@ -555,13 +603,16 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     stats.wallMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 
     if (timestamps) {
+        // Only the queries this path wrote: waiting on one never written would never return.
         std::array<std::uint64_t, 6> ticks{};
-        PNSPLAT_VK_CHECK(vkGetQueryPoolResults(device, timestamps.get(), 0, 6, sizeof(ticks), ticks.data(),
+        const std::uint32_t queries = std::uint32_t(2 * passCount());
+        PNSPLAT_VK_CHECK(vkGetQueryPoolResults(device, timestamps.get(), 0, queries, queries * sizeof(std::uint64_t), ticks.data(),
                                                sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
         const double period = double(context.properties().limits.timestampPeriod) * 1e-6;
-        stats.visibilityMs = double(ticks[1] - ticks[0]) * period;
-        stats.accumulationMs = double(ticks[3] - ticks[2]) * period;
-        stats.normalizationMs = double(ticks[5] - ticks[4]) * period;
+        const auto span = [&](int pass) { return pass < passCount() ? double(ticks[2 * pass + 1] - ticks[2 * pass]) * period : 0.0; };
+        stats.visibilityMs = span(0); // the whole draw for PlainPoints
+        stats.accumulationMs = span(1);
+        stats.normalizationMs = span(2);
     }
     return image;
 }
@@ -589,6 +640,7 @@ Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context, c
     try {
         impl->createCommon();
         if (impl->compute()) impl->createCompute();
+        else if (impl->plain()) impl->createPlainPoints();
         else impl->createGraphics();
     } catch (const VulkanError& e) {
         return Error{std::string("Vulkan: ") + e.what()};

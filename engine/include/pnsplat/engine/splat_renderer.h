@@ -22,7 +22,13 @@
 
 namespace pnsplat::engine {
 
-enum class RenderPath { Compute, Graphics };
+enum class RenderPath {
+    Compute,
+    Graphics,
+    // Not splatting: every splat centre as a plain 1-pixel point through the raster pipeline, with
+    // a depth test. The benchmark's baseline (LAVAPIPE.md: raster cost is per primitive).
+    PlainPoints,
+};
 
 struct RenderSettings {
     std::uint32_t width = 1280, height = 720;

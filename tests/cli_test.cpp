@@ -156,7 +156,11 @@ TEST(CliHelp, ProgramAndSubcommandsPrintTheirOptions) {
         std::vector<std::string> mentions;
     };
     const std::vector<Case> cases = {
-        {"--help", {"refine", "eval", "bench"}},
+        {"--help", {"refine", "eval", "bench", "render", "diff"}},
+        {"render --help",
+         {"--output", "--width", "--height", "--camera", "--orbit", "--fov", "--refine-levels", "--path", "--device"}},
+        {"diff --help", {"--heatmap", "--max-rmse"}},
+        {"bench render --help", {"--sizes", "--splat-pixels", "--repeat", "--output"}},
         {"refine --help",
          {"--output", "--levels", "--target-points", "--threads", "--fast", "--neighbourhood",
           "--no-smoothing", "--euclidean-geodesic", "--plain-angle", "--centroid-candidates"}},
@@ -368,6 +372,63 @@ TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
     const RunResult wrong = run("eval " + quote(out) + " --reference sphere:1 --input " + quote(other));
     ASSERT_TRUE(wrong.exited && wrong.exitCode == 0) << wrong.err;
     EXPECT_NE(wrong.out.find("\"input_preserved\": false"), std::string::npos) << wrong.out;
+}
+
+
+TEST(CliRender, RendersComparesAndFailsPastTheThreshold) {
+    const TempDir dir;
+    const fs::path a = dir / "a.png", b = dir / "b.png", heat = dir / "heat.png";
+    RunResult r = run("render --width 64 --height 48 --validation -o " + quote(a));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    r = run("render --width 64 --height 48 --validation --orbit 90 --path graphics -o " + quote(b));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    r = run("diff " + quote(a) + " " + quote(a));
+    EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.out.find("\"psnr\": null"), std::string::npos) << r.out;
+    r = run("diff " + quote(a) + " " + quote(b) + " --max-rmse 0.5 --heatmap " + quote(heat));
+    EXPECT_TRUE(r.exited && r.exitCode == 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("RMSE"), std::string::npos) << r.err;
+    EXPECT_TRUE(fs::exists(heat));
+}
+
+TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
+    const TempDir dir;
+    const fs::path in = dir / "in.ply", out = dir / "out.png";
+    struct Case {
+        std::string name, content, args;
+    };
+    const std::vector<Case> cases = {
+        {"missing file", "", ""},
+        {"NaN coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\nnan 1 0 0 0 1\n1 1 0 0 0 1\n", ""},
+        {"empty set", headerAscii(0), ""},
+        {"truncated", headerAscii(4) + "0 0 0 0 0 1\n1 0", ""},
+        {"zero-sized image", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--width 0"},
+        {"eye on the target", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--camera 1,1,1,1,1,1,0,1,0"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.name);
+        if (!c.content.empty()) writeText(in, c.content);
+        const RunResult r = run("render " + quote(in) + " " + c.args + " -o " + quote(out));
+        std::cout << "[render, " << c.name << "] exit " << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(r.exited && r.exitCode != 0);
+        EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+        EXPECT_FALSE(fs::exists(out));
+        fs::remove(in);
+    }
+    const RunResult r = run("diff " + quote(dir / "none.png") + " " + quote(dir / "none.png"));
+    EXPECT_TRUE(r.exited && r.exitCode == 1);
+    EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+}
+
+// A camera inside the model or looking away from it gives a picture (the background), not an error.
+TEST(CliRender, CameraInsideOrLookingAwayRenders) {
+    const TempDir dir;
+    for (const std::string camera : {"0,0,0,0,0,-1,0,1,0", "0,0,5,0,0,10,0,1,0"}) {
+        const fs::path out = dir / "out.png";
+        const RunResult r = run("render --width 32 --height 32 --validation --camera " + camera + " -o " + quote(out));
+        EXPECT_TRUE(r.exited && r.exitCode == 0) << camera << ": " << r.err;
+        EXPECT_TRUE(fs::exists(out));
+    }
 }
 
 } // namespace

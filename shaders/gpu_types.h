@@ -23,10 +23,15 @@ using uint = std::uint32_t;
 
 // Compute path: invocations per workgroup, and splats per node (chunk) of the scene. A node's
 // splats are contiguous; a dispatch covers the visible nodes, kChunkSize / kLocalSize groups each.
-PNSPLAT_CONST uint kLocalSize = 64;
+PNSPLAT_CONST uint kLocalSize = 1024;
 PNSPLAT_CONST uint kChunkSize = 1024;
-// Floats per pixel of the compute path's accumulation buffer: w·rgb, w·normal, w.
-PNSPLAT_CONST uint kAccumStride = 7;
+// The compute path accumulates in fixed point with 64-bit integer atomicAdd (native on CPUs, where
+// float atomics are compare-and-swap loops): per pixel kAccumStride 64-bit words, each two 32-bit
+// sums of values in [0, w] scaled by kFixedScale: (w·r, w·g), (w·b, w), (w·n'x, w·n'y), (w·n'z, 0)
+// with n' = (n + 1) / 2. A low half cannot carry into its high half while the weights of a pixel
+// sum to less than 2^32 / kFixedScale = 65536 (each w ≤ 1); each value is rounded to 1/65536.
+PNSPLAT_CONST uint kAccumStride = 4;
+PNSPLAT_CONST float kFixedScale = 65536.0f;
 
 // One splat: an oriented disk. colour is sRGB, packed as R | G << 8 | B << 16 (alpha unused).
 struct Splat {

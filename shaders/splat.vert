@@ -17,10 +17,11 @@ const vec2 kCorners[6] = vec2[](vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(1.0, 1.0
                                 vec2(-1.0, -1.0), vec2(1.0, 1.0), vec2(-1.0, 1.0));
 
 void main() {
-    ViewSplat v = toView(splats[gl_VertexIndex / 6]);
+    Splat s = splats[gl_VertexIndex / 6];
+    ViewSplat v = toView(s);
     vec2 corner = kCorners[gl_VertexIndex % 6];
     outLocal = corner;
-    outColour = v.colour;
+    outColour = linearColour(s);
     outNormal = v.normal;
     outRadius = v.radius;
     if (!frontFacing(v)) {

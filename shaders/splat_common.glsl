@@ -10,7 +10,6 @@ struct ViewSplat {
     vec3 centre;
     vec3 normal;
     float radius;
-    vec3 colour; // linear RGB
 };
 
 vec3 srgbToLinear(vec3 c) {
@@ -27,8 +26,12 @@ ViewSplat toView(Splat s) {
     v.centre = (frame.view * vec4(s.position, 1.0)).xyz;
     v.normal = mat3(frame.view) * s.normal;
     v.radius = s.radius * frame.splat.x;
-    v.colour = srgbToLinear(unpackUnorm4x8(s.colour).rgb);
     return v;
+}
+
+// A splat's colour in linear RGB (only the accumulation pass needs it).
+vec3 linearColour(Splat s) {
+    return srgbToLinear(unpackUnorm4x8(s.colour).rgb);
 }
 
 // Splats seen edge-on or from behind are skipped (one-sided splats: normals face outwards).

@@ -8,13 +8,12 @@ layout(local_size_x = kLocalSize) in;
 layout(set = 0, binding = 2, std430) readonly buffer RangeBlock { uvec2 ranges[]; }; // first, count
 layout(set = 0, binding = 3, std430) buffer DepthBlock { uint depthBits[]; };         // float bits
 
-// The splat of this invocation, in view space; false when there is none or it faces away.
-bool invocationSplat(out ViewSplat v) {
+// The index of this invocation's splat, or false when the node has no splat for it.
+bool invocationSplat(out uint index) {
     uvec2 range = ranges[gl_WorkGroupID.y];
     uint local = gl_WorkGroupID.x * kLocalSize + gl_LocalInvocationID.x;
-    if (local >= range.y) return false;
-    v = toView(splats[range.x + local]);
-    return frontFacing(v);
+    index = range.x + local;
+    return local < range.y;
 }
 
 // The pixels whose centres may see the disk: the screen box of the projected corners of its

@@ -152,20 +152,19 @@ void Context::initialise(const ContextOptions& options) {
     vkGetPhysicalDeviceProperties2(physical_, &props2);
     driver_ = std::string(driverProps.driverName) + " " + driverProps.driverInfo;
 
-    // Features: float atomic add where present.
-    VkPhysicalDeviceShaderAtomicFloatFeaturesEXT atomicFloat{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_ATOMIC_FLOAT_FEATURES_EXT};
-    const bool atomicExtension = hasDeviceExtension(physical_, VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
+    // Features: 64-bit integer atomics on storage buffers (the compute path) where present.
+    VkPhysicalDeviceVulkan12Features features12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
     VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
-    if (atomicExtension) features.pNext = &atomicFloat;
+    features.pNext = &features12;
     vkGetPhysicalDeviceFeatures2(physical_, &features);
-    floatAtomicAdd_ = atomicExtension && atomicFloat.shaderBufferFloat32AtomicAdd;
+    int64Atomics_ = features.features.shaderInt64 && features12.shaderBufferInt64Atomics;
 
-    VkPhysicalDeviceShaderAtomicFloatFeaturesEXT enabledAtomic{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_ATOMIC_FLOAT_FEATURES_EXT};
-    enabledAtomic.shaderBufferFloat32AtomicAdd = VK_TRUE;
+    VkPhysicalDeviceVulkan12Features enabled12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+    enabled12.shaderBufferInt64Atomics = int64Atomics_;
     VkPhysicalDeviceFeatures2 enabled{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
-    enabled.pNext = floatAtomicAdd_ ? &enabledAtomic : nullptr;
+    enabled.pNext = &enabled12;
+    enabled.features.shaderInt64 = int64Atomics_;
     std::vector<const char*> extensions;
-    if (floatAtomicAdd_) extensions.push_back(VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
 
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo queueInfo{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

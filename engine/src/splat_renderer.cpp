@@ -251,7 +251,7 @@ void SplatRenderer::Impl::createCompute() {
     constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                             VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
     depthBits = createBuffer(context, pixelCount() * 4, kStorage, MemoryUse::Device);
-    accum = createBuffer(context, pixelCount() * gpu::kAccumStride * 4, kStorage, MemoryUse::Device);
+    accum = createBuffer(context, pixelCount() * gpu::kAccumStride * 8, kStorage, MemoryUse::Device);
     output = createBuffer(context, pixelCount() * 4, kStorage, MemoryUse::Device);
     const auto visibility = shaderModule(device, k_compute_visibility_comp);
     const auto accumulate = shaderModule(device, k_compute_accumulate_comp);
@@ -491,7 +491,7 @@ void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass, std::uint
     if (pass < 2) {
         if (visibleNodes > 0) vkCmdDispatch(cmd, gpu::kChunkSize / gpu::kLocalSize, visibleNodes, 1);
     } else {
-        vkCmdDispatch(cmd, (settings.width + 7) / 8, (settings.height + 7) / 8, 1);
+        vkCmdDispatch(cmd, (settings.width + 31) / 32, (settings.height + 31) / 32, 1);
     }
 }
 
@@ -628,10 +628,10 @@ Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context, c
         !std::isfinite(settings.depthOffset) || !(settings.sharpness >= 0.0f) || !std::isfinite(settings.sharpness))
         return Error{"render settings: radius scale must be positive, depth offset and sharpness non-negative"};
     if (settings.path == RenderPath::Compute) {
-        if (!context.hasFloatAtomicAdd())
-            return Error{"the compute path needs shaderBufferFloat32AtomicAdd, which " + context.deviceName() +
+        if (!context.hasInt64Atomics())
+            return Error{"the compute path needs 64-bit storage buffer atomics, which " + context.deviceName() +
                          " lacks; use the graphics path"};
-        const std::size_t accumBytes = std::size_t{settings.width} * settings.height * gpu::kAccumStride * 4;
+        const std::size_t accumBytes = std::size_t{settings.width} * settings.height * gpu::kAccumStride * 8;
         if (accumBytes > limits.maxStorageBufferRange)
             return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
                          " is too large for the compute path on this device; use the graphics path"};

@@ -3,8 +3,8 @@
 // Device choice: a device whose name contains ContextOptions::deviceName (case-insensitive) when
 // one is given, otherwise the first of discrete GPU, integrated GPU, virtual GPU, CPU (lavapipe);
 // CPU devices are never skipped. The device needs Vulkan 1.2 and a queue with graphics and
-// compute. Float atomic add on storage buffers (VK_EXT_shader_atomic_float), which the compute
-// path needs, is enabled where present.
+// compute. 64-bit integer atomics on storage buffers (shaderInt64, shaderBufferInt64Atomics),
+// which the compute path needs, are enabled where present.
 //
 // Validation: with ContextOptions::validation the Khronos validation layer is loaded (an error when
 // it is not installed) and every message it reports is counted, kept, and printed to stderr;
@@ -45,7 +45,7 @@ public:
     const std::string& deviceName() const { return name_; }
     // The driver as "name version" (e.g. "llvmpipe Mesa 22.3.6").
     const std::string& driverName() const { return driver_; }
-    bool hasFloatAtomicAdd() const { return floatAtomicAdd_; }
+    bool hasInt64Atomics() const { return int64Atomics_; }
 
     // A memory type among typeBits with all of `required`, preferring one that also has
     // `preferred`; throws VulkanError when there is none.
@@ -76,7 +76,7 @@ private:
     VkPhysicalDeviceProperties properties_{};
     VkPhysicalDeviceMemoryProperties memory_{};
     std::string name_, driver_;
-    bool floatAtomicAdd_ = false;
+    bool int64Atomics_ = false;
     std::atomic<std::uint32_t> messages_{0};
     mutable std::mutex messageMutex_;
     std::string lastMessage_;

@@ -1,8 +1,8 @@
 // Surface splatting in three passes (SPEC 11): visibility, Gaussian accumulation, normalization
 // with deferred shading, on one of two paths that give the same picture:
 //  - Compute: one invocation per splat walks its screen footprint; 32-bit atomicMin on depth,
-//    float atomicAdd accumulation (VK_EXT_shader_atomic_float), a per-pixel normalization. The
-//    default: on lavapipe it is several times faster than the raster pipeline (LAVAPIPE.md).
+//    fixed-point accumulation by 64-bit atomicAdd (shaderBufferInt64Atomics), a per-pixel
+//    normalization. The default: on lavapipe it is several times faster than the raster pipeline.
 //  - Graphics: each splat drawn as its bounding square in the disk plane (no size limit),
 //    depth test and additive blending into float targets, a full-screen normalization.
 // Nodes outside the view frustum are skipped on the CPU before either path.

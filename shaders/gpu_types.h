@@ -21,8 +21,8 @@ using uint = std::uint32_t;
 #define PNSPLAT_CONST const
 #endif
 
-// Compute path: invocations per workgroup, and splats per node (chunk) of the scene. A node's
-// splats are contiguous; a dispatch covers the visible nodes, kChunkSize / kLocalSize groups each.
+// Compute path: invocations per workgroup (one splat each), and the most splats a node of the
+// scene holds (its splats are contiguous).
 PNSPLAT_CONST uint kLocalSize = 1024;
 PNSPLAT_CONST uint kChunkSize = 1024;
 // The compute path accumulates in fixed point with 64-bit integer atomicAdd (native on CPUs, where
@@ -52,7 +52,8 @@ struct FrameUniforms {
     // x: radius scale, y: depth offset ε as a multiple of the splat radius, z: Gaussian
     // sharpness k (w = exp(-k ρ²), ρ the distance from the centre over the radius), w: unused.
     vec4 splat;
-    // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y, z, w: unused.
+    // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y: work items of the
+    // compute path's splat passes, z, w: unused.
     uvec4 flags;
 };
 

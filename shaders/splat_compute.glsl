@@ -5,15 +5,16 @@
 
 layout(local_size_x = kLocalSize) in;
 
-layout(set = 0, binding = 2, std430) readonly buffer RangeBlock { uvec2 ranges[]; }; // first, count
+layout(set = 0, binding = 2, std430) readonly buffer ItemBlock { uvec2 items[]; }; // first, count
 layout(set = 0, binding = 3, std430) buffer DepthBlock { uint depthBits[]; };         // float bits
 
 // The index of this invocation's splat, or false when the node has no splat for it.
 bool invocationSplat(out uint index) {
-    uvec2 range = ranges[gl_WorkGroupID.y];
-    uint local = gl_WorkGroupID.x * kLocalSize + gl_LocalInvocationID.x;
-    index = range.x + local;
-    return local < range.y;
+    uint item = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (item >= frame.flags.y) return false;
+    uvec2 range = items[item];
+    index = range.x + gl_LocalInvocationID.x;
+    return gl_LocalInvocationID.x < range.y;
 }
 
 // The pixels whose centres may see the disk: the screen box of the projected corners of its

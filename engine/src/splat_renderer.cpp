@@ -148,6 +148,7 @@ struct SplatRenderer::Impl {
     Unique<VkPipelineLayout> pipelineLayout;
     Unique<VkDescriptorPool> descriptorPool;
     VkDescriptorSet set = VK_NULL_HANDLE;
+    std::uint32_t workItems = 0; // of the current frame (compute path)
     std::array<Unique<VkPipeline>, 3> pipelines; // visibility, accumulation, normalization
     // Compute path.
     Buffer depthBits, accum, output;
@@ -173,7 +174,7 @@ struct SplatRenderer::Impl {
     Unique<VkPipeline> graphicsPipeline(const GraphicsPipelineDesc& desc);
     void ensureRangeCapacity(std::size_t nodes);
     void writeDescriptors(const SplatScene& scene);
-    void recordCompute(VkCommandBuffer cmd, int pass, std::uint32_t visibleNodes);
+    void recordCompute(VkCommandBuffer cmd, int pass);
     void recordGraphics(VkCommandBuffer cmd, int pass, const std::vector<std::array<std::uint32_t, 2>>& draws);
     RgbaImage render(const SplatScene& scene, const Camera& camera, FrameStats& stats);
 };
@@ -473,7 +474,7 @@ void SplatRenderer::Impl::writeDescriptors(const SplatScene& scene) {
     vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
 }
 
-void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass, std::uint32_t visibleNodes) {
+void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass) {
     constexpr VkPipelineStageFlags kCompute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
     if (pass == 0) {
@@ -489,7 +490,9 @@ void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass, std::uint
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines[pass].get());
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout.get(), 0, 1, &set, 0, nullptr);
     if (pass < 2) {
-        if (visibleNodes > 0) vkCmdDispatch(cmd, gpu::kChunkSize / gpu::kLocalSize, visibleNodes, 1);
+        // Work items in rows of at most maxComputeWorkGroupCount[0] groups.
+        const std::uint32_t row = std::min(workItems, context.properties().limits.maxComputeWorkGroupCount[0]);
+        if (workItems > 0) vkCmdDispatch(cmd, row, (workItems + row - 1) / row, 1);
     } else {
         vkCmdDispatch(cmd, (settings.width + 31) / 32, (settings.height + 31) / 32, 1);
     }
@@ -539,9 +542,9 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     const float tanY = std::tan(camera.fovY * 0.5f);
     const Frustum frustum{tanY * aspect, tanY, range};
 
-    // Visible nodes: as a list for the compute dispatch, as merged runs for the draws.
-    ensureRangeCapacity(scene.nodes().size());
-    auto* rangeOut = static_cast<std::uint32_t*>(ranges.mapped);
+    // Visible nodes, merged into runs of consecutive splats: one draw each on the graphics path;
+    // cut into work items of at most kLocalSize splats, one workgroup each, on the compute path
+    // (so no workgroup idles on a node's short tail).
     std::vector<std::array<std::uint32_t, 2>> draws;
     stats = {};
     stats.splats = scene.size();
@@ -549,13 +552,17 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     for (const SceneNode& node : scene.nodes()) {
         const glm::vec3 c = glm::vec3(view * glm::vec4(node.bounds.centre, 1.0f));
         if (settings.cullNodes && !frustum.intersects(c, node.bounds.radius + maxRadius)) continue;
-        rangeOut[2 * stats.nodesVisible] = node.first;
-        rangeOut[2 * stats.nodesVisible + 1] = node.count;
         ++stats.nodesVisible;
         stats.splatsDrawn += node.count;
         if (!draws.empty() && draws.back()[0] + draws.back()[1] == node.first) draws.back()[1] += node.count;
         else draws.push_back({node.first, node.count});
     }
+    ensureRangeCapacity(scene.nodes().size() + scene.size() / gpu::kLocalSize + 1);
+    auto* items = static_cast<std::array<std::uint32_t, 2>*>(ranges.mapped);
+    workItems = 0;
+    for (const auto& [first, count] : draws)
+        for (std::uint32_t done = 0; done < count; done += gpu::kLocalSize)
+            items[workItems++] = {first + done, std::min(gpu::kLocalSize, count - done)};
 
     gpu::FrameUniforms frame{};
     frame.view = view;
@@ -565,7 +572,7 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     frame.viewport = {float(settings.width), float(settings.height), 1.0f / float(settings.width), 1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
     frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, 0.0f};
-    frame.flags = {settings.normalize ? 1u : 0u, 0u, 0u, 0u};
+    frame.flags = {settings.normalize ? 1u : 0u, workItems, 0u, 0u};
     std::memcpy(uniforms.mapped, &frame, sizeof(frame));
     writeDescriptors(scene);
 
@@ -576,7 +583,7 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
                 vkCmdResetQueryPool(cmd, timestamps.get(), std::uint32_t(2 * pass), 2);
                 vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass));
             }
-            if (compute()) recordCompute(cmd, pass, static_cast<std::uint32_t>(stats.nodesVisible));
+            if (compute()) recordCompute(cmd, pass);
             else recordGraphics(cmd, pass, draws);
             if (timestamps)
                 vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass + 1));

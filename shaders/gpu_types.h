@@ -44,7 +44,7 @@ struct Splat {
 struct FrameUniforms {
     mat4 view;       // world to view space (rigid: rotation and translation only)
     mat4 projection; // view to Vulkan clip space: y down, depth 0 (near) to 1 (far)
-    vec4 background; // linear RGB; a unused
+    vec4 background; // sRGB as written to the output (no conversion per pixel); a unused
     vec4 viewport;   // width, height, 1 / width, 1 / height in pixels
     // The view-space ray of pixel centre (x, y) is (ndc.x * rayScale.x, -ndc.y * rayScale.y, -1),
     // ndc = 2 (x + 0.5) / size - 1; z = near plane distance, w = unused.

@@ -68,7 +68,7 @@ float splatWeight(float rho2) {
 // Headlight Blinn–Phong: the light sits at the eye, so the half vector is the view vector.
 // Returns the sRGB-encoded colour written to the 8-bit output.
 vec3 shadePixel(vec3 sumColour, vec3 sumNormal, float sumWeight, vec3 ray) {
-    if (!(sumWeight > 0.0)) return linearToSrgb(frame.background.rgb);
+    if (!(sumWeight > 0.0)) return frame.background.rgb;
     if (frame.flags.x == 0u) return linearToSrgb(sumColour);
     vec3 albedo = sumColour / sumWeight;
     float len = length(sumNormal);

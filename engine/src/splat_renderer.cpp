@@ -567,8 +567,7 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     gpu::FrameUniforms frame{};
     frame.view = view;
     frame.projection = projection(camera.fovY, aspect, range);
-    const auto linear = [](float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); };
-    frame.background = {linear(settings.background.x), linear(settings.background.y), linear(settings.background.z), 1.0f};
+    frame.background = {settings.background, 1.0f};
     frame.viewport = {float(settings.width), float(settings.height), 1.0f / float(settings.width), 1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
     frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, 0.0f};

@@ -4,6 +4,17 @@
 
 namespace pnsplat::engine {
 
+Unique<VkDeviceMemory> allocateMemory(Context& context, const VkMemoryRequirements& requirements,
+                                      VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred, std::uint32_t* type) {
+    VkMemoryAllocateInfo alloc{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    alloc.allocationSize = requirements.size;
+    alloc.memoryTypeIndex = context.memoryType(requirements.memoryTypeBits, required, preferred);
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkAllocateMemory(context.device(), &alloc, nullptr, &memory));
+    if (type != nullptr) *type = alloc.memoryTypeIndex;
+    return {context.device(), memory, vkFreeMemory};
+}
+
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use) {
     const VkDevice device = context.device();
     Buffer result;
@@ -25,18 +36,14 @@ Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usag
     case MemoryUse::Upload: required = kHost; preferred = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT; break;
     case MemoryUse::Readback: required = kHost; preferred = VK_MEMORY_PROPERTY_HOST_CACHED_BIT; break;
     }
-    VkMemoryAllocateInfo alloc{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    alloc.allocationSize = requirements.size;
-    alloc.memoryTypeIndex = context.memoryType(requirements.memoryTypeBits, required, preferred);
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkAllocateMemory(device, &alloc, nullptr, &memory));
-    result.memory = Unique<VkDeviceMemory>(device, memory, vkFreeMemory);
-    PNSPLAT_VK_CHECK(vkBindBufferMemory(device, buffer, memory, 0));
+    std::uint32_t type = 0;
+    result.memory = allocateMemory(context, requirements, required, preferred, &type);
+    PNSPLAT_VK_CHECK(vkBindBufferMemory(device, buffer, result.memory.get(), 0));
 
     VkPhysicalDeviceMemoryProperties properties;
     vkGetPhysicalDeviceMemoryProperties(context.physicalDevice(), &properties);
-    const VkMemoryPropertyFlags flags = properties.memoryTypes[alloc.memoryTypeIndex].propertyFlags;
-    if ((flags & kHost) == kHost) PNSPLAT_VK_CHECK(vkMapMemory(device, memory, 0, VK_WHOLE_SIZE, 0, &result.mapped));
+    if ((properties.memoryTypes[type].propertyFlags & kHost) == kHost)
+        PNSPLAT_VK_CHECK(vkMapMemory(device, result.memory.get(), 0, VK_WHOLE_SIZE, 0, &result.mapped));
     return result;
 }
 

@@ -64,13 +64,8 @@ Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageU
     result.image = Unique<VkImage>(device, image, vkDestroyImage);
     VkMemoryRequirements requirements;
     vkGetImageMemoryRequirements(device, image, &requirements);
-    VkMemoryAllocateInfo alloc{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    alloc.allocationSize = requirements.size;
-    alloc.memoryTypeIndex = context.memoryType(requirements.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkAllocateMemory(device, &alloc, nullptr, &memory));
-    result.memory = Unique<VkDeviceMemory>(device, memory, vkFreeMemory);
-    PNSPLAT_VK_CHECK(vkBindImageMemory(device, image, memory, 0));
+    result.memory = allocateMemory(context, requirements, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    PNSPLAT_VK_CHECK(vkBindImageMemory(device, image, result.memory.get(), 0));
     VkImageViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
     viewInfo.image = image;
     viewInfo.viewType = VK_IMAGE_VIEW_TYPE_2D;

@@ -124,12 +124,16 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
 
     // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij, Succ_i the j whose signed angle
     // ∠(q_i, p, q_j) lies in (0, π), Pred_i those in (-π, 0): the sign of the tangent-plane cross
-    // product q_i × q_j. w_ij as in fuzzyBadness, written branch-free (j = i and coincident points
-    // give a zero vector and w = 0). Choice: a j in exactly the same direction as i counts as a
-    // successor; with the paper's open intervals a point straight behind another (w_ij = 1.5)
-    // would be in neither set and survive.
+    // product q_i × q_j. w_ij as in fuzzyBadness, written branch-free (coincident points give a
+    // zero vector and w = 0; j = i is skipped, its w = 0 changes no maximum). Choice: a j in
+    // exactly the same direction as i counts as a successor; with the paper's open intervals a
+    // point straight behind another (w_ij = 1.5) would be in neither set and survive.
+    // Each pair {i, j} is visited once: p_j - p_i, its length, q_j × q_i and q_j · q_i are the
+    // negations (or copies) of those of (i, j), exactly in floating point, so w_ji and its side
+    // come out bit for bit as if computed on their own.
     const float sinThetaF = std::sin(params.thetaF);
     const float inverseSin = 1.0f / sinThetaF;
+    for (auto* v : {&scratch.worstSucc, &scratch.worstPred}) v->assign(count, 0.0f);
     const float* px = scratch.px.data();
     const float* py = scratch.py.data();
     const float* pz = scratch.pz.data();
@@ -138,21 +142,30 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     const float* dz = scratch.dz.data();
     const float* su = scratch.su.data();
     const float* sv = scratch.sv.data();
+    float* succOf = scratch.worstSucc.data();
+    float* predOf = scratch.worstPred.data();
     scratch.order.clear();
     for (std::size_t i = 0; i < count; ++i) {
-        float worstSucc = 0.0f, worstPred = 0.0f;
-        for (std::size_t j = 0; j < count; ++j) {
+        float worstSucc = succOf[i], worstPred = predOf[i];
+        for (std::size_t j = i + 1; j < count; ++j) {
             const float bx = px[i] - px[j], by = py[i] - py[j], bz = pz[i] - pz[j];
             const float length2 = bx * bx + by * by + bz * bz;
-            const float sinAlpha = (dx[j] * bx + dy[j] * by + dz[j] * bz) / std::sqrt(std::max(length2, 1e-30f));
-            const bool counts = (length2 > 0.0f) & (sinAlpha >= -sinThetaF);
-            const float w = counts ? 0.5f * (sinAlpha * inverseSin + 1.0f) : 0.0f;
-            const float cross = su[i] * sv[j] - sv[i] * su[j];
-            const float along = su[i] * su[j] + sv[i] * sv[j];
-            const float succ = (cross > 0.0f) | ((cross == 0.0f) & (along > 0.0f)) ? w : 0.0f;
-            const float pred = cross < 0.0f ? w : 0.0f;
-            worstSucc = succ > worstSucc ? succ : worstSucc;
-            worstPred = pred > worstPred ? pred : worstPred;
+            const float length = std::sqrt(std::max(length2, 1e-30f));
+            const float sinIJ = (dx[j] * bx + dy[j] * by + dz[j] * bz) / length; // p_i behind p_j
+            const float sinJI = -(dx[i] * bx + dy[i] * by + dz[i] * bz) / length; // p_j behind p_i
+            const bool apart = length2 > 0.0f;
+            const float wIJ = apart & (sinIJ >= -sinThetaF) ? 0.5f * (sinIJ * inverseSin + 1.0f) : 0.0f;
+            const float wJI = apart & (sinJI >= -sinThetaF) ? 0.5f * (sinJI * inverseSin + 1.0f) : 0.0f;
+            const float cross = su[i] * sv[j] - sv[i] * su[j]; // q_i × q_j; q_j × q_i = -cross
+            const bool sameDirection = (cross == 0.0f) & (su[i] * su[j] + sv[i] * sv[j] > 0.0f);
+            const float succIJ = (cross > 0.0f) | sameDirection ? wIJ : 0.0f;
+            const float predIJ = cross < 0.0f ? wIJ : 0.0f;
+            const float succJI = (cross < 0.0f) | sameDirection ? wJI : 0.0f;
+            const float predJI = cross > 0.0f ? wJI : 0.0f;
+            worstSucc = succIJ > worstSucc ? succIJ : worstSucc;
+            worstPred = predIJ > worstPred ? predIJ : worstPred;
+            succOf[j] = succJI > succOf[j] ? succJI : succOf[j];
+            predOf[j] = predJI > predOf[j] ? predJI : predOf[j];
         }
         if (worstSucc + worstPred <= 1.0f) scratch.order.push_back(static_cast<std::uint32_t>(i));
     }

@@ -82,6 +82,7 @@ struct NeighbourhoodScratch {
     std::vector<float> px, py, pz;     // the positions the badness is measured on
     std::vector<float> dx, dy, dz;     // their unit directions from p
     std::vector<float> su, sv;         // tangent-plane coordinates of the neighbours
+    std::vector<float> worstSucc, worstPred; // running maxima of w_ij over Succ_i and Pred_i
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
 };

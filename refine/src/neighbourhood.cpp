@@ -58,14 +58,25 @@ void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls, Nei
 // Rewrites `set` as its entries order[0..count) (a gather through scratch.sorted).
 void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, NeighbourhoodScratch& scratch) {
     NeighbourSet& out = scratch.sorted;
-    out.clear();
+    const std::size_t count = order.size();
     const bool controls = !set.nearControl.empty();
-    for (std::uint32_t k : order) {
-        out.push(set.index[k], set.position[k], set.normal[k]);
-        out.angle.push_back(set.angle[k]);
-        if (controls) {
-            out.nearControl.push_back(set.nearControl[k]);
-            out.farControl.push_back(set.farControl[k]);
+    out.index.resize(count);
+    out.position.resize(count);
+    out.normal.resize(count);
+    out.angle.resize(count);
+    out.nearControl.resize(controls ? count : 0);
+    out.farControl.resize(controls ? count : 0);
+    for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t from = order[k];
+        out.index[k] = set.index[from];
+        out.position[k] = set.position[from];
+        out.normal[k] = set.normal[from];
+        out.angle[k] = set.angle[from];
+    }
+    if (controls) {
+        for (std::size_t k = 0; k < count; ++k) {
+            out.nearControl[k] = set.nearControl[order[k]];
+            out.farControl[k] = set.farControl[order[k]];
         }
     }
     std::swap(set, out);

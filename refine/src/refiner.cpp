@@ -89,6 +89,10 @@ struct Candidate {
     glm::vec3 position;
     float angle;
     std::uint32_t a, b;
+    bool taken = false; // chosen already (inserted, or fell into the discard space)
+    // For a PN-centre candidate: the control points b021, b012 of the edge fan[a] fan[b] (the
+    // other edges' come with the fan), kept so that an inserted candidate's normal reuses them.
+    glm::vec3 b021, b012;
 };
 
 struct NearbyPoint {
@@ -123,9 +127,10 @@ inline double secondsSince(Clock::time_point& t) {
     return s;
 }
 
-// The PN triangle (p, fan[a], fan[b]); the control points on the edges from p come with the fan
-// when the filter computed them.
-inline PnTriangle fanTriangle(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b) {
+// The PN triangle (p, fan[a], fan[b]) without the control points of the edge fan[a] fan[b]
+// (b021, b012); those on the edges from p come with the fan when the filter computed them.
+inline PnTriangle fanTriangleFromP(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan, std::uint32_t a,
+                                   std::uint32_t b) {
     PnTriangle t;
     t.b300 = p;
     t.b030 = fan.position[a];
@@ -133,10 +138,16 @@ inline PnTriangle fanTriangle(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan,
     const bool cached = !fan.nearControl.empty();
     t.b210 = cached ? fan.nearControl[a] : edgeControlPoint(p, n, fan.position[a]);
     t.b120 = cached ? fan.farControl[a] : edgeControlPoint(fan.position[a], fan.normal[a], p);
-    t.b021 = edgeControlPoint(fan.position[a], fan.normal[a], fan.position[b]);
-    t.b012 = edgeControlPoint(fan.position[b], fan.normal[b], fan.position[a]);
     t.b102 = cached ? fan.farControl[b] : edgeControlPoint(fan.position[b], fan.normal[b], p);
     t.b201 = cached ? fan.nearControl[b] : edgeControlPoint(p, n, fan.position[b]);
+    return t;
+}
+
+// The whole PN triangle (p, fan[a], fan[b]).
+inline PnTriangle fanTriangle(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b) {
+    PnTriangle t = fanTriangleFromP(p, n, fan, a, b);
+    t.b021 = edgeControlPoint(fan.position[a], fan.normal[a], fan.position[b]);
+    t.b012 = edgeControlPoint(fan.position[b], fan.normal[b], fan.position[a]);
     return t;
 }
 
@@ -327,8 +338,14 @@ void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
         const glm::vec3 cog = centreOfGravity(x, fan.position[a], fan.position[b]);
         // L_p (eq. 12): cog + φ on the PN triangle (p, p_a, p_b); the plain centroid for the
         // baseline and for variant 4, which smooths only what it inserts.
-        if (!options.smoothing || options.centroidCandidates) c.position = cog;
-        else c.position = cog + smoothingDisplacement(fanTriangle(x, n, fan, a, b));
+        if (!options.smoothing || options.centroidCandidates) {
+            c.position = cog;
+        } else {
+            const PnTriangle t = fanTriangle(x, n, fan, a, b);
+            c.position = cog + smoothingDisplacement(t);
+            c.b021 = t.b021;
+            c.b012 = t.b012;
+        }
         c.angle = frame.angleOf(c.position - x);
         c.a = a;
         c.b = b;
@@ -355,8 +372,15 @@ NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, 
     if (!options.smoothing) {
         np.normal = glm::normalize(n + na + nb);
     } else {
-        const PnTriangle t = fanTriangle(x, n, fan, c.a, c.b);
-        if (options.centroidCandidates) np.position = c.position + smoothingDisplacement(t);
+        PnTriangle t;
+        if (options.centroidCandidates) {
+            t = fanTriangle(x, n, fan, c.a, c.b);
+            np.position = c.position + smoothingDisplacement(t);
+        } else {
+            t = fanTriangleFromP(x, n, fan, c.a, c.b);
+            t.b021 = c.b021;
+            t.b012 = c.b012;
+        }
         np.normal = centreNormal(t, n, na, nb);
     }
     if (points.hasColour())
@@ -504,6 +528,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     });
 
     const float lambda2 = kLambda2;
+    const TangentFrame frame(n);
     std::vector<RingMember>& ring = s.ring;
     std::vector<Candidate>& candidates = s.candidates;
     auto& cellStore = cellPoints[cell];
@@ -511,12 +536,15 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     double interpolationSeconds = 0;
     if (splitsSegments()) splitSegments(p, cell, firstChild, s);
 
-    while (!candidates.empty()) {
+    // Candidates leave L_p by being marked taken; the others keep their order.
+    for (std::size_t remaining = candidates.size(); remaining > 0; --remaining) {
         // 1. The pair of consecutive members of N'_p with the largest curved angle that is not
         //    below θc (N'_p complete otherwise) and still has a candidate inside it.
         std::size_t chosen = candidates.size();
         if (ring.empty()) {
-            chosen = 0; // an empty N'_p is incomplete; every candidate fills it equally
+            // An empty N'_p is incomplete; every candidate fills it equally: the first one left.
+            chosen = 0;
+            while (candidates[chosen].taken) ++chosen;
         } else {
             for (std::size_t j = 0; j < ring.size(); ++j) {
                 if (!ring[j].gapStale) continue;
@@ -539,6 +567,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
                 const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[(widest + 1) % ring.size()].angle);
                 float bestScore = -1.0f;
                 for (std::size_t k = 0; k < candidates.size(); ++k) {
+                    if (candidates[k].taken) continue;
                     const float into = sweep(a.angle, candidates[k].angle);
                     const float score = std::min(into, gapSweep - into);
                     if (score >= kMinSplitAngle && score > bestScore) {
@@ -554,8 +583,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
 
         // 3. Insert the candidate unless it falls into the discard space D_p (eq. 11); then the
         //    closest point of Y_p joins N'_p instead.
-        const Candidate c = candidates[chosen];
-        candidates.erase(candidates.begin() + static_cast<std::ptrdiff_t>(chosen));
+        candidates[chosen].taken = true;
+        const Candidate& c = candidates[chosen];
         std::size_t closest = s.outer.size();
         float closestDistance = std::numeric_limits<float>::max();
         bool discarded = false;
@@ -570,7 +599,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         if (discarded) {
             ++s.discarded;
             RingMember& y = s.outer[closest];
-            y.angle = TangentFrame(n).angleOf(y.position - x);
+            y.angle = frame.angleOf(y.position - x);
             const bool present = std::any_of(ring.begin(), ring.end(), [&](const RingMember& m) {
                 return m.cell == y.cell && m.local == y.local;
             });
@@ -586,7 +615,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         const auto local = static_cast<std::uint32_t>(cellStore.size());
         cellStore.push_back(np);
         ++s.inserted;
-        RingMember m{cell, local, np.position, np.normal, TangentFrame(n).angleOf(np.position - x)};
+        RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
         insertIntoRing(ring, m);
         if (profile) interpolationSeconds += secondsSince(ti);
     }

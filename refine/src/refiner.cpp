@@ -112,6 +112,11 @@ struct WorkerScratch {
     std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0, boundaryInserted = 0;
 };
 
+// Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
+// loops over fans and rings).
+inline std::size_t nextIndex(std::size_t j, std::size_t m) { return j + 1 == m ? 0 : j + 1; }
+inline std::size_t previousIndex(std::size_t j, std::size_t m) { return j == 0 ? m - 1 : j - 1; }
+
 // Counter-clockwise sweep from angle a to angle b, in [0, 2π).
 inline float sweep(float a, float b) {
     float d = b - a;
@@ -251,9 +256,9 @@ struct Refiner::State {
 private:
     template <typename Points>
     void gatherNearby(const Points& group, WorkerScratch& s);
-    void gatherNeighbourhood(std::uint32_t p, float reach, WorkerScratch& s);
+    void gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
-    void makeCandidates(std::uint32_t p, WorkerScratch& s) const;
+    void makeCandidates(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s) const;
     float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
     NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const;
     void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
@@ -284,13 +289,13 @@ void Refiner::State::gatherNearby(const Points& group, WorkerScratch& s) {
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
 }
 
-void Refiner::State::gatherNeighbourhood(std::uint32_t p, float reach, WorkerScratch& s) {
+// Nε_p, N'_p and Y_p of p; `frame` is the tangent frame of n_p.
+void Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s) {
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = points.normal[p];
     const float r = levelRadius[p];
     const float reach2 = reach * reach;
     const float innerRadius = kLambda1 * r;
-    const TangentFrame frame(n);
     s.fan.clear();
     s.ring.clear();
     s.outer.clear();
@@ -322,16 +327,15 @@ void Refiner::State::gatherNeighbourhood(std::uint32_t p, float reach, WorkerScr
     }
 }
 
-void Refiner::State::makeCandidates(std::uint32_t p, WorkerScratch& s) const {
+void Refiner::State::makeCandidates(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s) const {
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = points.normal[p];
-    const TangentFrame frame(n);
     const NeighbourSet& fan = s.fan;
     const std::size_t m = fan.size();
     s.candidates.clear();
     if (m < 2) return;
     for (std::uint32_t a = 0; a < m; ++a) {
-        const std::uint32_t b = static_cast<std::uint32_t>((a + 1) % m);
+        const auto b = static_cast<std::uint32_t>(nextIndex(a, m));
         // Boundary gap (section 6): no triangle across an opening wider than θb.
         if (sweep(fan.angle[a], fan.angle[b]) > options.thetaB) continue;
         Candidate c;
@@ -358,7 +362,7 @@ bool Refiner::State::fanIsOpen(const NeighbourSet& fan) const {
     const std::size_t m = fan.size();
     if (m < 2) return true;
     for (std::size_t a = 0; a < m; ++a)
-        if (sweep(fan.angle[a], fan.angle[(a + 1) % m]) > options.thetaB) return true;
+        if (sweep(fan.angle[a], fan.angle[nextIndex(a, m)]) > options.thetaB) return true;
     return false;
 }
 
@@ -406,7 +410,7 @@ void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMem
     // The gaps before and after the new member change.
     const std::size_t k = static_cast<std::size_t>(at - ring.begin());
     ring[k].gapStale = true;
-    ring[(k + ring.size() - 1) % ring.size()].gapStale = true;
+    ring[previousIndex(k, ring.size())].gapStale = true;
 }
 
 // Boundaries (section 6): a segment (a, b) receives two new points, at the thirds of the cubic
@@ -462,9 +466,10 @@ void Refiner::State::findBoundarySegments() {
         const auto p = static_cast<std::uint32_t>(item);
         WorkerScratch& s = scratch[worker];
         const glm::vec3 x = points.position[p], n = points.normal[p];
+        const TangentFrame frame(n);
         gatherNearby(std::array<std::uint32_t, 1>{p}, s);
         for (const float reach : {levelRadius[p], kRetryReach * levelRadius[p]}) {
-            gatherNeighbourhood(p, reach, s);
+            gatherNeighbourhood(p, frame, reach, s);
             filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
             if (!fanIsOpen(s.fan)) return;
         }
@@ -472,10 +477,10 @@ void Refiner::State::findBoundarySegments() {
         if (m < 2) return; // isolated: no direction to follow
         std::size_t widest = 0;
         for (std::size_t a = 1; a < m; ++a)
-            if (sweep(s.fan.angle[a], s.fan.angle[(a + 1) % m]) > sweep(s.fan.angle[widest], s.fan.angle[(widest + 1) % m]))
+            if (sweep(s.fan.angle[a], s.fan.angle[nextIndex(a, m)]) > sweep(s.fan.angle[widest], s.fan.angle[nextIndex(widest, m)]))
                 widest = a;
         potential[p] = 1;
-        ends[p] = {s.fan.index[widest], s.fan.index[(widest + 1) % m]};
+        ends[p] = {s.fan.index[widest], s.fan.index[nextIndex(widest, m)]};
     });
     segments.clear();
     for (std::uint32_t p = 0; p < count; ++p) {
@@ -502,7 +507,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
     fuzzy.euclideanGeodesic = options.euclideanGeodesic;
     fuzzy.edgeControls = options.smoothing && !options.centroidCandidates; // every candidate is a PN centre
-    gatherNeighbourhood(p, levelRadius[p], s);
+    const TangentFrame frame(n);
+    gatherNeighbourhood(p, frame, levelRadius[p], s);
     if (profile) s.times.neighbourhood += secondsSince(t0);
     filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
     if (profile) s.times.filtering += secondsSince(t0);
@@ -512,13 +518,13 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         // within kRetryReach·r before treating it as a boundary; the new one-ring then reaches
         // across, and the gap is filled at this level instead of staying a hole.
         ++s.retried;
-        gatherNeighbourhood(p, kRetryReach * levelRadius[p], s);
+        gatherNeighbourhood(p, frame, kRetryReach * levelRadius[p], s);
         if (profile) s.times.neighbourhood += secondsSince(t0);
         filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
         if (profile) s.times.filtering += secondsSince(t0);
     }
 
-    makeCandidates(p, s);
+    makeCandidates(p, frame, s);
     if (profile) s.times.interpolation += secondsSince(t0);
 
     // N'_p sorted around n_p; ties broken by storage position, which is deterministic.
@@ -528,7 +534,6 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     });
 
     const float lambda2 = kLambda2;
-    const TangentFrame frame(n);
     std::vector<RingMember>& ring = s.ring;
     std::vector<Candidate>& candidates = s.candidates;
     auto& cellStore = cellPoints[cell];
@@ -548,7 +553,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         } else {
             for (std::size_t j = 0; j < ring.size(); ++j) {
                 if (!ring[j].gapStale) continue;
-                ring[j].gapToNext = gapValue(x, ring[j], ring[(j + 1) % ring.size()], ring.size());
+                ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
                 ring[j].gapStale = false;
                 ring[j].gapExhausted = false;
             }
@@ -564,7 +569,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
                 //    the fan), and only candidates inside the gap compete, so a point is never put
                 //    into a gap other than the one being filled.
                 const RingMember& a = ring[widest];
-                const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[(widest + 1) % ring.size()].angle);
+                const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(widest, ring.size())].angle);
                 float bestScore = -1.0f;
                 for (std::size_t k = 0; k < candidates.size(); ++k) {
                     if (candidates[k].taken) continue;
@@ -623,7 +628,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     // Whether N'_p ended complete (every curved angle below θc): statistics only.
     bool complete = !ring.empty();
     for (std::size_t j = 0; j < ring.size() && complete; ++j) {
-        if (ring[j].gapStale) ring[j].gapToNext = gapValue(x, ring[j], ring[(j + 1) % ring.size()], ring.size());
+        if (ring[j].gapStale) ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
         complete = ring[j].gapToNext < kThetaC;
     }
     if (!complete) ++s.incomplete;
@@ -640,8 +645,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             const float toP = glm::length(pj - x);
             newRadius = std::max(newRadius, toP);
             float& rj = newPoint(ring[j]).radius;
-            const float reach = std::max({toP, glm::length(pj - ring[(j + m - 1) % m].position),
-                                          glm::length(pj - ring[(j + 1) % m].position)});
+            const float reach = std::max({toP, glm::length(pj - ring[previousIndex(j, m)].position),
+                                          glm::length(pj - ring[nextIndex(j, m)].position)});
             rj = std::max(rj, kRadiusMargin * reach);
         }
         points.radius[p] = kRadiusMargin * newRadius;

@@ -26,6 +26,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <ranges>
 #include <span>
 
@@ -82,6 +83,11 @@ struct RingMember {
     bool gapStale = true;
     bool gapExhausted = false; // no candidate left inside this gap
 };
+
+// Storage order of new points: deterministic whatever the order in which they were found.
+inline bool storedBefore(const RingMember& a, const RingMember& b) {
+    return a.cell != b.cell ? a.cell < b.cell : a.local < b.local;
+}
 
 // A possible new point of L_p (eq. 12), from the fan triangle (p, fan[a], fan[b]).
 // Normal and colour are computed only for the candidates actually inserted (newPointFrom).
@@ -161,6 +167,16 @@ inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
     return glm::u8vec3((sum + glm::uvec3(1)) / 3u);
 }
 
+// Colour cells (see the top of this file): integer coordinates of 21 bits each, packed x, y, z from
+// the most significant bits, so that keys sort by x, then y, then z.
+constexpr std::uint64_t kCellCoordinateMask = (1u << 21) - 1;
+inline std::uint64_t packCell(std::uint64_t x, std::uint64_t y, std::uint64_t z) { return x << 42 | y << 21 | z; }
+inline std::uint64_t cellKeyOf(glm::vec3 x, glm::vec3 lo, float cellSize) {
+    const glm::uvec3 c =
+        glm::uvec3(glm::clamp((x - lo) / cellSize, glm::vec3(0.0f), glm::vec3(float(kCellCoordinateMask))));
+    return packCell(c.x, c.y, c.z);
+}
+
 // 21-bit spread for Morton codes: bit k of v goes to bit 3k.
 inline std::uint64_t spreadBits(std::uint64_t v) {
     v &= 0x1fffff;
@@ -232,6 +248,10 @@ struct Refiner::State {
     std::vector<std::uint8_t> refined;
     std::vector<ChildRange> childRange;
     std::vector<std::vector<NewPoint>> cellPoints;
+    // Every point of P(l) by colour cell: cell keys in increasing order and the points, (key, index)
+    // sorted. A group of points of one cell finds its surroundings here (gatherNearby).
+    std::vector<std::uint64_t> gridKey;
+    std::vector<std::uint32_t> gridPoint;
     std::vector<WorkerScratch> scratch;
 
     // Boundary segments (section 6), found at the first step and kept explicitly. A segment is
@@ -255,7 +275,7 @@ struct Refiner::State {
 
 private:
     template <typename Points>
-    void gatherNearby(const Points& group, WorkerScratch& s);
+    void gatherNearby(const Points& group, std::optional<std::uint64_t> cell, WorkerScratch& s);
     void gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
     void makeCandidates(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s) const;
@@ -267,11 +287,15 @@ private:
 };
 
 // The points of P(l) that the refinement of a group of points (one cell, or one large point) may
-// need: every point within kRetryReach·r_max of the group's box, found once through the
-// bounding-sphere hierarchy (section 7). Each point of the group then picks its Euclidean
-// neighbourhood from this short list, which costs far less than one hierarchy walk per point.
+// need: every point within kRetryReach·r_max of the group's box, found once. Each point of the
+// group then picks its Euclidean neighbourhood from this short list, which costs far less than one
+// search per point. The points of one colour cell (key `cell`) have r <= r_lim, so the box grown
+// by kRetryReach·r_max < s stays within the 3×3×3 cells around theirs, read from the grid; a
+// single large point is found through the bounding-sphere hierarchy (section 7). Both give the
+// same set; its order does not matter (the neighbourhoods are sorted, and Y_p breaks ties in
+// distance by storage position).
 template <typename Points>
-void Refiner::State::gatherNearby(const Points& group, WorkerScratch& s) {
+void Refiner::State::gatherNearby(const Points& group, std::optional<std::uint64_t> cell, WorkerScratch& s) {
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
     float largest = 0.0f;
     for (const std::uint32_t p : group) {
@@ -283,9 +307,29 @@ void Refiner::State::gatherNearby(const Points& group, WorkerScratch& s) {
     Clock::time_point t0;
     if (options.profile) t0 = Clock::now();
     s.nearby.clear();
-    hierarchy.queryBox(lo, hi, margin, s.stack, [&](std::uint32_t i, float d2) {
-        if (d2 <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i});
-    });
+    if (!cell) {
+        hierarchy.queryBox(lo, hi, margin, s.stack, [&](std::uint32_t i, float d2) {
+            if (d2 <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i});
+        });
+    } else {
+        const std::uint64_t cx = *cell >> 42, cy = (*cell >> 21) & kCellCoordinateMask;
+        const std::uint64_t cz = *cell & kCellCoordinateMask;
+        const std::uint64_t z0 = cz > 0 ? cz - 1 : 0, z1 = std::min(cz + 1, kCellCoordinateMask);
+        for (std::uint64_t x = cx > 0 ? cx - 1 : 0; x <= std::min(cx + 1, kCellCoordinateMask); ++x) {
+            for (std::uint64_t y = cy > 0 ? cy - 1 : 0; y <= std::min(cy + 1, kCellCoordinateMask); ++y) {
+                // The cells (x, y, z0..z1) are consecutive in key order.
+                const std::uint64_t last = packCell(x, y, z1);
+                const auto first = std::lower_bound(gridKey.begin(), gridKey.end(), packCell(x, y, z0));
+                for (auto k = static_cast<std::size_t>(first - gridKey.begin()); k < gridKey.size() && gridKey[k] <= last;
+                     ++k) {
+                    // The distance to the box as the hierarchy measures it.
+                    const std::uint32_t i = gridPoint[k];
+                    const glm::vec3 d = points.position[i] - glm::clamp(points.position[i], lo, hi);
+                    if (glm::dot(d, d) <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i});
+                }
+            }
+        }
+    }
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
 }
 
@@ -467,7 +511,7 @@ void Refiner::State::findBoundarySegments() {
         WorkerScratch& s = scratch[worker];
         const glm::vec3 x = points.position[p], n = points.normal[p];
         const TangentFrame frame(n);
-        gatherNearby(std::array<std::uint32_t, 1>{p}, s);
+        gatherNearby(std::array<std::uint32_t, 1>{p}, std::nullopt, s);
         for (const float reach : {levelRadius[p], kRetryReach * levelRadius[p]}) {
             gatherNeighbourhood(p, frame, reach, s);
             filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
@@ -529,8 +573,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
 
     // N'_p sorted around n_p; ties broken by storage position, which is deterministic.
     std::sort(s.ring.begin(), s.ring.end(), [](const RingMember& a, const RingMember& b) {
-        if (a.angle != b.angle) return a.angle < b.angle;
-        return a.cell != b.cell ? a.cell < b.cell : a.local < b.local;
+        return a.angle != b.angle ? a.angle < b.angle : storedBefore(a, b);
     });
 
     const float lambda2 = kLambda2;
@@ -587,7 +630,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         }
 
         // 3. Insert the candidate unless it falls into the discard space D_p (eq. 11); then the
-        //    closest point of Y_p joins N'_p instead.
+        //    closest point of Y_p joins N'_p instead (ties broken by storage position).
         candidates[chosen].taken = true;
         const Candidate& c = candidates[chosen];
         std::size_t closest = s.outer.size();
@@ -596,7 +639,9 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         for (std::size_t h = 0; h < s.outer.size(); ++h) {
             const float distance = glm::length(c.position - s.outer[h].position);
             if (distance < lambda2 * newPoint(s.outer[h]).radius) discarded = true;
-            if (distance < closestDistance) {
+            const bool tie = distance == closestDistance && closest < s.outer.size() &&
+                             storedBefore(s.outer[h], s.outer[closest]);
+            if (distance < closestDistance || tie) {
                 closestDistance = distance;
                 closest = h;
             }
@@ -696,21 +741,22 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
     const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
     std::vector<std::uint32_t> large;
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
-    keyed.reserve(count);
-    for (std::uint32_t i = 0; i < count; ++i) {
-        if (levelRadius[i] <= options.targetRadius) continue; // adaptive: small enough already
-        ++stats.refinedPoints;
-        if (levelRadius[i] > radiusLimit) {
-            large.push_back(i);
-            continue;
-        }
-        const glm::uvec3 c = glm::uvec3(glm::clamp((points.position[i] - lo) / cellSize, glm::vec3(0.0f),
-                                                   glm::vec3(float((1u << 21) - 1))));
-        const std::uint64_t key = (std::uint64_t(c.x) << 42) | (std::uint64_t(c.y) << 21) | c.z;
-        keyed.emplace_back(key, i);
-    }
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
+    for (std::uint32_t i = 0; i < count; ++i) keyed[i] = {cellKeyOf(points.position[i], lo, cellSize), i};
     std::sort(keyed.begin(), keyed.end());
+    gridKey.resize(count);
+    gridPoint.resize(count);
+    for (std::uint32_t k = 0; k < count; ++k) gridKey[k] = keyed[k].first, gridPoint[k] = keyed[k].second;
+    // The points refined in cells: all but the large ones and those small enough already (adaptive).
+    const auto skipped = [&](std::uint32_t i) { return levelRadius[i] <= options.targetRadius; };
+    std::erase_if(keyed, [&](const auto& entry) {
+        return skipped(entry.second) || levelRadius[entry.second] > radiusLimit;
+    });
+    for (std::uint32_t i = 0; i < count; ++i) {
+        if (skipped(i)) continue;
+        ++stats.refinedPoints;
+        if (levelRadius[i] > radiusLimit) large.push_back(i);
+    }
     struct Cell {
         std::uint32_t begin, end; // into keyed
     };
@@ -732,7 +778,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
     for (std::uint32_t i : large) {
-        gatherNearby(std::array<std::uint32_t, 1>{i}, scratch[0]);
+        gatherNearby(std::array<std::uint32_t, 1>{i}, std::nullopt, scratch[0]);
         refinePoint(i, largeCell, scratch[0]);
     }
     done += large.size();
@@ -743,7 +789,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             const Cell cell = cells[group[item]];
             const auto members = std::span(keyed).subspan(cell.begin, cell.end - cell.begin) |
                                  std::views::transform([](const auto& entry) { return entry.second; });
-            gatherNearby(members, scratch[worker]);
+            gatherNearby(members, keyed[cell.begin].first, scratch[worker]);
             for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], scratch[worker]);
             const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
             if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, stats.refinedPoints);

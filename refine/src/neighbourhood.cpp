@@ -50,8 +50,9 @@ void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls, Nei
     set.farControl.resize(withControls ? count : 0);
     if (!withControls) return;
     for (std::size_t k = 0; k < count; ++k) {
-        set.nearControl[k] = edgeControlPoint(p, n, set.position[k]);
-        set.farControl[k] = edgeControlPoint(set.position[k], set.normal[k], p);
+        const EdgeControls e = edgeControlPoints(p, n, set.position[k], set.normal[k]);
+        set.nearControl[k] = e.ab;
+        set.farControl[k] = e.ba;
     }
 }
 

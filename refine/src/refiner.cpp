@@ -146,19 +146,28 @@ inline PnTriangle fanTriangleFromP(glm::vec3 p, glm::vec3 n, const NeighbourSet&
     t.b300 = p;
     t.b030 = fan.position[a];
     t.b003 = fan.position[b];
-    const bool cached = !fan.nearControl.empty();
-    t.b210 = cached ? fan.nearControl[a] : edgeControlPoint(p, n, fan.position[a]);
-    t.b120 = cached ? fan.farControl[a] : edgeControlPoint(fan.position[a], fan.normal[a], p);
-    t.b102 = cached ? fan.farControl[b] : edgeControlPoint(fan.position[b], fan.normal[b], p);
-    t.b201 = cached ? fan.nearControl[b] : edgeControlPoint(p, n, fan.position[b]);
+    if (!fan.nearControl.empty()) {
+        t.b210 = fan.nearControl[a];
+        t.b120 = fan.farControl[a];
+        t.b102 = fan.farControl[b];
+        t.b201 = fan.nearControl[b];
+        return t;
+    }
+    const EdgeControls ea = edgeControlPoints(p, n, fan.position[a], fan.normal[a]);
+    const EdgeControls eb = edgeControlPoints(p, n, fan.position[b], fan.normal[b]);
+    t.b210 = ea.ab;
+    t.b120 = ea.ba;
+    t.b102 = eb.ba;
+    t.b201 = eb.ab;
     return t;
 }
 
 // The whole PN triangle (p, fan[a], fan[b]).
 inline PnTriangle fanTriangle(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b) {
     PnTriangle t = fanTriangleFromP(p, n, fan, a, b);
-    t.b021 = edgeControlPoint(fan.position[a], fan.normal[a], fan.position[b]);
-    t.b012 = edgeControlPoint(fan.position[b], fan.normal[b], fan.position[a]);
+    const EdgeControls e = edgeControlPoints(fan.position[a], fan.normal[a], fan.position[b], fan.normal[b]);
+    t.b021 = e.ab;
+    t.b012 = e.ba;
     return t;
 }
 
@@ -470,7 +479,8 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
         const std::uint32_t segment = segmentsOf[k];
         const std::uint32_t b = segments[segment].b;
         const glm::vec3 pb = points.position[b], nb = points.normal[b];
-        const glm::vec3 c1 = edgeControlPoint(x, n, pb), c2 = edgeControlPoint(pb, nb, x);
+        const EdgeControls e = edgeControlPoints(x, n, pb, nb);
+        const glm::vec3 c1 = e.ab, c2 = e.ba;
         segmentChild[segment] = static_cast<std::uint32_t>(cellStore.size()) - firstChild;
         glm::vec3 curve[2];
         for (int third = 1; third <= 2; ++third) {

@@ -19,6 +19,16 @@
 
 namespace pnsplat {
 
+namespace detail {
+// edgeControlPoint from third = (pb - pa)/3 and its squared length.
+inline glm::vec3 edgeControlPointFromThird(glm::vec3 pa, glm::vec3 na, glm::vec3 third, float thirdLength2) {
+    const glm::vec3 tangent = third - glm::dot(third, na) * na; // Q_a(pa + third) - pa
+    const float tangentLength2 = glm::dot(tangent, tangent);
+    if (tangentLength2 <= 1e-12f * thirdLength2 || tangentLength2 == 0.0f) return pa + third;
+    return pa + tangent * std::sqrt(thirdLength2 / tangentLength2);
+}
+} // namespace detail
+
 // Edge control point near `pa` on the edge pa→pb (SPEC 2):
 //   b_ab = pa + |pa pb|/3 · normalize(Q_a(pa + (pb - pa)/3) - pa),
 // Q_a the orthogonal projection onto the tangent plane of pa. When pb - pa is parallel to na
@@ -26,11 +36,20 @@ namespace pnsplat {
 // unprojected third point is returned.
 inline glm::vec3 edgeControlPoint(glm::vec3 pa, glm::vec3 na, glm::vec3 pb) {
     const glm::vec3 third = (pb - pa) * (1.0f / 3.0f);
-    const glm::vec3 tangent = third - glm::dot(third, na) * na; // Q_a(pa + third) - pa
-    const float tangentLength2 = glm::dot(tangent, tangent);
+    return detail::edgeControlPointFromThird(pa, na, third, glm::dot(third, third));
+}
+
+// Both control points of the edge pa pb: b_ab = edgeControlPoint(pa, na, pb) and
+// b_ba = edgeControlPoint(pb, nb, pa), bit for bit. The edge's thirds in the two directions
+// are exact negations of each other with the same squared length, computed once.
+struct EdgeControls {
+    glm::vec3 ab, ba; // near pa, near pb
+};
+inline EdgeControls edgeControlPoints(glm::vec3 pa, glm::vec3 na, glm::vec3 pb, glm::vec3 nb) {
+    const glm::vec3 third = (pb - pa) * (1.0f / 3.0f);
     const float thirdLength2 = glm::dot(third, third);
-    if (tangentLength2 <= 1e-12f * thirdLength2 || tangentLength2 == 0.0f) return pa + third;
-    return pa + tangent * std::sqrt(thirdLength2 / tangentLength2);
+    return {detail::edgeControlPointFromThird(pa, na, third, thirdLength2),
+            detail::edgeControlPointFromThird(pb, nb, -third, thirdLength2)};
 }
 
 // The ten control points of the PN triangle over (p0,n0), (p1,n1), (p2,n2).
@@ -48,12 +67,14 @@ inline PnTriangle makePnTriangle(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::
     t.b300 = p0;
     t.b030 = p1;
     t.b003 = p2;
-    t.b210 = edgeControlPoint(p0, n0, p1);
-    t.b120 = edgeControlPoint(p1, n1, p0);
-    t.b021 = edgeControlPoint(p1, n1, p2);
-    t.b012 = edgeControlPoint(p2, n2, p1);
-    t.b102 = edgeControlPoint(p2, n2, p0);
-    t.b201 = edgeControlPoint(p0, n0, p2);
+    const EdgeControls e01 = edgeControlPoints(p0, n0, p1, n1), e12 = edgeControlPoints(p1, n1, p2, n2),
+                       e20 = edgeControlPoints(p2, n2, p0, n0);
+    t.b210 = e01.ab;
+    t.b120 = e01.ba;
+    t.b021 = e12.ab;
+    t.b012 = e12.ba;
+    t.b102 = e20.ab;
+    t.b201 = e20.ba;
     return t;
 }
 
@@ -115,7 +136,8 @@ inline float controlPolygonLength(glm::vec3 p0, glm::vec3 p1, glm::vec3 b210, gl
     return (2.0f / 3.0f) * glm::length(p1 - p0) + glm::length(b120 - b210);
 }
 inline float geodesicDistance(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
-    return controlPolygonLength(p0, p1, edgeControlPoint(p0, n0, p1), edgeControlPoint(p1, n1, p0));
+    const EdgeControls e = edgeControlPoints(p0, n0, p1, n1);
+    return controlPolygonLength(p0, p1, e.ab, e.ba);
 }
 
 // Unsigned angle a-o-b in [0, π]; 0 when a or b coincides with o.
@@ -124,9 +146,8 @@ inline float angleAt(glm::vec3 o, glm::vec3 a, glm::vec3 b) { return angleBetwee
 // Curved angle (eq. 5) of p0, p1 seen from p: the angles subtended by the three legs of the control
 // polygon of the curve between p0 and p1, A = ∠(p0,p,b210) + ∠(b210,p,b120) + ∠(b120,p,p1).
 inline float curvedAngle(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
-    const glm::vec3 b210 = edgeControlPoint(p0, n0, p1);
-    const glm::vec3 b120 = edgeControlPoint(p1, n1, p0);
-    return angleAt(p, p0, b210) + angleAt(p, b210, b120) + angleAt(p, b120, p1);
+    const EdgeControls e = edgeControlPoints(p0, n0, p1, n1); // b210, b120
+    return angleAt(p, p0, e.ab) + angleAt(p, e.ab, e.ba) + angleAt(p, e.ba, p1);
 }
 
 // Neighbour validity (eq. 6, SPEC 2): p1 may be a neighbour of p0 only when it lies outside the cone

@@ -31,19 +31,26 @@ void NeighbourSet::clear() {
 
 namespace {
 
+// Scratch arrays only grow: every call writes entries [0, count) before reading them, and a
+// resize down then up again would refill the tail at almost every point.
+float* scratchArray(std::vector<float>& v, std::size_t count) {
+    if (v.size() < count) v.resize(count);
+    return v.data();
+}
+
 // Angles around n (and tangent-plane coordinates in scratch.su/sv) of every entry, and the edge
 // control points when asked for.
 void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls, NeighbourhoodScratch& scratch) {
     const TangentFrame frame(n);
     const std::size_t count = set.size();
     set.angle.resize(count);
-    scratch.su.resize(count);
-    scratch.sv.resize(count);
+    float* su = scratchArray(scratch.su, count);
+    float* sv = scratchArray(scratch.sv, count);
     for (std::size_t k = 0; k < count; ++k) {
         const glm::vec3 d = set.position[k] - p;
         const float u = glm::dot(d, frame.u), v = glm::dot(d, frame.v);
-        scratch.su[k] = u;
-        scratch.sv[k] = v;
+        su[k] = u;
+        sv[k] = v;
         set.angle[k] = fastAtan2(v, u);
     }
     set.nearControl.resize(withControls ? count : 0);
@@ -115,7 +122,12 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     measure(p, n, set, geodesic || params.edgeControls, scratch);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
     // (x, y, z apart) for the O(k²) loop below.
-    for (auto* v : {&scratch.px, &scratch.py, &scratch.pz, &scratch.dx, &scratch.dy, &scratch.dz}) v->resize(count);
+    float* px = scratchArray(scratch.px, count);
+    float* py = scratchArray(scratch.py, count);
+    float* pz = scratchArray(scratch.pz, count);
+    float* dx = scratchArray(scratch.dx, count);
+    float* dy = scratchArray(scratch.dy, count);
+    float* dz = scratchArray(scratch.dz, count);
     for (std::size_t k = 0; k < count; ++k) {
         const glm::vec3 d = set.position[k] - p;
         glm::vec3 y = set.position[k];
@@ -130,8 +142,8 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
             if (tangentLength > 0.0f) y = p + tangent * (g / tangentLength);
         }
         const glm::vec3 direction = glm::normalize(y - p);
-        scratch.px[k] = y.x, scratch.py[k] = y.y, scratch.pz[k] = y.z;
-        scratch.dx[k] = direction.x, scratch.dy[k] = direction.y, scratch.dz[k] = direction.z;
+        px[k] = y.x, py[k] = y.y, pz[k] = y.z;
+        dx[k] = direction.x, dy[k] = direction.y, dz[k] = direction.z;
     }
 
     // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij, Succ_i the j whose signed angle
@@ -145,17 +157,12 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     // come out bit for bit as if computed on their own.
     const float sinThetaF = std::sin(params.thetaF);
     const float inverseSin = 1.0f / sinThetaF;
-    for (auto* v : {&scratch.worstSucc, &scratch.worstPred}) v->assign(count, 0.0f);
-    const float* px = scratch.px.data();
-    const float* py = scratch.py.data();
-    const float* pz = scratch.pz.data();
-    const float* dx = scratch.dx.data();
-    const float* dy = scratch.dy.data();
-    const float* dz = scratch.dz.data();
     const float* su = scratch.su.data();
     const float* sv = scratch.sv.data();
-    float* succOf = scratch.worstSucc.data();
-    float* predOf = scratch.worstPred.data();
+    float* succOf = scratchArray(scratch.worstSucc, count);
+    float* predOf = scratchArray(scratch.worstPred, count);
+    std::fill_n(succOf, count, 0.0f);
+    std::fill_n(predOf, count, 0.0f);
     scratch.order.clear();
     for (std::size_t i = 0; i < count; ++i) {
         float worstSucc = succOf[i], worstPred = predOf[i];

@@ -77,7 +77,8 @@ inline float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThet
     return fuzzyBadness(a / std::sqrt(length2), pi - pj, sinThetaF);
 }
 
-// Scratch buffers reused across calls (no allocation per point once warm).
+// Scratch buffers reused across calls (no allocation per point once warm). The float arrays keep
+// their largest size; entries [0, k) belong to the last set of k entries filtered.
 struct NeighbourhoodScratch {
     std::vector<float> px, py, pz;     // the positions the badness is measured on
     std::vector<float> dx, dy, dz;     // their unit directions from p

@@ -10,10 +10,12 @@
 
 #include "commands.h"
 #include "refine_run.h"
-#include "render_setup.h"
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/engine/splat_renderer.h"
+#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/radius_estimation.h"
+#include "pnsplat/refine/shapes.h"
 
 namespace pnsplat::tools {
 
@@ -27,7 +29,7 @@ struct RenderArgs {
     double orbitDegrees = 0.0;
     double fovDegrees = 40.0;
     unsigned refineLevels = 0;
-    std::string path = "compute";
+    std::string path = "auto";
     std::string device;
     std::vector<float> background{1.0f, 1.0f, 1.0f};
     float radiusScale = 1.0f;
@@ -36,6 +38,29 @@ struct RenderArgs {
 };
 
 constexpr double kDegree = std::numbers::pi / 180.0;
+
+// The points of `input` (a PLY file, or the embedded default model when empty) with radii
+// (estimated when the file has none); `name` receives a name for messages.
+PointSet loadForRendering(const std::string& input, std::string& name) {
+    PointSet points;
+    if (input.empty()) {
+        name = "the default model";
+        points = makeDefaultModel();
+    } else {
+        name = input;
+        points = unwrap(readPly(input)).points;
+    }
+    if (!points.hasRadius()) estimateRadii(points);
+    return points;
+}
+
+// "auto" is the compute path where the device has what it needs (on lavapipe it is several times
+// faster than the raster pipeline), else the graphics path.
+engine::RenderPath choosePath(const std::string& path, const engine::Context& context) {
+    if (path == "graphics") return engine::RenderPath::Graphics;
+    if (path == "compute" || context.hasInt64Atomics()) return engine::RenderPath::Compute;
+    return engine::RenderPath::Graphics;
+}
 
 void runRender(const RenderArgs& args) {
     using namespace engine;
@@ -63,7 +88,7 @@ void runRender(const RenderArgs& args) {
     RenderSettings settings;
     settings.width = args.width;
     settings.height = args.height;
-    settings.path = parseRenderPath(args.path);
+    settings.path = choosePath(args.path, *context);
     settings.background = {args.background[0], args.background[1], args.background[2]};
     settings.radiusScale = args.radiusScale;
     auto renderer = unwrap(SplatRenderer::create(*context, settings));
@@ -84,7 +109,8 @@ void runRender(const RenderArgs& args) {
     unwrap(writePng(args.output, image));
     fmt::print("{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
                "normalization {:.1f} ms -> {}\n",
-               name, stats.splats, stats.splatsDrawn, args.width, args.height, context->deviceName(), args.path,
+               name, stats.splats, stats.splatsDrawn, args.width, args.height, context->deviceName(),
+               settings.path == RenderPath::Compute ? "compute" : "graphics",
                stats.visibilityMs, stats.accumulationMs, stats.normalizationMs, args.output);
     if (context->validationMessages() > 0)
         throw CommandError(fmt::format("{} validation message(s); the last: {}", context->validationMessages(),
@@ -109,8 +135,8 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--fov", args->fovDegrees, "vertical field of view, degrees")->check(CLI::Range(1.0, 179.0))->capture_default_str();
     cmd->add_option("--refine-levels", args->refineLevels, "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
-    cmd->add_option("--path", args->path, "compute (atomics; default) or graphics (raster pipeline)")
-        ->check(CLI::IsMember({"compute", "graphics"}))
+    cmd->add_option("--path", args->path, "compute (atomics), graphics (raster pipeline), or auto: compute where the device can")
+        ->check(CLI::IsMember({"auto", "compute", "graphics"}))
         ->capture_default_str();
     cmd->add_option("--device", args->device, "Vulkan device whose name contains this text (default: a GPU, else lavapipe)");
     cmd->add_option("--background", args->background, "background colour r,g,b in [0, 1]")

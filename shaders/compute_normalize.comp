@@ -2,12 +2,15 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_ARB_gpu_shader_int64 : require
 // Pass 3, compute path: decode the fixed-point sums, divide by the weight and shade; one
-// invocation per pixel, in large workgroups (lavapipe pays per workgroup).
+// invocation per pixel, in large workgroups (lavapipe pays per workgroup). It also clears the
+// depth and the sums for the next frame, so no frame pays a full-screen fill: a pixel no splat
+// reached costs one 64-bit read and two 32-bit writes.
 #include "splat_common.glsl"
 
 layout(local_size_x = 32, local_size_y = 32) in;
 
-layout(set = 0, binding = 4, std430) readonly buffer AccumBlock { uint64_t accum[]; };
+layout(set = 0, binding = 3, std430) writeonly buffer DepthBlock { uint depthBits[]; };
+layout(set = 0, binding = 4, std430) buffer AccumBlock { uint64_t accum[]; };
 layout(set = 0, binding = 5, std430) writeonly buffer OutputBlock { uint pixels[]; }; // RGBA8
 
 vec2 unpack(uint64_t word) {
@@ -19,8 +22,18 @@ void main() {
     if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
     uint i = uint(pixel.y) * uint(frame.viewport.x) + uint(pixel.x);
     uint base = i * kAccumStride;
-    vec2 rg = unpack(accum[base + 0]), bw = unpack(accum[base + 1]);
+    // The visibility pass may have set the depth of a pixel whose rounded weight is still zero.
+    depthBits[i] = kDepthCleared;
+    // Every value a splat adds is at most its weight, so a zero (w·b, w) word means all four words
+    // are zero: a background pixel, already cleared.
+    uint64_t blueWeight = accum[base + 1];
+    if (blueWeight == 0ul) {
+        pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
+        return;
+    }
+    vec2 rg = unpack(accum[base + 0]), bw = unpack(blueWeight);
     vec2 nxy = unpack(accum[base + 2]), nz = unpack(accum[base + 3]);
+    for (uint k = 0; k < kAccumStride; ++k) accum[base + k] = 0ul;
     float w = bw.y;
     // Σ w·n = 2 Σ w·n' − Σ w.
     vec3 normal = 2.0 * vec3(nxy, nz.x) - w;

@@ -32,6 +32,9 @@ PNSPLAT_CONST uint kChunkSize = 1024;
 // sum to less than 2^32 / kFixedScale = 65536 (each w ≤ 1); each value is rounded to 1/65536.
 PNSPLAT_CONST uint kAccumStride = 4;
 PNSPLAT_CONST float kFixedScale = 65536.0f;
+// The compute path's cleared depth: +infinity as float bits. The normalization pass leaves the
+// depth and sum buffers cleared for the next frame, touching the sums only where a splat landed.
+PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 
 // One splat: an oriented disk. colour is sRGB, packed as R | G << 8 | B << 16 (alpha unused).
 struct Splat {

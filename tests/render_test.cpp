@@ -114,6 +114,35 @@ TEST_P(PathTest, HugeSplatCoversTheScreen) {
         for (std::uint32_t x = 0; x < 64; ++x) ASSERT_GT(image.at(x, y).x, 100) << x << "," << y;
 }
 
+// A renderer reused across frames leaves nothing of one frame in the next. The compute path
+// clears its buffers in the normalization pass; with a sharp Gaussian the near disk's rim sets the
+// depth of pixels whose rounded weight is zero, which would hide the far disk there if the depth
+// of weightless pixels were not cleared too.
+TEST_P(PathTest, ReusedRendererForgetsTheLastFrame) {
+    RenderSettings settings = small(GetParam(), 96, 96);
+    settings.sharpness = 30.0f;
+    const Camera camera = lookingDownZ(8.0f);
+    const PointSet nearDisk = disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 0, 0});
+    const PointSet farDisk = disk({0, 0, -3}, {0, 0, 1}, 2.5f, {0, 0, 255});
+    auto near = engine::SplatScene::create(context(), nearDisk);
+    auto far = engine::SplatScene::create(context(), farDisk);
+    auto renderer = engine::SplatRenderer::create(context(), settings);
+    ASSERT_TRUE(near.ok() && far.ok() && renderer.ok());
+    ASSERT_TRUE((*renderer)->render(*near, camera).ok());
+    auto second = (*renderer)->render(*far, camera);
+    ASSERT_TRUE(second.ok());
+    const RgbaImage fresh = render(farDisk, settings, camera);
+    ASSERT_EQ(fresh.pixels.size(), second->pixels.size());
+    EXPECT_TRUE(fresh.pixels == second->pixels);
+    // And a frame of nothing after a frame of something is all background.
+    auto empty = engine::SplatScene::create(context(), PointSet{});
+    ASSERT_TRUE(empty.ok());
+    auto third = (*renderer)->render(*empty, camera);
+    ASSERT_TRUE(third.ok());
+    for (std::uint32_t y = 0; y < 96; ++y)
+        for (std::uint32_t x = 0; x < 96; ++x) ASSERT_EQ(third->at(x, y), glm::u8vec4(0, 0, 0, 255)) << x << "," << y;
+}
+
 TEST_P(PathTest, EmptySceneAndCameraLookingAwayGiveBackground) {
     RenderSettings settings = small(GetParam(), 64, 64);
     settings.background = {0.2f, 0.4f, 0.6f};

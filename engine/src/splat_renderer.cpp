@@ -28,7 +28,6 @@ namespace {
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 constexpr VkFormat kAccumFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kOutputFormat = VK_FORMAT_R8G8B8A8_UNORM;
-constexpr std::uint32_t kDepthCleared = 0x7F800000u; // +infinity as float bits
 
 template <std::size_t N>
 Unique<VkShaderModule> shaderModule(VkDevice device, const std::uint32_t (&code)[N]) {
@@ -144,6 +143,9 @@ struct SplatRenderer::Impl {
     Unique<VkDescriptorPool> descriptorPool;
     VkDescriptorSet set = VK_NULL_HANDLE;
     std::uint32_t workItems = 0; // of the current frame (compute path)
+    // The compute path's depth and sum buffers are cleared (by the last complete frame's
+    // normalization pass); false at first and after a frame that failed part-way.
+    bool buffersCleared = false;
     std::array<Unique<VkPipeline>, 3> pipelines; // visibility, accumulation, normalization
     // Compute path.
     Buffer depthBits, accum, output;
@@ -169,7 +171,7 @@ struct SplatRenderer::Impl {
     Unique<VkPipeline> graphicsPipeline(const GraphicsPipelineDesc& desc);
     void ensureRangeCapacity(std::size_t nodes);
     void writeDescriptors(const SplatScene& scene);
-    void recordCompute(VkCommandBuffer cmd, int pass);
+    void recordCompute(VkCommandBuffer cmd, int pass, bool cleared);
     void recordGraphics(VkCommandBuffer cmd, int pass, const std::vector<std::array<std::uint32_t, 2>>& draws);
     RgbaImage render(const SplatScene& scene, const Camera& camera, FrameStats& stats);
 };
@@ -469,14 +471,13 @@ void SplatRenderer::Impl::writeDescriptors(const SplatScene& scene) {
     vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
 }
 
-void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass) {
+void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass, bool cleared) {
     constexpr VkPipelineStageFlags kCompute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-    if (pass == 0) {
-        // After the last frame's passes, clear depth to +infinity and the sums to zero.
+    if (pass == 0 && !cleared) {
         bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
-        vkCmdFillBuffer(cmd, depthBits.buffer.get(), 0, VK_WHOLE_SIZE, kDepthCleared);
+        vkCmdFillBuffer(cmd, depthBits.buffer.get(), 0, VK_WHOLE_SIZE, gpu::kDepthCleared);
         vkCmdFillBuffer(cmd, accum.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else {
@@ -571,13 +572,15 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     writeDescriptors(scene);
 
     const auto start = Clock::now();
+    const bool cleared = buffersCleared;
+    buffersCleared = false; // until the normalization pass has run to the end
     for (int pass = 0; pass < passCount(); ++pass) {
         context.submitAndWait([&](VkCommandBuffer cmd) {
             if (timestamps) {
                 vkCmdResetQueryPool(cmd, timestamps.get(), std::uint32_t(2 * pass), 2);
                 vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass));
             }
-            if (compute()) recordCompute(cmd, pass);
+            if (compute()) recordCompute(cmd, pass, cleared);
             else recordGraphics(cmd, pass, draws);
             if (timestamps)
                 vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass + 1));
@@ -599,6 +602,7 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
                           VK_ACCESS_HOST_READ_BIT);
         });
     }
+    buffersCleared = compute();
     RgbaImage image(settings.width, settings.height);
     std::memcpy(image.pixels.data(), readback.mapped, image.pixels.size());
     stats.wallMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();

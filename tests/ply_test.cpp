@@ -607,22 +607,71 @@ TEST(PlyData, BananaHasColour) {
     EXPECT_TRUE(anyColour);
 }
 
-TEST(PlyData, FandiskCreaseSkipsSecondNormal) {
+// Without a crease flag, a second normal that is zero or repeats the first marks an ordinary
+// point; with the flag, a crease point needs a second normal that is a direction.
+TEST_F(PlyTest, SecondNormalsWithAndWithoutFlag) {
+    const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                               "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                               "property float nx2\nproperty float ny2\nproperty float nz2\n";
+    const Result<PlyData> unflagged = readPly(writeFile("a.ply", header + "end_header\n0 0 0 0 0 1 0 0 0\n"
+                                                                          "1 0 0 0 0 1 0 0 1\n2 0 0 0 0 1 1 0 0\n"));
+    ASSERT_TRUE(unflagged.ok()) << unflagged.error().message;
+    EXPECT_FALSE(unflagged->points.isCrease(0));
+    EXPECT_FALSE(unflagged->points.isCrease(1));
+    EXPECT_TRUE(unflagged->points.isCrease(2));
+    EXPECT_EQ(unflagged->points.crease[2], glm::vec3(1, 0, 0));
+
+    const Result<PlyData> flagged = readPly(writeFile("b.ply", header + "property uchar crease\nend_header\n"
+                                                                        "0 0 0 0 0 1 0 1 0 0\n1 0 0 0 0 1 0 1 0 1\n"
+                                                                        "2 0 0 0 0 1 0 0 1 2\n"));
+    ASSERT_TRUE(flagged.ok()) << flagged.error().message;
+    EXPECT_FALSE(flagged->points.isCrease(0)); // flag 0: its n2 is ignored
+    EXPECT_TRUE(flagged->points.isCrease(1));
+    EXPECT_TRUE(flagged->points.isCrease(2)); // a corner: n2 = n is still its second normal
+
+    const Result<PlyData> bad = readPly(writeFile("c.ply", header + "property uchar crease\nend_header\n"
+                                                                    "0 0 0 0 0 1 0 0 0 1\n1 0 0 0 0 1 0 1 0 0\n"
+                                                                    "2 0 0 0 0 1 0 1 0 0\n"));
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().message.find("crease normal"), std::string::npos) << bad.error().message;
+}
+
+// The fandisk's crease file: the same points, crease and corner points (flag 1 and 2) with their
+// second normal, the others ordinary; the first normal is the file's, and a round trip through
+// pnsplat's writer keeps every bit and the flags.
+TEST_F(PlyTest, FandiskCreasePointsHaveTwoNormals) {
     PNSPLAT_REQUIRE_DATA("fandisk-1500-uniform-crease.ply");
     PNSPLAT_REQUIRE_DATA("fandisk-1500-uniform.ply");
     const Result<PlyData> crease = readPly(test::dataDir() / "fandisk-1500-uniform-crease.ply");
     ASSERT_TRUE(crease.ok()) << crease.error().message;
     const Result<PlyData> plain = readPly(test::dataDir() / "fandisk-1500-uniform.ply");
     ASSERT_TRUE(plain.ok()) << plain.error().message;
-    EXPECT_EQ(crease->points.size(), 1500u);
-    EXPECT_TRUE(sameBits(crease->points.position, plain->points.position));
-    // Crease points keep their first normal (one side of the crease), the others the plain one.
-    std::size_t same = 0;
+    const PointSet& points = crease->points;
+    EXPECT_EQ(points.size(), 1500u);
+    EXPECT_TRUE(sameBits(points.position, plain->points.position));
+    ASSERT_TRUE(points.hasCrease());
+    std::size_t creasePoints = 0, sameAsPlain = 0;
     for (std::size_t i = 0; i < 1500; ++i) {
-        EXPECT_NEAR(glm::length(crease->points.normal[i]), 1.0f, 1e-6f);
-        same += crease->points.normal[i] == plain->points.normal[i] ? 1 : 0;
+        EXPECT_NEAR(glm::length(points.normal[i]), 1.0f, 1e-6f);
+        if (points.isCrease(i)) {
+            ++creasePoints;
+            EXPECT_NEAR(glm::length(points.crease[i]), 1.0f, 1e-6f);
+            EXPECT_LT(glm::dot(points.normal[i], points.crease[i]), 0.99f) << i; // two different sides
+        }
+        sameAsPlain += points.normal[i] == plain->points.normal[i] ? 1 : 0;
     }
-    EXPECT_GE(same, 1500u - 173u - 6u);
+    EXPECT_EQ(creasePoints, 173u + 6u);
+    EXPECT_GE(sameAsPlain, 1500u - creasePoints);
+
+    for (const PlyFormat format : {PlyFormat::Ascii, PlyFormat::BinaryLittleEndian}) {
+        const auto path = file("crease.ply");
+        ASSERT_TRUE(writePly(path, points, format).ok());
+        const Result<PlyData> back = readPly(path);
+        ASSERT_TRUE(back.ok()) << back.error().message;
+        EXPECT_TRUE(sameBits(back->points.position, points.position));
+        EXPECT_TRUE(sameBits(back->points.normal, points.normal));
+        EXPECT_TRUE(sameBits(back->points.crease, points.crease));
+    }
 }
 
 } // namespace

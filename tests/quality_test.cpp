@@ -233,6 +233,14 @@ TEST(SphereEval, NormalsRotatedByTenDegreesGiveTenDegrees) {
     const QualityReport flipped =
         evaluateQuality(refined, parseReference("sphere:1").value(), nullptr, {.threads = 2, .analyticSamples = 20000});
     EXPECT_NEAR(flipped.normalErrorMeanDeg, 170.0, 1e-3);
+
+    // A crease point is measured by the closer of its two normals: with the exact normal as its
+    // second one, every point's error is 0.
+    const PointSet exact = sampleSphereRandom(5000, 1.0f, 99);
+    refined.crease = exact.normal;
+    const QualityReport creased =
+        evaluateQuality(refined, parseReference("sphere:1").value(), nullptr, {.threads = 2, .analyticSamples = 20000});
+    EXPECT_LT(creased.normalErrorMaxDeg, 1e-2);
 }
 
 TEST(SphereEval, RemovedPatchReportsHoles) {

@@ -80,7 +80,7 @@ bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
 
 bool samePointSets(const PointSet& a, const PointSet& b) {
     return sameBits(a.position, b.position) && sameBits(a.normal, b.normal) && sameBits(a.radius, b.radius) &&
-           sameBits(a.colour, b.colour);
+           sameBits(a.colour, b.colour) && sameBits(a.crease, b.crease);
 }
 
 double angleDeg(glm::vec3 a, glm::vec3 b) {
@@ -122,6 +122,7 @@ std::size_t inputMismatches(const Refiner& refiner, const PointSet& input) {
         const std::size_t i = order[k];
         bool same = sameBits(out.position[k], input.position[i]) && sameBits(out.normal[k], input.normal[i]);
         if (input.hasColour()) same = same && out.hasColour() && sameBits(out.colour[k], input.colour[i]);
+        if (input.hasCrease()) same = same && out.hasCrease() && sameBits(out.crease[k], input.crease[i]);
         bad += !same;
     }
     return bad;
@@ -673,7 +674,22 @@ TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
     nanRadius.radius[9] = std::numeric_limits<float>::quiet_NaN();
     EXPECT_FALSE(validateForRefinement(nanRadius).ok());
 
-    for (const auto* bad : {&noRadii, &nanPosition, &zeroNormal, &zeroRadius}) {
+    // Crease normals (section 6): zero or unit, never (nearly) opposite to the first normal, one per point.
+    PointSet crease = valid;
+    crease.crease.assign(valid.size(), glm::vec3(0.0f));
+    crease.crease[4] = glm::normalize(glm::cross(valid.normal[4], glm::vec3(0.3f, 0.4f, 0.5f)));
+    EXPECT_TRUE(validateForRefinement(crease).ok());
+    PointSet longCrease = crease;
+    longCrease.crease[4] *= 2.0f;
+    EXPECT_FALSE(validateForRefinement(longCrease).ok());
+    PointSet oppositeCrease = crease;
+    oppositeCrease.crease[4] = -valid.normal[4];
+    EXPECT_FALSE(validateForRefinement(oppositeCrease).ok());
+    PointSet shortCreaseArray = crease;
+    shortCreaseArray.crease.pop_back();
+    EXPECT_FALSE(validateForRefinement(shortCreaseArray).ok());
+
+    for (const auto* bad : {&noRadii, &nanPosition, &zeroNormal, &zeroRadius, &oppositeCrease}) {
         const auto r = validateForRefinement(*bad);
         ASSERT_FALSE(r.ok());
         EXPECT_FALSE(r.error().message.empty());
@@ -752,6 +768,118 @@ TEST(RefinerBoundaries, CapRimIsRefinedAlongItsCurve) {
     EXPECT_LT(rim[1].mean, 0.97 * rim[0].mean);
     EXPECT_LE(rim[1].worst, rim[0].worst);
     EXPECT_LT(offSphere, 0.002);
+}
+
+// Section 6, creases: a closed cylinder (radius 1, height 1.5) whose rims are crease points (side
+// and cap normals). Oracles: the exact surface, and the rim circles for the points inserted on the
+// crease segments. Without crease information (each rim point given the bisector of its two
+// normals, the only single normal that favours neither side) the refinement rounds the edge off.
+constexpr float kCylinderHalfHeight = 0.75f;
+
+double cappedCylinderDistance(glm::vec3 x) {
+    const double rho = glm::length(glm::dvec2(x.x, x.y)), z = std::abs(double(x.z)), h = kCylinderHalfHeight;
+    if (rho <= 1.0 && z <= h) return std::min(1.0 - rho, h - z);
+    return glm::length(glm::dvec2(std::max(rho - 1.0, 0.0), std::max(z - h, 0.0)));
+}
+
+double rimDistance(glm::vec3 x) {
+    const double rho = glm::length(glm::dvec2(x.x, x.y));
+    return glm::length(glm::dvec2(rho - 1.0, std::abs(double(x.z)) - double(kCylinderHalfHeight)));
+}
+
+TEST(RefinerCreases, CylinderRimsStaySharp) {
+    const PointSet input = withRadii(sampleCappedCylinder(48, 1.0f, 2.0f * kCylinderHalfHeight));
+    std::size_t rimPoints = 0;
+    for (std::size_t i = 0; i < input.size(); ++i) rimPoints += input.isCrease(i);
+    ASSERT_EQ(rimPoints, 96u);
+    PointSet blunt = input;
+    for (std::size_t i = 0; i < blunt.size(); ++i)
+        if (blunt.isCrease(i)) blunt.normal[i] = glm::normalize(blunt.normal[i] + blunt.crease[i]);
+    blunt.crease.clear();
+
+    struct Figures {
+        double maxDistance = 0, rimWorst = 0;
+        std::size_t creasePoints = 0;
+    };
+    const auto figures = [](const PointSet& points) {
+        Figures f;
+        for (std::size_t i = 0; i < points.size(); ++i) f.maxDistance = std::max(f.maxDistance, cappedCylinderDistance(points.position[i]));
+        // How far the true rims are from the refined points.
+        constexpr int kSamples = 720;
+        for (int k = 0; k < kSamples; ++k) {
+            const double angle = 2.0 * kPi * k / kSamples;
+            for (const float z : {-kCylinderHalfHeight, kCylinderHalfHeight}) {
+                const glm::dvec3 q(std::cos(angle), std::sin(angle), z);
+                double nearest = 1e9;
+                for (const glm::vec3& x : points.position) nearest = std::min(nearest, glm::length(glm::dvec3(x) - q));
+                f.rimWorst = std::max(f.rimWorst, nearest);
+            }
+        }
+        for (std::size_t i = 0; i < points.size(); ++i) f.creasePoints += points.isCrease(i);
+        return f;
+    };
+
+    Refiner sharp(input, options());
+    std::vector<LevelStats> levels;
+    for (int l = 0; l < 4; ++l) levels.push_back(sharp.refineLevel());
+    Refiner rounded(blunt, options());
+    refineLevels(rounded, 4);
+    const Figures s = figures(sharp.points()), r = figures(rounded.points());
+    double creaseOffRim = 0;
+    for (std::size_t i = 0; i < sharp.points().size(); ++i)
+        if (sharp.points().isCrease(i)) creaseOffRim = std::max(creaseOffRim, rimDistance(sharp.points().position[i]));
+    std::cout << "[cylinder creases] " << input.size() << " -> " << sharp.points().size() << " points; segments "
+              << levels[0].boundarySegments << " after step 1; crease points " << s.creasePoints
+              << ", farthest from its rim " << creaseOffRim << "; max distance to the surface with/without creases "
+              << s.maxDistance << " / " << r.maxDistance << ", worst rim gap " << s.rimWorst << " / " << r.rimWorst << "\n";
+    // Each rim of 48 points is a closed chain of 48 segments; every odd step puts two points on
+    // each and triples the segments; even steps leave them.
+    EXPECT_EQ(levels[0].boundarySegments, 3u * 96u);
+    EXPECT_EQ(levels[0].boundaryInserted, 2u * 96u);
+    EXPECT_EQ(levels[1].boundaryInserted, 0u);
+    EXPECT_EQ(levels[2].boundaryInserted, 2u * 3u * 96u);
+    EXPECT_EQ(s.creasePoints, 96u * 9u);
+    EXPECT_LT(creaseOffRim, 1e-3); // the crease curves follow the circles
+    EXPECT_LT(s.maxDistance, 0.5 * r.maxDistance);
+    // The rim chains hold 432 points each: no rim sample is farther than half their spacing.
+    EXPECT_LT(s.rimWorst, 0.51 * 2.0 * kPi / 432.0);
+    EXPECT_LT(s.rimWorst, r.rimWorst);
+    EXPECT_EQ(inputMismatches(sharp, input), 0u);
+}
+
+// The paper's figure 10 case: the fandisk (a CAD part with sharp edges) from 1,500 points, with two
+// normals on its 179 crease and corner points, against the same points with one averaged normal,
+// refined to the same number of levels and measured against the true mesh.
+TEST(RefinerCreases, FandiskIsCloserToItsMeshWithCreaseNormals) {
+    PNSPLAT_REQUIRE_DATA("fandisk-1500-uniform-crease.ply");
+    PNSPLAT_REQUIRE_DATA("fandisk-1500-uniform.ply");
+    PNSPLAT_REQUIRE_DATA("fandisk-mesh.ply");
+    auto creaseData = readPly(test::dataDir() / "fandisk-1500-uniform-crease.ply");
+    auto plainData = readPly(test::dataDir() / "fandisk-1500-uniform.ply");
+    auto ref = parseReference((test::dataDir() / "fandisk-mesh.ply").string());
+    ASSERT_TRUE(creaseData.ok() && plainData.ok() && ref.ok());
+    const PointSet creased = withRadii(std::move(creaseData).value().points);
+    const PointSet averaged = withRadii(std::move(plainData).value().points);
+    Refiner sharp(creased, options());
+    const unsigned levels = refineUntil(sharp, kTargetPoints);
+    Refiner blunt(averaged, options());
+    refineLevels(blunt, levels);
+    const QualityReport s = evaluateQuality(sharp.points(), *ref, &creased, evalOptions());
+    const QualityReport b = evaluateQuality(blunt.points(), *ref, &averaged, evalOptions());
+    std::cout << "[fandisk creases, " << levels << " levels] points " << s.points << " / " << b.points
+              << "; mean distance " << s.distanceMeanRel * 100.0 << " / " << b.distanceMeanRel * 100.0
+              << " % of diag, RMS " << s.distanceRmsRel * 100.0 << " / " << b.distanceRmsRel * 100.0 << " %, max "
+              << s.distanceMaxRel * 100.0 << " / " << b.distanceMaxRel * 100.0 << " %, normal mean "
+              << s.normalErrorMeanDeg << " / " << b.normalErrorMeanDeg << " deg, CV " << s.uniformityCv << " / "
+              << b.uniformityCv << ", holes " << s.holes << " / " << b.holes << " (two normals / averaged)\n";
+    EXPECT_TRUE(s.inputPreserved);
+    EXPECT_LT(s.distanceMeanRel, 0.7 * b.distanceMeanRel);
+    EXPECT_LT(s.distanceRmsRel, 0.9 * b.distanceRmsRel);
+    EXPECT_LT(s.normalErrorMeanDeg, b.normalErrorMeanDeg);
+}
+
+TEST(RefinerCreases, CylinderIdenticalFor1To8Threads) {
+    expectSameForThreadCounts(withRadii(sampleCappedCylinder(40, 1.0f, 1.5f)), 3, "capped cylinder");
 }
 
 } // namespace

@@ -108,9 +108,13 @@ struct Header {
 };
 
 // The vertex attributes the reader keeps, as slots of one row of values.
-enum Slot : int { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kRadius, kSlotCount };
-constexpr std::array<std::string_view, kSlotCount> kSlotNames = {"x",   "y",     "z",    "nx", "ny",
-                                                                  "nz", "red", "green", "blue", "radius"};
+// Crease points (SPEC 6), in the convention of ../shared/data's fandisk files: `nx2 ny2 nz2` the
+// second normal and an optional `crease` flag (0 an ordinary point, whose n2 repeats n; 1 a crease
+// point; 2 a corner, given as the crease of its two largest sectors). Without the flag a point is
+// ordinary when n2 is zero or equal to n.
+enum Slot : int { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kRadius, kNx2, kNy2, kNz2, kCreaseFlag, kSlotCount };
+constexpr std::array<std::string_view, kSlotCount> kSlotNames = {
+    "x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "radius", "nx2", "ny2", "nz2", "crease"};
 
 Error fail(std::string_view file, std::string_view problem) {
     return Error{fmt::format("{}: {}", file, problem)};
@@ -237,6 +241,7 @@ struct VertexLayout {
     bool hasNormal = false;
     bool hasColour = false;
     bool hasRadius = false;
+    bool hasCrease = false;
 };
 
 Result<VertexLayout> vertexLayout(const Element& vertex, const PlyReadOptions& options,
@@ -261,6 +266,8 @@ Result<VertexLayout> vertexLayout(const Element& vertex, const PlyReadOptions& o
     }
     layout.hasColour = has(kRed) && has(kGreen) && has(kBlue);
     layout.hasRadius = has(kRadius);
+    layout.hasCrease = layout.hasNormal && has(kNx2) && has(kNy2) && has(kNz2);
+    if (!layout.hasCrease) layout.property[kNx2] = layout.property[kNy2] = layout.property[kNz2] = layout.property[kCreaseFlag] = -1;
     if (!layout.hasNormal) layout.property[kNx] = layout.property[kNy] = layout.property[kNz] = -1;
     if (!layout.hasColour) layout.property[kRed] = layout.property[kGreen] = layout.property[kBlue] = -1;
     return layout;
@@ -269,6 +276,22 @@ Result<VertexLayout> vertexLayout(const Element& vertex, const PlyReadOptions& o
 std::uint8_t toColourByte(double value, ScalarType type) {
     if (isFloating(type)) value = std::round(value * 255.0);
     return static_cast<std::uint8_t>(std::clamp(value, 0.0, 255.0));
+}
+
+// Whether three values stay finite as floats.
+bool finiteFloats(double x, double y, double z) {
+    return std::isfinite(static_cast<float>(x)) && std::isfinite(static_cast<float>(y)) && std::isfinite(static_cast<float>(z));
+}
+
+// A normal as stored: values within kUnitTolerance of unit length are kept bit for bit, others
+// normalized; nullopt for a direction too short to normalize. The values are finite floats.
+std::optional<glm::vec3> unitDirection(double x, double y, double z) {
+    const glm::vec3 n(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+    const double nx = n.x, ny = n.y, nz = n.z;
+    const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
+    if (!(length >= kMinNormalLength)) return std::nullopt;
+    if (std::abs(length - 1.0) <= kUnitTolerance) return n;
+    return glm::vec3(static_cast<float>(nx / length), static_cast<float>(ny / length), static_cast<float>(nz / length));
 }
 
 // Stores row `i` (values by slot) into `points`; returns the problem, or nullptr when valid.
@@ -280,15 +303,23 @@ const char* storeVertex(PointSet& points, const VertexLayout& layout, std::size_
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) return "non-finite coordinate";
     points.position[i] = glm::vec3(x, y, z);
     if (layout.hasNormal) {
-        glm::vec3 n(static_cast<float>(v[kNx]), static_cast<float>(v[kNy]), static_cast<float>(v[kNz]));
-        if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) return "non-finite normal";
-        const double nx = n.x, ny = n.y, nz = n.z;
-        const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
-        if (!(length >= kMinNormalLength)) return "zero-length normal";
-        if (std::abs(length - 1.0) > kUnitTolerance)
-            n = glm::vec3(static_cast<float>(nx / length), static_cast<float>(ny / length),
-                          static_cast<float>(nz / length));
-        points.normal[i] = n;
+        if (!finiteFloats(v[kNx], v[kNy], v[kNz])) return "non-finite normal";
+        const auto n = unitDirection(v[kNx], v[kNy], v[kNz]);
+        if (!n) return "zero-length normal";
+        points.normal[i] = *n;
+    }
+    if (layout.hasCrease) {
+        if (!finiteFloats(v[kNx2], v[kNy2], v[kNz2])) return "non-finite crease normal";
+        const auto n = unitDirection(v[kNx2], v[kNy2], v[kNz2]);
+        bool ordinary = false;
+        if (layout.property[kCreaseFlag] >= 0) {
+            if (!std::isfinite(v[kCreaseFlag])) return "non-finite crease flag";
+            ordinary = v[kCreaseFlag] == 0.0;
+        } else {
+            ordinary = (v[kNx2] == 0.0 && v[kNy2] == 0.0 && v[kNz2] == 0.0) || (n && *n == points.normal[i]);
+        }
+        if (!ordinary && !n) return "crease normal of a crease point is not a direction";
+        points.crease[i] = ordinary ? glm::vec3(0.0f) : *n;
     }
     if (layout.hasRadius) {
         const auto r = static_cast<float>(v[kRadius]);
@@ -310,6 +341,7 @@ void sizePoints(PointSet& points, const VertexLayout& layout, std::size_t n) {
     if (layout.hasNormal) points.normal.resize(n);
     if (layout.hasRadius) points.radius.resize(n);
     if (layout.hasColour) points.colour.resize(n);
+    if (layout.hasCrease) points.crease.resize(n);
 }
 
 // Sizes the outputs for `count` rows of `element` and maps each property index to its vertex
@@ -728,6 +760,7 @@ std::string plyHeader(const PointSet& points, PlyFormat format) {
                                      format == PlyFormat::Ascii ? "ascii" : "binary_little_endian", points.size());
     for (const char* name : {"x", "y", "z", "nx", "ny", "nz"}) header += fmt::format("property float {}\n", name);
     if (points.hasRadius()) header += "property float radius\n";
+    if (points.hasCrease()) header += "property float nx2\nproperty float ny2\nproperty float nz2\nproperty uchar crease\n";
     if (points.hasColour()) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     header += "end_header\n";
     return header;
@@ -751,20 +784,25 @@ void appendFloatAscii(std::string& out, float value, char separator) {
 void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyFormat format) {
     const glm::vec3& p = points.position[i];
     const glm::vec3& n = points.normal[i];
-    const float values[7] = {p.x, p.y, p.z, n.x, n.y, n.z, points.hasRadius() ? points.radius[i] : 0.0f};
-    const int floats = points.hasRadius() ? 7 : 6;
+    float values[10] = {p.x, p.y, p.z, n.x, n.y, n.z};
+    int floats = 6;
+    if (points.hasRadius()) values[floats++] = points.radius[i];
+    const bool crease = points.isCrease(i);
+    if (points.hasCrease())
+        for (int k = 0; k < 3; ++k) values[floats++] = crease ? points.crease[i][k] : n[k]; // n2 = n: ordinary
+    // The bytes after the floats: the crease flag, then the colour.
+    std::uint8_t bytes[4];
+    int byteCount = 0;
+    if (points.hasCrease()) bytes[byteCount++] = crease ? 1 : 0;
+    if (points.hasColour())
+        for (int k = 0; k < 3; ++k) bytes[byteCount++] = points.colour[i][k];
     if (format == PlyFormat::BinaryLittleEndian) {
         for (int k = 0; k < floats; ++k) appendFloatBinary(out, values[k]);
-        if (points.hasColour())
-            for (int k = 0; k < 3; ++k) out += static_cast<char>(points.colour[i][k]);
+        out.append(reinterpret_cast<const char*>(bytes), static_cast<std::size_t>(byteCount));
         return;
     }
-    for (int k = 0; k < floats; ++k)
-        appendFloatAscii(out, values[k], (k + 1 < floats || points.hasColour()) ? ' ' : '\n');
-    if (points.hasColour()) {
-        const glm::u8vec3& c = points.colour[i];
-        fmt::format_to(std::back_inserter(out), "{} {} {}\n", c.x, c.y, c.z);
-    }
+    for (int k = 0; k < floats; ++k) appendFloatAscii(out, values[k], (k + 1 < floats || byteCount > 0) ? ' ' : '\n');
+    for (int k = 0; k < byteCount; ++k) fmt::format_to(std::back_inserter(out), "{}{}", bytes[k], k + 1 < byteCount ? ' ' : '\n');
 }
 
 // A temporary file that is removed unless committed.
@@ -811,6 +849,7 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
     assert(points.normal.size() == points.size());
     assert(!points.hasRadius() || points.radius.size() == points.size());
     assert(!points.hasColour() || points.colour.size() == points.size());
+    assert(!points.hasCrease() || points.crease.size() == points.size());
 
     fs::path tempPath = path;
     tempPath += fmt::format(".tmp-{}-{}", ::getpid(), tempCounter.fetch_add(1));

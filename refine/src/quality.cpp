@@ -458,15 +458,21 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     report.points = n;
     report.referenceTriangles = reference.triangles.size();
 
-    // 1. Distance to the true surface and normal error, per refined point.
+    // 1. Distance to the true surface and normal error, per refined point (a crease point's error
+    // is that of the closer of its two normals).
     std::vector<float> distance(n), angle(n);
+    const auto normalError = [&](std::size_t i, glm::vec3 truth) {
+        double a = angleDeg(refined.normal[i], truth);
+        if (refined.isCrease(i)) a = std::min(a, angleDeg(refined.crease[i], truth));
+        return static_cast<float>(a);
+    };
     if (reference.isAnalytic()) {
         const AnalyticSurface& s = *reference.surface;
         report.diagonal = s.boundingDiagonal();
         parallelFor(pool, n, [&](std::size_t begin, std::size_t end) {
             for (std::size_t i = begin; i < end; ++i) {
                 distance[i] = s.distance(refined.position[i]);
-                angle[i] = static_cast<float>(angleDeg(refined.normal[i], s.normalAt(refined.position[i])));
+                angle[i] = normalError(i, s.normalAt(refined.position[i]));
             }
         });
     } else if (reference.isMesh()) {
@@ -482,7 +488,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
                 if (!(length2(normal) > 1e-12f)) normal = glm::cross(vp[t.y] - vp[t.x], vp[t.z] - vp[t.x]);
                 if (!(length2(normal) > 0.0f)) normal = vn[t.x];
                 distance[i] = std::sqrt(hit.distanceSquared);
-                angle[i] = static_cast<float>(angleDeg(refined.normal[i], normal));
+                angle[i] = normalError(i, normal);
             }
         });
     } else {
@@ -495,7 +501,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
                 const std::uint32_t q = nearest(*tree, refined.position[i]).first;
                 const glm::vec3 nq = reference.points.normal[q];
                 distance[i] = std::abs(glm::dot(refined.position[i] - reference.points.position[q], nq));
-                angle[i] = static_cast<float>(angleDeg(refined.normal[i], nq));
+                angle[i] = normalError(i, nq);
             }
         });
     }

@@ -48,6 +48,7 @@ constexpr float kRetryReach = 1.5f;
 // c_β,max = max over β of (5/6 + 5/6 + cos(β/2) + 2/3 sin(β/2)) / 3 = (5/3 + √(13)/3) / 3 (eq. 14).
 constexpr float kCBetaMax = 0.956172f; // rounded down
 constexpr float kLargeQuantile = 0.99f;
+constexpr float kMinCreaseCos = -0.98480775f; // cos 170°
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
 // neighbour at the next level; without the margin it would drop out by rounding.
@@ -66,6 +67,7 @@ struct NewPoint {
     glm::vec3 normal;
     float radius;
     glm::u8vec3 colour;
+    glm::vec3 crease{0.0f}; // second normal of a point inserted on a crease segment (section 6)
 };
 
 // Where the children of a point of P(l) are, once it is refined.
@@ -104,6 +106,7 @@ struct Candidate {
 struct NearbyPoint {
     glm::vec3 position;
     std::uint32_t index;
+    glm::vec3 normal;
 };
 
 struct WorkerScratch {
@@ -171,6 +174,22 @@ inline PnTriangle fanTriangle(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan,
     return t;
 }
 
+// Crease points (section 6) carry two normals (`crease` is zero for an ordinary point). Seen from a
+// surface of normal `towards`, a crease point shows the normal of its own side of the crease: the
+// one closer to `towards`.
+inline glm::vec3 facing(glm::vec3 normal, glm::vec3 crease, glm::vec3 towards) {
+    if (crease == glm::vec3(0.0f)) return normal;
+    return glm::dot(crease, towards) > glm::dot(normal, towards) ? crease : normal;
+}
+
+// Choice: two crease points lie on the same crease when their normals pair up within 45° (the
+// paper defers to its dyadic predecessor, which compares normals too).
+constexpr float kCreaseMatch = 0.70710678f; // cos 45°
+inline bool sameCrease(glm::vec3 n1, glm::vec3 n2, glm::vec3 m1, glm::vec3 m2) {
+    return (glm::dot(n1, m1) > kCreaseMatch && glm::dot(n2, m2) > kCreaseMatch) ||
+           (glm::dot(n1, m2) > kCreaseMatch && glm::dot(n2, m1) > kCreaseMatch);
+}
+
 inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
     const glm::uvec3 sum = glm::uvec3(a) + glm::uvec3(b) + glm::uvec3(c);
     return glm::u8vec3((sum + glm::uvec3(1)) / 3u);
@@ -223,6 +242,7 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     sorted.normal.resize(count);
     sorted.radius.resize(count);
     if (input.hasColour()) sorted.colour.resize(count);
+    if (input.hasCrease()) sorted.crease.resize(count);
     for (std::uint32_t k = 0; k < count; ++k) {
         const std::uint32_t i = keyed[k].second;
         order[k] = i;
@@ -230,6 +250,7 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
         sorted.normal[k] = input.normal[i];
         sorted.radius[k] = input.radius[i];
         if (input.hasColour()) sorted.colour[k] = input.colour[i];
+        if (input.hasCrease()) sorted.crease[k] = input.crease[i];
     }
     return sorted;
 }
@@ -263,10 +284,11 @@ struct Refiner::State {
     std::vector<std::uint32_t> gridPoint;
     std::vector<WorkerScratch> scratch;
 
-    // Boundary segments (section 6), found at the first step and kept explicitly. A segment is
-    // split by the refinement of its first point, `a`, at every odd step.
+    // Boundary and crease segments (section 6), found at the first step and kept explicitly. A
+    // segment is split by the refinement of its first point, `a`, at every odd step.
     struct Segment {
         std::uint32_t a, b;
+        bool crease = false;
     };
     std::vector<Segment> segments;
     std::vector<std::uint32_t> segmentsOf;      // segment indices grouped by first point (this level)
@@ -279,14 +301,19 @@ struct Refiner::State {
 
     void refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s);
     LevelStats refineLevel(const ProgressFn& progress);
-    void findBoundarySegments();
-    bool splitsSegments() const { return options.boundaries && hierarchy.levels() % 2 == 1; }
+    void findSegments();
+    bool splitsSegments() const { return !segments.empty() && hierarchy.levels() % 2 == 1; }
 
 private:
     template <typename Points>
     void gatherNearby(const Points& group, std::optional<std::uint64_t> cell, WorkerScratch& s);
     void gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
+    glm::vec3 creaseOf(std::uint32_t i) const { return points.hasCrease() ? points.crease[i] : glm::vec3(0.0f); }
+    glm::vec3 planeNormal(std::uint32_t p) const;
+    bool triangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
+                         glm::vec3 (&normals)[3]) const;
+    std::array<std::uint32_t, 2> creaseNeighbours(std::uint32_t p, const NeighbourSet& fan) const;
     void makeCandidates(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s) const;
     float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
     NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const;
@@ -318,7 +345,7 @@ void Refiner::State::gatherNearby(const Points& group, std::optional<std::uint64
     s.nearby.clear();
     if (!cell) {
         hierarchy.queryBox(lo, hi, margin, s.stack, [&](std::uint32_t i, float d2) {
-            if (d2 <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i});
+            if (d2 <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
         });
     } else {
         const std::uint64_t cx = *cell >> 42, cy = (*cell >> 21) & kCellCoordinateMask;
@@ -334,7 +361,7 @@ void Refiner::State::gatherNearby(const Points& group, std::optional<std::uint64
                     // The distance to the box as the hierarchy measures it.
                     const std::uint32_t i = gridPoint[k];
                     const glm::vec3 d = points.position[i] - glm::clamp(points.position[i], lo, hi);
-                    if (glm::dot(d, d) <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i});
+                    if (glm::dot(d, d) <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
                 }
             }
         }
@@ -342,13 +369,17 @@ void Refiner::State::gatherNearby(const Points& group, std::optional<std::uint64
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
 }
 
-// Nε_p, N'_p and Y_p of p; `frame` is the tangent frame of n_p.
+// Nε_p, N'_p and Y_p of p; `frame` is the tangent frame of planeNormal(p). Crease points show the
+// normal of p's side (facing); a crease point p pairs each neighbour with the closer of its own
+// two normals for the validity cone.
 void Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s) {
     const glm::vec3 x = points.position[p];
-    const glm::vec3 n = points.normal[p];
+    const glm::vec3 n = frame.n;
+    const bool creases = points.hasCrease();
+    const bool creaseP = points.isCrease(p);
     const float r = levelRadius[p];
     const float reach2 = reach * reach;
-    const float innerRadius = kLambda1 * r;
+    const float r2 = r * r, inner2 = kLambda1 * kLambda1 * r2;
     s.fan.clear();
     s.ring.clear();
     s.outer.clear();
@@ -356,10 +387,21 @@ void Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& fr
         const glm::vec3 toCandidate = candidate.position - x;
         const std::uint32_t i = candidate.index;
         // Nε_p (eq. 7): points of P(l) closer than r that pass the validity cone (eq. 6).
-        if (!(glm::dot(toCandidate, toCandidate) < reach2) || i == p ||
-            !validNeighbours(x, n, candidate.position, points.normal[i]))
-            continue;
-        s.fan.push(i, candidate.position, points.normal[i]);
+        if (!(glm::dot(toCandidate, toCandidate) < reach2) || i == p) continue;
+        glm::vec3 ni = candidate.normal, np = n;
+        if (creases) {
+            ni = facing(candidate.normal, points.crease[i], n);
+            if (creaseP) {
+                const glm::vec3 n1 = points.normal[p], n2 = points.crease[p];
+                const glm::vec3 m1 = facing(candidate.normal, points.crease[i], n1);
+                const glm::vec3 m2 = facing(candidate.normal, points.crease[i], n2);
+                const bool first = glm::dot(n1, m1) >= glm::dot(n2, m2);
+                np = first ? n1 : n2;
+                ni = first ? m1 : m2;
+            }
+        }
+        if (!validNeighbours(x, np, candidate.position, ni)) continue;
+        s.fan.push(i, candidate.position, ni);
         // The points already inserted near p are the children of its neighbours (section 7). Only
         // points closer than 1.5·r_lim are read here, and none of them is refined concurrently.
         if (!refined[i]) continue;
@@ -367,22 +409,66 @@ void Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& fr
         const NewPoint* children = cellPoints[range.cell].data() + range.begin;
         for (std::uint32_t k = 0; k < range.count; ++k) {
             const glm::vec3 d = children[k].position - x;
-            const float distance = glm::length(d);
-            if (!(distance < r)) continue;
-            RingMember m{range.cell, range.begin + k, children[k].position, children[k].normal, 0.0f};
-            if (distance < innerRadius) { // N'_p (section 5)
+            const float distance2 = glm::dot(d, d);
+            if (!(distance2 < r2)) continue;
+            RingMember m{range.cell, range.begin + k, children[k].position,
+                         facing(children[k].normal, children[k].crease, n), 0.0f};
+            if (distance2 < inner2) { // N'_p (section 5)
                 m.angle = frame.angleOf(d);
                 s.ring.push_back(m);
-            } else if (distance > innerRadius) { // Y_p (eq. 10); its angle is needed only if it joins N'_p
+            } else if (distance2 > inner2) { // Y_p (eq. 10); its angle is needed only if it joins N'_p
                 s.outer.push_back(m);
             }
         }
     }
 }
 
+// The plane a point is refined in: its normal, or for a crease point the bisector of its two.
+glm::vec3 Refiner::State::planeNormal(std::uint32_t p) const {
+    return points.isCrease(p) ? glm::normalize(points.normal[p] + points.crease[p]) : points.normal[p];
+}
+
+// Creases (section 6): the corner normals of the fan triangle (p, fan[a], fan[b]), or false for
+// a triangle across a crease, which would cut the edge off (the crease itself is filled by its
+// segments). Choices: for a crease point p, a neighbour is on the side of the normal of p that
+// it faces, or on the crease when it is a crease point of the same crease; a triangle takes the
+// side of its corners, must not have two, and needs a corner off the crease. For an ordinary p,
+// a triangle with a crease corner must have its other ordinary corner on p's side of it.
+bool Refiner::State::triangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
+                                     glm::vec3 (&normals)[3]) const {
+    normals[0] = points.normal[p];
+    normals[1] = fan.normal[a];
+    normals[2] = fan.normal[b];
+    if (!points.hasCrease()) return true;
+    const std::uint32_t corner[2] = {fan.index[a], fan.index[b]};
+    if (points.isCrease(p)) {
+        const glm::vec3 n1 = points.normal[p], n2 = points.crease[p];
+        int sides[2];
+        for (int k = 0; k < 2; ++k) {
+            const std::uint32_t i = corner[k];
+            if (points.isCrease(i) && sameCrease(n1, n2, points.normal[i], points.crease[i])) sides[k] = -1;
+            else sides[k] = glm::dot(n1, normals[1 + k]) >= glm::dot(n2, normals[1 + k]) ? 0 : 1;
+        }
+        if (sides[0] < 0 && sides[1] < 0) return false;
+        if (sides[0] >= 0 && sides[1] >= 0 && sides[0] != sides[1]) return false;
+        normals[0] = std::max(sides[0], sides[1]) == 0 ? n1 : n2;
+        for (int k = 0; k < 2; ++k) normals[1 + k] = facing(points.normal[corner[k]], points.crease[corner[k]], normals[0]);
+        return true;
+    }
+    for (int k = 0; k < 2; ++k) {
+        const std::uint32_t c = corner[k], other = corner[1 - k];
+        if (!points.isCrease(c) || points.isCrease(other)) continue;
+        const glm::vec3 mine = normals[1 + k];
+        const glm::vec3 theirs = mine == points.normal[c] ? points.crease[c] : points.normal[c];
+        if (glm::dot(normals[2 - k], theirs) > glm::dot(normals[2 - k], mine)) return false;
+    }
+    return true;
+}
+
 void Refiner::State::makeCandidates(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s) const {
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = points.normal[p];
+    const bool creaseP = points.isCrease(p);
     const NeighbourSet& fan = s.fan;
     const std::size_t m = fan.size();
     s.candidates.clear();
@@ -392,13 +478,17 @@ void Refiner::State::makeCandidates(std::uint32_t p, const TangentFrame& frame, 
         // Boundary gap (section 6): no triangle across an opening wider than θb.
         if (sweep(fan.angle[a], fan.angle[b]) > options.thetaB) continue;
         Candidate c;
+        glm::vec3 normals[3];
+        if (!triangleNormals(p, fan, a, b, normals)) continue;
         const glm::vec3 cog = centreOfGravity(x, fan.position[a], fan.position[b]);
         // L_p (eq. 12): cog + φ on the PN triangle (p, p_a, p_b); the plain centroid for the
-        // baseline and for variant 4, which smooths only what it inserts.
+        // baseline and for variant 4, which smooths only what it inserts. The fan's edge control
+        // points were made with n_p: a crease point makes its triangles with its side's normal.
         if (!options.smoothing || options.centroidCandidates) {
             c.position = cog;
         } else {
-            const PnTriangle t = fanTriangle(x, n, fan, a, b);
+            const PnTriangle t = creaseP ? makePnTriangle(x, normals[0], fan.position[a], normals[1], fan.position[b], normals[2])
+                                         : fanTriangle(x, n, fan, a, b);
             c.position = cog + smoothingDisplacement(t);
             c.b021 = t.b021;
             c.b012 = t.b012;
@@ -423,14 +513,22 @@ bool Refiner::State::fanIsOpen(const NeighbourSet& fan) const {
 // (section 3), its colour the mean of the corners' (section 8, figure 12).
 NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const {
     const glm::vec3 x = points.position[p];
-    const glm::vec3 n = points.normal[p];
-    const glm::vec3 na = fan.normal[c.a], nb = fan.normal[c.b];
+    glm::vec3 n = points.normal[p], na = fan.normal[c.a], nb = fan.normal[c.b];
+    const bool creaseP = points.isCrease(p);
+    if (creaseP) {
+        glm::vec3 normals[3];
+        triangleNormals(p, fan, c.a, c.b, normals);
+        n = normals[0], na = normals[1], nb = normals[2];
+    }
     NewPoint np{c.position, glm::vec3(0.0f), 0.0f, glm::u8vec3(0)};
     if (!options.smoothing) {
         np.normal = glm::normalize(n + na + nb);
     } else {
         PnTriangle t;
-        if (options.centroidCandidates) {
+        if (creaseP) {
+            t = makePnTriangle(x, n, fan.position[c.a], na, fan.position[c.b], nb);
+            if (options.centroidCandidates) np.position = c.position + smoothingDisplacement(t);
+        } else if (options.centroidCandidates) {
             t = fanTriangle(x, n, fan, c.a, c.b);
             np.position = c.position + smoothingDisplacement(t);
         } else {
@@ -466,21 +564,37 @@ void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMem
     ring[previousIndex(k, ring.size())].gapStale = true;
 }
 
-// Boundaries (section 6): a segment (a, b) receives two new points, at the thirds of the cubic
-// Bézier curve a, b_ab, b_ba, b whose inner control points are the edge control points of SPEC 2
-// (tangents in the tangent planes), at every odd step; never one at the middle. They are
-// children of a; the one next to a joins N'_a. Normal and colour: interpolated along the curve
-// (choice: the paper gives none for boundary points).
+// Segments (section 6): a segment (a, b) receives two new points, at the thirds of the cubic
+// Bézier curve a, c1, c2, b, at every odd step; never one at the middle. They are children of a;
+// the one next to a joins N'_a. Boundary: c1, c2 are the edge control points of SPEC 2 (tangents
+// in the tangent planes); normal and colour interpolated along the curve (choice: the paper gives
+// none for boundary points). Crease: the curve leaves each end along its crease direction n1 × n2,
+// with the same |ab|/3 legs, and the new points are crease points whose two normals interpolate
+// the ends' paired normals.
 void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s) {
     auto& cellStore = cellPoints[cell];
     const glm::vec3 x = points.position[p];
-    const glm::vec3 n = points.normal[p];
+    const glm::vec3 n = points.normal[p], nc = creaseOf(p);
+    const TangentFrame frame(planeNormal(p));
     for (std::uint32_t k = segmentsOfBegin[p]; k < segmentsOfBegin[p + 1]; ++k) {
         const std::uint32_t segment = segmentsOf[k];
         const std::uint32_t b = segments[segment].b;
-        const glm::vec3 pb = points.position[b], nb = points.normal[b];
-        const EdgeControls e = edgeControlPoints(x, n, pb, nb);
-        const glm::vec3 c1 = e.ab, c2 = e.ba;
+        const glm::vec3 pb = points.position[b];
+        glm::vec3 nb = points.normal[b], nbc = creaseOf(b);
+        glm::vec3 c1, c2;
+        if (segments[segment].crease) {
+            const float leg = glm::length(pb - x) / 3.0f;
+            glm::vec3 ta = glm::normalize(glm::cross(n, nc)), tb = glm::normalize(glm::cross(nb, nbc));
+            if (glm::dot(ta, pb - x) < 0.0f) ta = -ta;
+            if (glm::dot(tb, pb - x) < 0.0f) tb = -tb;
+            c1 = x + leg * ta;
+            c2 = pb - leg * tb;
+            if (glm::dot(n, nb) + glm::dot(nc, nbc) < glm::dot(n, nbc) + glm::dot(nc, nb)) std::swap(nb, nbc);
+        } else {
+            const EdgeControls e = edgeControlPoints(x, n, pb, nb);
+            c1 = e.ab;
+            c2 = e.ba;
+        }
         segmentChild[segment] = static_cast<std::uint32_t>(cellStore.size()) - firstChild;
         glm::vec3 curve[2];
         for (int third = 1; third <= 2; ++third) {
@@ -493,24 +607,47 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             const glm::vec3 before = third == 1 ? x : curve[0], after = third == 1 ? curve[1] : pb;
             NewPoint np{q, glm::normalize((1.0f - t) * n + t * nb),
                         kRadiusMargin * std::max(glm::length(q - before), glm::length(q - after)), glm::u8vec3(0)};
+            if (segments[segment].crease) np.crease = glm::normalize((1.0f - t) * nc + t * nbc);
             if (points.hasColour())
                 np.colour = glm::u8vec3(glm::round(glm::mix(glm::vec3(points.colour[p]), glm::vec3(points.colour[b]), t)));
             const auto local = static_cast<std::uint32_t>(cellStore.size());
             cellStore.push_back(np);
             ++s.inserted;
             ++s.boundaryInserted;
-            if (third == 1) insertIntoRing(s.ring, RingMember{cell, local, q, np.normal, TangentFrame(n).angleOf(q - x)});
+            if (third == 1)
+                insertIntoRing(s.ring, RingMember{cell, local, q, facing(np.normal, np.crease, frame.n), frame.angleOf(q - x)});
         }
     }
 }
 
-// Potential boundary points (section 6): points of P0 whose fan leaves an opening wider than θb
-// (after the wider second search). The two fan neighbours at the ends of the opening, when they
-// are potential boundary points too, make boundary segments with the point.
-void Refiner::State::findBoundarySegments() {
+// Crease neighbours of a crease point p (section 6): in its fan, the nearest crease point of the
+// same crease on each side along the crease direction n1 × n2 (choice: within 45° of it, so that a
+// point of a parallel crease is not taken). UINT32_MAX where there is none.
+std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, const NeighbourSet& fan) const {
+    const glm::vec3 x = points.position[p], n1 = points.normal[p], n2 = points.crease[p];
+    const glm::vec3 direction = glm::normalize(glm::cross(n1, n2));
+    std::array<std::uint32_t, 2> ends{UINT32_MAX, UINT32_MAX};
+    std::array<float, 2> nearest{std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
+    for (std::size_t k = 0; k < fan.size(); ++k) {
+        const std::uint32_t i = fan.index[k];
+        if (!points.isCrease(i) || !sameCrease(n1, n2, points.normal[i], points.crease[i])) continue;
+        const glm::vec3 d = fan.position[k] - x;
+        const float along = glm::dot(d, direction), length = glm::length(d);
+        if (!(std::abs(along) > kCreaseMatch * length)) continue;
+        const int end = along > 0.0f ? 0 : 1;
+        if (length < nearest[end] || (length == nearest[end] && i < ends[end])) nearest[end] = length, ends[end] = i;
+    }
+    return ends;
+}
+
+// The segments of section 6, from the fans of P0. Boundary: potential boundary points are those
+// whose fan leaves an opening wider than θb (after the wider second search); the two fan
+// neighbours at the ends of the opening, when they are potential boundary points too, make
+// boundary segments with the point. Crease: each crease point with its crease neighbours.
+void Refiner::State::findSegments() {
     const auto count = static_cast<std::uint32_t>(points.size());
     std::vector<std::uint8_t> potential(count, 0);
-    std::vector<std::array<std::uint32_t, 2>> ends(count);
+    std::vector<std::array<std::uint32_t, 2>> ends(count), creaseEnds(count, {UINT32_MAX, UINT32_MAX});
     FuzzyParams fuzzy;
     fuzzy.thetaF = options.thetaF;
     fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
@@ -519,16 +656,21 @@ void Refiner::State::findBoundarySegments() {
     pool.parallelFor(count, [&](std::size_t item, unsigned worker) {
         const auto p = static_cast<std::uint32_t>(item);
         WorkerScratch& s = scratch[worker];
-        const glm::vec3 x = points.position[p], n = points.normal[p];
+        const glm::vec3 x = points.position[p], n = planeNormal(p);
         const TangentFrame frame(n);
         gatherNearby(std::array<std::uint32_t, 1>{p}, std::nullopt, s);
+        bool open = true;
         for (const float reach : {levelRadius[p], kRetryReach * levelRadius[p]}) {
             gatherNeighbourhood(p, frame, reach, s);
             filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
-            if (!fanIsOpen(s.fan)) return;
+            if (!fanIsOpen(s.fan)) {
+                open = false;
+                break;
+            }
         }
+        if (points.isCrease(p)) creaseEnds[p] = creaseNeighbours(p, s.fan);
         const std::size_t m = s.fan.size();
-        if (m < 2) return; // isolated: no direction to follow
+        if (!options.boundaries || !open || m < 2) return; // closed, or isolated: no direction to follow
         std::size_t widest = 0;
         for (std::size_t a = 1; a < m; ++a)
             if (sweep(s.fan.angle[a], s.fan.angle[nextIndex(a, m)]) > sweep(s.fan.angle[widest], s.fan.angle[nextIndex(widest, m)]))
@@ -538,12 +680,16 @@ void Refiner::State::findBoundarySegments() {
     });
     segments.clear();
     for (std::uint32_t p = 0; p < count; ++p) {
-        if (!potential[p]) continue;
-        for (const std::uint32_t q : ends[p])
-            if (potential[q]) segments.push_back(Segment{std::min(p, q), std::max(p, q)});
+        if (potential[p])
+            for (const std::uint32_t q : ends[p])
+                if (potential[q]) segments.push_back(Segment{std::min(p, q), std::max(p, q), false});
+        for (const std::uint32_t q : creaseEnds[p])
+            if (q != UINT32_MAX) segments.push_back(Segment{std::min(p, q), std::max(p, q), true});
     }
-    std::sort(segments.begin(), segments.end(),
-              [](const Segment& u, const Segment& v) { return u.a != v.a ? u.a < v.a : u.b < v.b; });
+    // A pair found both ways, or as a boundary and a crease, is one segment (a crease if either).
+    std::sort(segments.begin(), segments.end(), [](const Segment& u, const Segment& v) {
+        return u.a != v.a ? u.a < v.a : u.b != v.b ? u.b < v.b : u.crease > v.crease;
+    });
     segments.erase(std::unique(segments.begin(), segments.end(),
                                [](const Segment& u, const Segment& v) { return u.a == v.a && u.b == v.b; }),
                    segments.end());
@@ -555,7 +701,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     if (profile) t0 = Clock::now();
 
     const glm::vec3 x = points.position[p];
-    const glm::vec3 n = points.normal[p];
+    const glm::vec3 n = planeNormal(p);
     FuzzyParams fuzzy;
     fuzzy.thetaF = options.thetaF;
     fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
@@ -726,7 +872,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
     childRange.assign(count, ChildRange{});
-    if (options.boundaries && stats.level == 1) findBoundarySegments();
+    if (stats.level == 1 && (options.boundaries || points.hasCrease())) findSegments();
     if (splitsSegments()) {
         segmentsOfBegin.assign(count + 1, 0);
         for (const Segment& segment : segments) ++segmentsOfBegin[segment.a + 1];
@@ -826,6 +972,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             points.normal[o] = np.normal;
             points.radius[o] = np.radius;
             if (points.hasColour()) points.colour[o] = np.colour;
+            if (points.hasCrease()) points.crease[o] = np.crease;
         }
     }
     if (splitsSegments()) {
@@ -835,7 +982,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         for (std::uint32_t k = 0; k < segments.size(); ++k) {
             const Segment segment = segments[k];
             const std::uint32_t q1 = childBegin[segment.a] + segmentChild[k], q2 = q1 + 1;
-            split.insert(split.end(), {Segment{segment.a, q1}, Segment{q1, q2}, Segment{q2, segment.b}});
+            split.insert(split.end(), {Segment{segment.a, q1, segment.crease}, Segment{q1, q2, segment.crease},
+                                       Segment{q2, segment.b, segment.crease}});
         }
         segments = std::move(split);
     }
@@ -884,6 +1032,7 @@ Result<void> validateForRefinement(const PointSet& points) {
     if (points.empty()) return Error{"the point set is empty"};
     if (!points.hasRadius()) return Error{"the point set has no radii"};
     if (points.size() >= (1u << 31)) return Error{"too many points (at most 2^31)"};
+    if (points.hasCrease() && points.crease.size() != points.size()) return Error{"crease normals do not match the points"};
     for (std::size_t i = 0; i < points.size(); ++i) {
         const glm::vec3 x = points.position[i], n = points.normal[i];
         if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
@@ -893,6 +1042,14 @@ Result<void> validateForRefinement(const PointSet& points) {
             return Error{"point " + std::to_string(i) + " has a normal that is not of unit length"};
         if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
             return Error{"point " + std::to_string(i) + " has a radius that is not positive and finite"};
+        if (points.isCrease(i)) {
+            const glm::vec3 c = points.crease[i];
+            if (!(std::abs(glm::length(c) - 1.0f) < 1e-3f))
+                return Error{"point " + std::to_string(i) + " has a crease normal that is neither zero nor of unit length"};
+            // Choice: a crease sharper than 170° has no usable bisector plane to refine in.
+            if (!(glm::dot(n, c) > kMinCreaseCos))
+                return Error{"point " + std::to_string(i) + " has crease normals more than 170 degrees apart"};
+        }
     }
     return {};
 }

@@ -222,6 +222,47 @@ PointSet sampleTorusUniform(std::size_t n, float R, float r) {
     return set;
 }
 
+PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H) {
+    assert(rimPoints >= 3 && R > 0.0f && H > 0.0f);
+    const double dR = R, dH = H, half = 0.5 * dH;
+    const double spacing = kTwoPi * dR / static_cast<double>(rimPoints);
+    PointSet set;
+    set.crease.reserve(rimPoints); // marks the set as one with crease normals
+    const auto append = [&](glm::dvec3 position, glm::dvec3 normal, glm::dvec3 crease) {
+        set.position.push_back(glm::vec3(position));
+        set.normal.push_back(glm::vec3(normal));
+        set.crease.push_back(glm::vec3(crease));
+    };
+    // Side rings strictly between the rims; every ring turned by half a step against the last.
+    const auto sideRings = static_cast<std::size_t>(std::max(1.0, std::round(dH / spacing)));
+    for (std::size_t j = 0; j <= sideRings; ++j) {
+        const double z = -half + dH * static_cast<double>(j) / static_cast<double>(sideRings);
+        for (std::size_t i = 0; i < rimPoints; ++i) {
+            const double u = kTwoPi * (static_cast<double>(i) + 0.5 * static_cast<double>(j % 2)) / static_cast<double>(rimPoints);
+            const glm::dvec3 radial(std::cos(u), std::sin(u), 0.0);
+            const bool rim = j == 0 || j == sideRings;
+            append(glm::dvec3(dR * radial.x, dR * radial.y, z), radial,
+                   rim ? glm::dvec3(0.0, 0.0, z > 0.0 ? 1.0 : -1.0) : glm::dvec3(0.0));
+        }
+    }
+    // Caps: concentric rings inside the rim, a point at the centre.
+    const auto capRings = static_cast<std::size_t>(std::max(1.0, std::round(dR / spacing)));
+    for (const double z : {-half, half}) {
+        const glm::dvec3 up(0.0, 0.0, z > 0.0 ? 1.0 : -1.0);
+        append(glm::dvec3(0.0, 0.0, z), up, glm::dvec3(0.0));
+        for (std::size_t k = 1; k < capRings; ++k) {
+            const double rho = dR * static_cast<double>(k) / static_cast<double>(capRings);
+            const auto count = static_cast<std::size_t>(std::max(3.0, std::round(kTwoPi * rho / spacing)));
+            const double offset = std::fmod(static_cast<double>(k) * kInverseGolden, 1.0);
+            for (std::size_t i = 0; i < count; ++i) {
+                const double u = kTwoPi * (static_cast<double>(i) + offset) / static_cast<double>(count);
+                append(glm::dvec3(rho * std::cos(u), rho * std::sin(u), z), up, glm::dvec3(0.0));
+            }
+        }
+    }
+    return set;
+}
+
 PointSet makeDefaultModel() {
     constexpr std::size_t kPoints = 2000;
     constexpr std::uint64_t kSeed = 0x5EED2005u;

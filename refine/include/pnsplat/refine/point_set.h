@@ -3,7 +3,9 @@
 //
 // Units are the model's own; normals are unit length; a radius is the splat radius, which the
 // refinement requires to reach at least the farthest neighbour of the point's natural first ring
-// (SPEC 1). Colours are 8-bit sRGB as stored in PLY files.
+// (SPEC 1). Colours are 8-bit sRGB as stored in PLY files. A crease point (SPEC 6) is one point
+// with two normals: `normal` and `crease`, the normal of the surface on the other side of the
+// crease; ordinary points of a set with creases have a zero `crease`.
 #pragma once
 
 #include <cstddef>
@@ -20,11 +22,14 @@ struct PointSet {
     std::vector<glm::vec3> normal;
     std::vector<float> radius;       // empty when the source gave none (see estimateRadii)
     std::vector<glm::u8vec3> colour; // empty when the model has no colour
+    std::vector<glm::vec3> crease;   // second normals; empty when no point is a crease point
 
     std::size_t size() const { return position.size(); }
     bool empty() const { return position.empty(); }
     bool hasRadius() const { return !radius.empty(); }
     bool hasColour() const { return !colour.empty(); }
+    bool hasCrease() const { return !crease.empty(); }
+    bool isCrease(std::size_t i) const { return hasCrease() && crease[i] != glm::vec3(0.0f); }
 
     // Appends point i of `other`; both sets must carry the same optional attributes.
     void appendFrom(const PointSet& other, std::size_t i);

@@ -76,8 +76,8 @@ struct LevelStats {
     std::size_t discarded = 0;       // candidates that fell in the discard space
     std::size_t incomplete = 0;      // points whose new one-ring N'_p stayed incomplete
     std::size_t retried = 0;         // points whose fan was open and was searched again wider
-    std::size_t boundaryInserted = 0; // points inserted on boundary segments (section 6)
-    std::size_t boundarySegments = 0; // boundary segments after this level
+    std::size_t boundaryInserted = 0; // points inserted on boundary and crease segments (section 6)
+    std::size_t boundarySegments = 0; // boundary and crease segments after this level
     double seconds = 0;              // wall clock
     PhaseTimes phases;               // filled when RefineOptions::profile
     std::size_t sequentialPoints = 0; // points too large for the parallel colouring

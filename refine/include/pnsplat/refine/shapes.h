@@ -1,5 +1,5 @@
 // Procedural models for tests, demos and `pnsplat eval`: sphere and torus samplings with exact
-// normals, the embedded default model of the README's first command, and exact analytic
+// normals, a capped cylinder with crease points, the embedded default model of the README's first command, and exact analytic
 // descriptions of the sphere and torus (closest point, distance, normal) for error measurements.
 //
 // Not from the paper (which uses scanned models); the sampling patterns are the usual ones:
@@ -43,6 +43,13 @@ PointSet sampleTorusRandom(std::size_t n, float R, float r, std::uint64_t seed);
 // area), consecutive rings rotated by the golden angle. Exact outward normals.
 // Precondition: R > r > 0.
 PointSet sampleTorusUniform(std::size_t n, float R, float r);
+
+// A closed cylinder with sharp rims (SPEC 6): axis z, radius R, z in [-H/2, H/2], flat caps.
+// rimPoints points on each rim circle, which are crease points (normal: the radial side normal,
+// crease: the cap's ±z); the side and the caps sampled in rings of about the same spacing
+// 2πR / rimPoints (caps with a centre point); exact normals. Precondition: rimPoints >= 3,
+// R > 0, H > 0.
+PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H);
 
 // The embedded default model (the README's first command): a closed "bumpy sphere", the star-
 // shaped surface x(d) = rho(d) d over unit directions d, rho(d) = 1 + 0.25 f(d), with f a sum of

@@ -265,13 +265,18 @@ protected:
         // The comparison is tight enough that a broken pass fails it.
         RenderSettings broken = settings();
         broken.normalize = false;
-        EXPECT_GT(difference(render(points, broken, camera(points)), *golden).rmse, 2.5 * kGoldenRmse) << "no normalization";
+        const double noNormalization = difference(render(points, broken, camera(points)), *golden).rmse;
         broken = settings();
         broken.depthOffset = 0.0f;
-        EXPECT_GT(difference(render(points, broken, camera(points)), *golden).rmse, 2.5 * kGoldenRmse) << "no depth offset";
+        const double noDepthOffset = difference(render(points, broken, camera(points)), *golden).rmse;
         PointSet flipped = points;
         for (auto& n : flipped.normal) n = -n;
-        EXPECT_GT(difference(render(flipped, settings(), camera(points)), *golden).rmse, 2.5 * kGoldenRmse) << "flipped normals";
+        const double flippedNormals = difference(render(flipped, settings(), camera(points)), *golden).rmse;
+        std::cout << "[golden " << name << "] RMSE " << d.rmse << " (tolerance " << kGoldenRmse << "); broken passes: no normalization "
+                  << noNormalization << ", no depth offset " << noDepthOffset << ", flipped normals " << flippedNormals << "\n";
+        EXPECT_GT(noNormalization, 2.5 * kGoldenRmse) << "no normalization";
+        EXPECT_GT(noDepthOffset, 2.5 * kGoldenRmse) << "no depth offset";
+        EXPECT_GT(flippedNormals, 2.5 * kGoldenRmse) << "flipped normals";
     }
 };
 

@@ -217,6 +217,25 @@ TEST(CliRefine, TargetPointsStopsAtTheFirstLevelReachingIt) {
     EXPECT_LT(data->points.size(), 80000u);
 }
 
+TEST(CliRefine, EvenOutAddsLevelsAfterTheUniformOnes) {
+    const TempDir dir;
+    const fs::path plain = dir / "plain.ply", even = dir / "even.ply";
+    const RunResult r1 = run("refine -l 2 -o " + quote(plain));
+    const RunResult r2 = run("refine -l 2 --even-out 2 -o " + quote(even));
+    ASSERT_TRUE(r1.exited && r1.exitCode == 0) << r1.err;
+    ASSERT_TRUE(r2.exited && r2.exitCode == 0) << r2.err;
+    std::cout << "[refine -l 2 --even-out 2] " << r2.out;
+    const auto a = readPly(plain), b = readPly(even);
+    ASSERT_TRUE(a.ok() && b.ok());
+    // The evened-out file starts with the plain one's points and adds a few (the default model's
+    // jittered sampling leaves a few sparse patches).
+    ASSERT_GT(b->points.size(), a->points.size());
+    EXPECT_LT(b->points.size(), 2 * a->points.size());
+    EXPECT_TRUE(std::equal(a->points.position.begin(), a->points.position.end(), b->points.position.begin()));
+    EXPECT_EQ(r1.out.find("evening out"), std::string::npos) << r1.out;
+    EXPECT_NE(r2.out.find("evening out"), std::string::npos) << r2.out;
+}
+
 TEST(CliRefine, ThreadCountDoesNotChangeTheFile) {
     const TempDir dir;
     const fs::path one = dir / "one.ply", two = dir / "two.ply";

@@ -32,6 +32,7 @@ struct RefineArgs {
     bool estimateRadii = false;
     double thetaFDegrees = 30.0;
     double thetaBDegrees = 165.0;
+    float evenOut = 0.0f;
 };
 
 constexpr unsigned kDefaultLevels = 4;
@@ -60,7 +61,8 @@ void runRefine(const RefineArgs& args) {
     const auto start = Clock::now();
     const std::size_t inputCount = points.size();
     const unsigned levels = args.levels != 0 ? args.levels : (args.targetPoints != 0 ? 64u : kDefaultLevels);
-    const RefineRun run = refineWithProgress(std::move(points), options, levels, args.targetPoints, args.estimateRadii, inputName);
+    const RefineRun run = refineWithProgress(std::move(points), options, levels, args.targetPoints, args.evenOut, args.estimateRadii,
+                                             inputName);
     const double refineSeconds = run.seconds;
     const unsigned done = run.levels;
     const std::size_t outputCount = run.points.size();
@@ -71,8 +73,9 @@ void runRefine(const RefineArgs& args) {
     unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - inputCount) / refineSeconds : 0.0;
-    fmt::print("{}: {} points in, {} out, {} level(s), {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
-               inputName, inputCount, outputCount, done, refineSeconds, rate, total, output);
+    const std::string evened = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
+    fmt::print("{}: {} points in, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
+               inputName, inputCount, outputCount, done, evened, refineSeconds, rate, total, output);
 }
 
 } // namespace
@@ -101,6 +104,13 @@ void addRefineCommand(CLI::App& app) {
     cmd->add_option("--theta-f", args->thetaFDegrees, "fuzzy-plane tolerance in degrees")->check(CLI::Range(1.0, 89.0))->capture_default_str();
     cmd->add_option("--theta-b", args->thetaBDegrees, "boundary gap threshold in degrees, (120, 180]")
         ->check(CLI::Range(120.001, 180.0))
+        ->capture_default_str();
+    cmd->add_option("--even-out", args->evenOut,
+                    fmt::format("after the levels, refine the points whose radius is above this multiple of the median until none "
+                                "is (at most {} more levels; 0 = off, {} suits irregular inputs): fills their sparse patches. "
+                                "Not for inputs with undetected openings, which it fills further",
+                                kEvenOutMaxLevels, kEvenOutFactor))
+        ->check(CLI::Range(0.0f, 100.0f))
         ->capture_default_str();
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");

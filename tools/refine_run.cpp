@@ -9,7 +9,7 @@
 namespace pnsplat::tools {
 
 RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsigned levels, std::size_t targetPoints,
-                             bool estimate, const std::string& inputName) {
+                             float evenOutFactor, bool estimate, const std::string& inputName) {
     if (points.size() < 3)
         throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
     if (!points.hasRadius() || estimate) estimateRadii(points, options.threads);
@@ -24,6 +24,15 @@ RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsi
         run.seconds += stats.seconds;
         ++run.levels;
         if (stats.inserted == 0) break; // converged: nothing more to insert
+    }
+    if (evenOutFactor > 0.0f) {
+        bar.setLabel("evening out");
+        for (const LevelStats& stats : evenOut(refiner, evenOutFactor, kEvenOutMaxLevels,
+                                               [&](std::size_t d, std::size_t t) { bar.update(d, t); })) {
+            run.seconds += stats.seconds;
+            ++run.levels;
+            ++run.evenOutLevels;
+        }
     }
     bar.finish();
     run.points = refiner.points();

@@ -11,13 +11,15 @@ namespace pnsplat::tools {
 struct RefineRun {
     PointSet points;
     unsigned levels = 0;       // levels run (fewer than asked when nothing more was inserted)
+    unsigned evenOutLevels = 0; // adaptive levels of evenOut after them (part of `levels`)
     double seconds = 0.0;      // time spent refining (not estimating radii)
 };
 
 // Estimates radii when `points` has none (or when `estimateRadii`), checks the input
 // (CommandError naming `inputName`), then refines up to `levels` levels, stopping early once
-// `targetPoints` (0: no target) is reached or a level inserts nothing.
+// `targetPoints` (0: no target) is reached or a level inserts nothing; then evens out (evenOut)
+// the points above `evenOutFactor` times the median radius (0: not at all).
 RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsigned levels, std::size_t targetPoints,
-                             bool estimateRadii, const std::string& inputName);
+                             float evenOutFactor, bool estimateRadii, const std::string& inputName);
 
 } // namespace pnsplat::tools

@@ -976,11 +976,16 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         }
     }
     if (splitsSegments()) {
-        // Each segment becomes three: (a, q1), (q1, q2), (q2, b).
+        // Each segment becomes three: (a, q1), (q1, q2), (q2, b); one whose first point was not
+        // refined (adaptive refinement) stays whole until a later odd step.
         std::vector<Segment> split;
         split.reserve(3 * segments.size());
         for (std::uint32_t k = 0; k < segments.size(); ++k) {
             const Segment segment = segments[k];
+            if (skipped(segment.a)) {
+                split.push_back(segment);
+                continue;
+            }
             const std::uint32_t q1 = childBegin[segment.a] + segmentChild[k], q2 = q1 + 1;
             split.insert(split.end(), {Segment{segment.a, q1, segment.crease}, Segment{q1, q2, segment.crease},
                                        Segment{q2, segment.b, segment.crease}});
@@ -1016,6 +1021,8 @@ Refiner::Refiner(Refiner&&) noexcept = default;
 Refiner& Refiner::operator=(Refiner&&) noexcept = default;
 
 LevelStats Refiner::refineLevel(const ProgressFn& progress) { return state_->refineLevel(progress); }
+void Refiner::setTargetRadius(float radius) { state_->options.targetRadius = radius; }
+float Refiner::targetRadius() const { return state_->options.targetRadius; }
 const PointSet& Refiner::points() const { return state_->points; }
 std::uint32_t Refiner::levels() const { return state_->hierarchy.levels() - 1; }
 std::size_t Refiner::levelEnd(std::uint32_t l) const { return state_->hierarchy.levelEnd(l); }
@@ -1027,6 +1034,22 @@ std::size_t Refiner::childEnd(std::uint32_t l, std::size_t i) const {
 }
 PointSet Refiner::takePoints() && { return std::move(state_->points); }
 std::span<const std::uint32_t> Refiner::inputOrder() const { return state_->inputOrder; }
+
+std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress) {
+    std::vector<float> radii = refiner.points().radius;
+    const auto middle = radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2);
+    std::nth_element(radii.begin(), middle, radii.end());
+    const float target = factor * *middle;
+    const float previous = refiner.targetRadius();
+    refiner.setTargetRadius(target);
+    std::vector<LevelStats> levels;
+    while (levels.size() < maxLevels && std::ranges::max(refiner.points().radius) > target) {
+        levels.push_back(refiner.refineLevel(progress));
+        if (levels.back().inserted == 0) break;
+    }
+    refiner.setTargetRadius(previous);
+    return levels;
+}
 
 Result<void> validateForRefinement(const PointSet& points) {
     if (points.empty()) return Error{"the point set is empty"};

@@ -98,6 +98,9 @@ public:
 
     // Builds the next level. Not thread-safe; uses the options' worker threads internally.
     LevelStats refineLevel(const ProgressFn& progress = {});
+    // RefineOptions::targetRadius for the levels that follow, and its current value.
+    void setTargetRadius(float radius);
+    float targetRadius() const;
 
     // All points so far, level by level: P0 (the input points, unchanged but for their radii)
     // first, in a spatial (Morton) order that keeps neighbours close in memory, then the points
@@ -117,6 +120,19 @@ private:
     struct State;
     std::unique_ptr<State> state_;
 };
+
+// Evening out (beyond the paper; a choice). Uniform levels keep the input's density contrasts: a
+// region that a random input sampled sparsely stays sparser than its surroundings by the same
+// factor after any number of levels, and its largest gaps show as holes. evenOut refines
+// adaptively (RefineOptions::targetRadius) the points whose radius is above `factor` times the
+// median radius of the set, level after level, until none is left, a level inserts nothing, or
+// `maxLevels` levels were built; the target radius then returns to its previous value. Returns
+// the statistics of the levels built. Deterministic like refineLevel. Not for inputs with
+// openings that the uniform levels bridged (undetected boundaries): the largest radii sit across
+// them, and evening out fills them further.
+std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress = {});
+inline constexpr float kEvenOutFactor = 2.0f;   // `pnsplat refine --even-out` without a value
+inline constexpr unsigned kEvenOutMaxLevels = 4; // the tools' level budget
 
 // Checks that a point set can be refined: non-empty, finite, unit normals, positive radii.
 Result<void> validateForRefinement(const PointSet& points);

@@ -811,6 +811,39 @@ TEST(RefinerBoundaries, CapRimIsRefinedAlongItsCurve) {
     EXPECT_LT(offSphere, 0.002);
 }
 
+// Adaptive refinement and segments: a segment whose first point is not refined stays whole (it is
+// split at a later odd step), so each level adds exactly two segments per two points inserted on
+// them; the other segments are not split with another point's children.
+TEST(RefinerBoundaries, AdaptiveRefinementSplitsOnlyTheSegmentsOfRefinedPoints) {
+    PointSet sphere = sampleSphereRandom(3000, 1.0f, 5);
+    PointSet cap;
+    for (std::size_t i = 0; i < sphere.size(); ++i)
+        if (sphere.position[i].z >= 0.5f) cap.appendFrom(sphere, i);
+    estimateRadii(cap, 1);
+    Refiner uniform(cap, options());
+    const std::size_t found = uniform.refineLevel().boundarySegments / 3; // every segment split once
+
+    std::vector<float> radii = cap.radius;
+    std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
+    RefineOptions o = options();
+    o.targetRadius = radii[radii.size() / 2];
+    Refiner adaptive(cap, o);
+    const LevelStats first = adaptive.refineLevel();
+    std::cout << "[cap, adaptive] " << found << " segments found, " << first.boundaryInserted / 2
+              << " split at step 1, " << first.boundarySegments << " after it\n";
+    ASSERT_GT(found, 10u);
+    EXPECT_GT(first.boundaryInserted, 0u);
+    EXPECT_LT(first.boundaryInserted, 2 * found); // some first points were skipped
+    EXPECT_EQ(first.boundarySegments, found + first.boundaryInserted);
+    adaptive.refineLevel();
+    const LevelStats third = adaptive.refineLevel();
+    EXPECT_EQ(third.boundarySegments, first.boundarySegments + third.boundaryInserted);
+    double offSphere = 0;
+    for (const glm::vec3& x : adaptive.points().position)
+        offSphere = std::max(offSphere, std::abs(glm::length(glm::dvec3(x)) - 1.0));
+    EXPECT_LT(offSphere, 0.005);
+}
+
 // Section 6, creases: a closed cylinder (radius 1, height 1.5) whose rims are crease points (side
 // and cap normals). Oracles: the exact surface, and the rim circles for the points inserted on the
 // crease segments. Without crease information (each rim point given the bisector of its two

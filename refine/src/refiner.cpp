@@ -109,7 +109,7 @@ struct NearbyPoint {
     glm::vec3 normal;
 };
 
-struct WorkerScratch {
+struct alignas(64) WorkerScratch { // one cache line apart: workers write their counters
     std::vector<NearbyPoint> nearby; // candidates for the Euclidean neighbourhoods of a cell
     NeighbourSet fan;
     NeighbourhoodScratch neighbourhood;
@@ -927,7 +927,10 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         cells.push_back(Cell{k, e});
         k = e;
     }
-    cellPoints.assign(cells.size() + 1, {});
+    // The cells' stores keep their capacity from level to level (a cell holds about as many points
+    // at every level, the cell size following the radii).
+    cellPoints.resize(cells.size() + 1);
+    for (std::vector<NewPoint>& store : cellPoints) store.clear();
     stats.sequentialPoints = large.size();
 
     for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0, s.retried = 0, s.boundaryInserted = 0;
@@ -963,18 +966,22 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
     childBegin[count] = offset;
     points.resize(offset);
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const ChildRange range = childRange[i];
-        for (std::uint32_t k = 0; k < range.count; ++k) {
-            const NewPoint& np = cellPoints[range.cell][range.begin + k];
-            const std::uint32_t o = childBegin[i] + k;
-            points.position[o] = np.position;
-            points.normal[o] = np.normal;
-            points.radius[o] = np.radius;
-            if (points.hasColour()) points.colour[o] = np.colour;
-            if (points.hasCrease()) points.crease[o] = np.crease;
+    constexpr std::uint32_t kAppendBlock = 4096; // parents per work item: each writes its own range
+    pool.parallelFor((count + kAppendBlock - 1) / kAppendBlock, [&](std::size_t item, unsigned) {
+        const auto first = static_cast<std::uint32_t>(item) * kAppendBlock;
+        for (std::uint32_t i = first; i < std::min(count, first + kAppendBlock); ++i) {
+            const ChildRange range = childRange[i];
+            for (std::uint32_t k = 0; k < range.count; ++k) {
+                const NewPoint& np = cellPoints[range.cell][range.begin + k];
+                const std::uint32_t o = childBegin[i] + k;
+                points.position[o] = np.position;
+                points.normal[o] = np.normal;
+                points.radius[o] = np.radius;
+                if (points.hasColour()) points.colour[o] = np.colour;
+                if (points.hasCrease()) points.crease[o] = np.crease;
+            }
         }
-    }
+    });
     if (splitsSegments()) {
         // Each segment becomes three: (a, q1), (q1, q2), (q2, b); one whose first point was not
         // refined (adaptive refinement) stays whole until a later odd step.
@@ -994,7 +1001,6 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
     stats.boundarySegments = segments.size();
     hierarchy.addLevel(std::move(childBegin));
-    cellPoints.clear();
 
     for (const WorkerScratch& s : scratch) {
         stats.inserted += s.inserted;

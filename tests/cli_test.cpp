@@ -225,6 +225,12 @@ TEST(CliRefine, EvenOutAddsLevelsAfterTheUniformOnes) {
     ASSERT_TRUE(r1.exited && r1.exitCode == 0) << r1.err;
     ASSERT_TRUE(r2.exited && r2.exitCode == 0) << r2.err;
     std::cout << "[refine -l 2 --even-out 2] " << r2.out;
+    for (const char* bad : {"0.5", "-1", "abc", "2x", "101"}) {
+        const fs::path none = dir / "none.ply";
+        const RunResult r3 = run("refine -l 1 --even-out " + std::string(bad) + " -o " + quote(none));
+        EXPECT_TRUE(failsCleanly(r3, Usage::Allowed)) << "--even-out " << bad;
+        EXPECT_FALSE(fs::exists(none)) << "--even-out " << bad;
+    }
     const auto a = readPly(plain), b = readPly(even);
     ASSERT_TRUE(a.ok() && b.ok());
     // The evened-out file starts with the plain one's points and adds a few (the default model's

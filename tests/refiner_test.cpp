@@ -317,10 +317,36 @@ TEST(RefinerEvenOut, RefinesOnlyTheLargePointsUntilNoneIsLeft) {
             EXPECT_FALSE(hasChildren) << "point " << i << " is below the target";
         }
     }
-    // It stops because no point is left above the target, within the level budget.
-    EXPECT_LT(levels.size(), kEvenOutMaxLevels + 1);
+    // It stops because no point is left above the target, before the level budget runs out.
+    EXPECT_LT(levels.size(), kEvenOutMaxLevels);
     EXPECT_LE(std::ranges::max(refiner.points().radius), target);
     EXPECT_EQ(refiner.targetRadius(), 0.0f); // restored
+}
+
+// A boundary point's radius covers its new ring, not its segment: evenOut also refines the points
+// owning a segment longer than the target, so the boundary is evened out too.
+TEST(RefinerEvenOut, SplitsBoundarySegmentsLongerThanTheTarget) {
+    PointSet sphere = sampleSphereRandom(3000, 1.0f, 5);
+    PointSet cap;
+    for (std::size_t i = 0; i < sphere.size(); ++i)
+        if (sphere.position[i].z >= 0.5f) cap.appendFrom(sphere, i);
+    estimateRadii(cap, 1);
+    Refiner refiner(cap, options());
+    refineLevels(refiner, 2);
+    std::vector<float> radii = refiner.points().radius;
+    std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
+    const float target = kEvenOutFactor * radii[radii.size() / 2];
+    const float longestBefore = refiner.longestSegment();
+    const std::vector<LevelStats> levels = evenOut(refiner, kEvenOutFactor, kEvenOutMaxLevels);
+    std::size_t onSegments = 0;
+    for (const LevelStats& l : levels) onSegments += l.boundaryInserted;
+    std::cout << "[cap, 2 levels] target " << target << ", longest segment " << longestBefore << " -> "
+              << refiner.longestSegment() << " after " << levels.size() << " evening-out level(s), " << onSegments
+              << " points inserted on segments\n";
+    ASSERT_GT(longestBefore, target); // the case at hand
+    EXPECT_LE(refiner.longestSegment(), target);
+    EXPECT_LE(std::ranges::max(refiner.points().radius), target);
+    EXPECT_GT(onSegments, 0u);
 }
 
 class RefinerRealModel : public ::testing::TestWithParam<const char*> {};

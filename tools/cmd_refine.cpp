@@ -1,4 +1,5 @@
 // `pnsplat refine`: refine a PLY point set (or the embedded default model) offline.
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -107,10 +108,18 @@ void addRefineCommand(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--even-out", args->evenOut,
                     fmt::format("after the levels, refine the points whose radius is above this multiple of the median until none "
-                                "is (at most {} more levels; 0 = off, {} suits irregular inputs): fills their sparse patches. "
-                                "Not for inputs with undetected openings, which it fills further",
+                                "is (at most {} more levels, a few percent more points; 0 = off, {} suits irregular inputs): "
+                                "fills their sparse patches. Not for inputs with undetected openings, which it fills further",
                                 kEvenOutMaxLevels, kEvenOutFactor))
-        ->check(CLI::Range(0.0f, 100.0f))
+        ->check(CLI::Validator(
+            [](const std::string& value) {
+                double f = -1.0;
+                const auto [end, error] = std::from_chars(value.data(), value.data() + value.size(), f);
+                const bool valid = error == std::errc() && end == value.data() + value.size() &&
+                                   (f == 0.0 || (f >= 1.0 && f <= 100.0));
+                return valid ? std::string() : "must be 0 (off) or a number in [1, 100]";
+            },
+            "0 or [1, 100]"))
         ->capture_default_str();
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");

@@ -35,7 +35,7 @@ RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsi
         }
     }
     bar.finish();
-    run.points = refiner.points();
+    run.points = std::move(refiner).takePoints();
     return run;
 }
 

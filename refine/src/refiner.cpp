@@ -904,7 +904,18 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     gridPoint.resize(count);
     for (std::uint32_t k = 0; k < count; ++k) gridKey[k] = keyed[k].first, gridPoint[k] = keyed[k].second;
     // The points refined in cells: all but the large ones and those small enough already (adaptive).
-    const auto skipped = [&](std::uint32_t i) { return levelRadius[i] <= options.targetRadius; };
+    // Adaptive refinement skips a point small enough already, unless it owns a segment longer than
+    // the target: its radius covers its new ring, not the segment, which only its refinement splits.
+    std::vector<float> longestOwned;
+    if (options.targetRadius > 0.0f && !segments.empty()) {
+        longestOwned.assign(count, 0.0f);
+        for (const Segment& segment : segments)
+            longestOwned[segment.a] = std::max(longestOwned[segment.a],
+                                               glm::length(points.position[segment.b] - points.position[segment.a]));
+    }
+    const auto skipped = [&](std::uint32_t i) {
+        return levelRadius[i] <= options.targetRadius && (longestOwned.empty() || longestOwned[i] <= options.targetRadius);
+    };
     std::erase_if(keyed, [&](const auto& entry) {
         return skipped(entry.second) || levelRadius[entry.second] > radiusLimit;
     });
@@ -984,7 +995,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     });
     if (splitsSegments()) {
         // Each segment becomes three: (a, q1), (q1, q2), (q2, b); one whose first point was not
-        // refined (adaptive refinement) stays whole until a later odd step.
+        // refined (adaptive refinement: the point and the segment are within the target) stays whole.
         std::vector<Segment> split;
         split.reserve(3 * segments.size());
         for (std::uint32_t k = 0; k < segments.size(); ++k) {
@@ -1041,7 +1052,15 @@ std::size_t Refiner::childEnd(std::uint32_t l, std::size_t i) const {
 PointSet Refiner::takePoints() && { return std::move(state_->points); }
 std::span<const std::uint32_t> Refiner::inputOrder() const { return state_->inputOrder; }
 
+float Refiner::longestSegment() const {
+    float longest = 0.0f;
+    for (const State::Segment& segment : state_->segments)
+        longest = std::max(longest, glm::length(state_->points.position[segment.b] - state_->points.position[segment.a]));
+    return longest;
+}
+
 std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress) {
+    if (!(factor > 0.0f)) return {};
     std::vector<float> radii = refiner.points().radius;
     const auto middle = radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2);
     std::nth_element(radii.begin(), middle, radii.end());
@@ -1049,7 +1068,8 @@ std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLeve
     const float previous = refiner.targetRadius();
     refiner.setTargetRadius(target);
     std::vector<LevelStats> levels;
-    while (levels.size() < maxLevels && std::ranges::max(refiner.points().radius) > target) {
+    while (levels.size() < maxLevels &&
+           (std::ranges::max(refiner.points().radius) > target || refiner.longestSegment() > target)) {
         levels.push_back(refiner.refineLevel(progress));
         if (levels.back().inserted == 0) break;
     }

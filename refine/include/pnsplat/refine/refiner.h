@@ -101,6 +101,9 @@ public:
     // RefineOptions::targetRadius for the levels that follow, and its current value.
     void setTargetRadius(float radius);
     float targetRadius() const;
+    // The length of the longest boundary or crease segment (section 6), 0 without segments. They
+    // are found at the first level; before it there are none.
+    float longestSegment() const;
 
     // All points so far, level by level: P0 (the input points, unchanged but for their radii)
     // first, in a spatial (Morton) order that keeps neighbours close in memory, then the points
@@ -125,13 +128,14 @@ private:
 // region that a random input sampled sparsely stays sparser than its surroundings by the same
 // factor after any number of levels, and its largest gaps show as holes. evenOut refines
 // adaptively (RefineOptions::targetRadius) the points whose radius is above `factor` times the
-// median radius of the set, level after level, until none is left, a level inserts nothing, or
-// `maxLevels` levels were built; the target radius then returns to its previous value. Returns
-// the statistics of the levels built. Deterministic like refineLevel. Not for inputs with
+// median radius of the set, and those owning a segment longer than that, level after level, until
+// none is left, a level inserts nothing, or `maxLevels` levels were built; the target radius then
+// returns to its previous value. A factor <= 0 builds nothing. Returns the statistics of the
+// levels built. Deterministic like refineLevel. Not for inputs with
 // openings that the uniform levels bridged (undetected boundaries): the largest radii sit across
 // them, and evening out fills them further.
 std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress = {});
-inline constexpr float kEvenOutFactor = 2.0f;   // `pnsplat refine --even-out` without a value
+inline constexpr float kEvenOutFactor = 2.0f;   // the suggested factor (tests, `--even-out` help)
 inline constexpr unsigned kEvenOutMaxLevels = 4; // the tools' level budget
 
 // Checks that a point set can be refined: non-empty, finite, unit normals, positive radii.

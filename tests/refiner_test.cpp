@@ -68,6 +68,23 @@ void refineLevels(Refiner& refiner, unsigned levels) {
     for (unsigned l = 0; l < levels; ++l) refiner.refineLevel();
 }
 
+// The upper median of the radii, as evenOut takes it.
+float medianRadius(const PointSet& set) {
+    std::vector<float> radii = set.radius;
+    std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
+    return radii[radii.size() / 2];
+}
+
+// An open surface with a boundary: the points of a random unit sphere (3,000, seed 5) with z >= 1/2.
+PointSet randomSphereCap() {
+    const PointSet sphere = sampleSphereRandom(3000, 1.0f, 5);
+    PointSet cap;
+    for (std::size_t i = 0; i < sphere.size(); ++i)
+        if (sphere.position[i].z >= 0.5f) cap.appendFrom(sphere, i);
+    estimateRadii(cap, 1);
+    return cap;
+}
+
 template <typename T>
 bool sameBits(const T& a, const T& b) {
     return std::memcmp(&a, &b, sizeof(T)) == 0;
@@ -297,9 +314,7 @@ TEST(RefinerEvenOut, RefinesOnlyTheLargePointsUntilNoneIsLeft) {
     const PointSet input = withRadii(sampleTorusRandom(3500, 1.0f, 0.4f, 7));
     Refiner refiner(input, options());
     refineLevels(refiner, 3);
-    std::vector<float> radii = refiner.points().radius;
-    std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
-    const float target = kEvenOutFactor * radii[radii.size() / 2];
+    const float target = kEvenOutFactor * medianRadius(refiner.points());
     const std::vector<float> before = refiner.points().radius;
     const std::size_t above = std::ranges::count_if(before, [&](float r) { return r > target; });
 
@@ -326,16 +341,10 @@ TEST(RefinerEvenOut, RefinesOnlyTheLargePointsUntilNoneIsLeft) {
 // A boundary point's radius covers its new ring, not its segment: evenOut also refines the points
 // owning a segment longer than the target, so the boundary is evened out too.
 TEST(RefinerEvenOut, SplitsBoundarySegmentsLongerThanTheTarget) {
-    PointSet sphere = sampleSphereRandom(3000, 1.0f, 5);
-    PointSet cap;
-    for (std::size_t i = 0; i < sphere.size(); ++i)
-        if (sphere.position[i].z >= 0.5f) cap.appendFrom(sphere, i);
-    estimateRadii(cap, 1);
+    const PointSet cap = randomSphereCap();
     Refiner refiner(cap, options());
     refineLevels(refiner, 2);
-    std::vector<float> radii = refiner.points().radius;
-    std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
-    const float target = kEvenOutFactor * radii[radii.size() / 2];
+    const float target = kEvenOutFactor * medianRadius(refiner.points());
     const float longestBefore = refiner.longestSegment();
     const std::vector<LevelStats> levels = evenOut(refiner, kEvenOutFactor, kEvenOutMaxLevels);
     std::size_t onSegments = 0;
@@ -837,22 +846,16 @@ TEST(RefinerBoundaries, CapRimIsRefinedAlongItsCurve) {
     EXPECT_LT(offSphere, 0.002);
 }
 
-// Adaptive refinement and segments: a segment whose first point is not refined stays whole (it is
-// split at a later odd step), so each level adds exactly two segments per two points inserted on
-// them; the other segments are not split with another point's children.
+// Adaptive refinement and segments: a segment whose first point is not refined (the point and its
+// segment within the target) stays whole, so each level adds exactly two segments per two points
+// inserted on them; the other segments are not split with another point's children.
 TEST(RefinerBoundaries, AdaptiveRefinementSplitsOnlyTheSegmentsOfRefinedPoints) {
-    PointSet sphere = sampleSphereRandom(3000, 1.0f, 5);
-    PointSet cap;
-    for (std::size_t i = 0; i < sphere.size(); ++i)
-        if (sphere.position[i].z >= 0.5f) cap.appendFrom(sphere, i);
-    estimateRadii(cap, 1);
+    const PointSet cap = randomSphereCap();
     Refiner uniform(cap, options());
     const std::size_t found = uniform.refineLevel().boundarySegments / 3; // every segment split once
 
-    std::vector<float> radii = cap.radius;
-    std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
     RefineOptions o = options();
-    o.targetRadius = radii[radii.size() / 2];
+    o.targetRadius = medianRadius(cap);
     Refiner adaptive(cap, o);
     const LevelStats first = adaptive.refineLevel();
     std::cout << "[cap, adaptive] " << found << " segments found, " << first.boundaryInserted / 2

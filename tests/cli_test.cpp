@@ -400,6 +400,25 @@ TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
 }
 
 
+// The refinement benchmark on a tiny case: every configuration, the phase split and the speed-up.
+TEST(CliBench, RefineWritesEveryConfiguration) {
+    const TempDir dir;
+    const fs::path out = dir / "bench.json";
+    const RunResult r = run("bench refine --sphere-points 200 --target-points 4000 --repeat 1 -o " + quote(out));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    const std::string json = readText(out);
+    for (const char* key : {"\"benchmark\": \"refine\"", "\"two_thread_speedup\": {\"full\": ", "\"name\": \"full\"",
+                            "\"name\": \"fast (all variants)\"", "\"name\": \"variant 1 euclidean geodesic\"",
+                            "\"name\": \"variant 2 plain angle\"", "\"name\": \"variant 3 fuzzy neighbourhood\"",
+                            "\"name\": \"variant 4 centroid candidates\"", "\"phase_share\": {\"neighbourhood\": "})
+        EXPECT_NE(json.find(key), std::string::npos) << key << " missing from " << json;
+    std::size_t runs = 0;
+    for (std::size_t at = json.find("\"points_per_second_median\""); at != std::string::npos;
+         at = json.find("\"points_per_second_median\"", at + 1))
+        ++runs;
+    EXPECT_EQ(runs, 8u); // six configurations on one thread, two on two
+}
+
 TEST(CliRender, RendersComparesAndFailsPastTheThreshold) {
     const TempDir dir;
     const fs::path a = dir / "a.png", b = dir / "b.png", heat = dir / "heat.png";

@@ -78,8 +78,13 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
-std::string benchConfig(const std::string& name, const PointSet& input, RefineOptions options, unsigned threads,
-                        const BenchArgs& args) {
+struct ConfigResult {
+    std::string json;
+    double medianRate = 0; // generated points per second
+};
+
+ConfigResult benchConfig(const std::string& name, const PointSet& input, RefineOptions options, unsigned threads,
+                         const BenchArgs& args) {
     options.threads = threads;
     refineOnce(input, options, args.targetPoints); // warm-up
     std::vector<double> rates;
@@ -102,7 +107,7 @@ std::string benchConfig(const std::string& name, const PointSet& input, RefineOp
                             p.neighbourhood / sum, p.filtering / sum, p.selection / sum, p.interpolation / sum);
     }
     fmt::print(stderr, "  {:<28} {} thread(s): {:>10.0f} points/s\n", name, threads, median(rates));
-    return json + "}";
+    return {json + "}", median(rates)};
 }
 
 void runBenchRefine(const BenchArgs& args) {
@@ -130,17 +135,25 @@ void runBenchRefine(const BenchArgs& args) {
 
     fmt::print(stderr, "bench refine: sphere of {} uniform points to >= {} points, {} timed runs each\n",
                args.spherePoints, args.targetPoints, args.repeat);
+    std::vector<ConfigResult> results;
+    for (const Config& c : configs) results.push_back(benchConfig(c.name, sphere, c.options, 1, args));
+    const ConfigResult full2 = benchConfig("full", sphere, configs[0].options, 2, args);
+    const ConfigResult fast2 = benchConfig("fast (all variants)", sphere, configs[1].options, 2, args);
+    // Medians of 2 threads over medians of 1 thread, same process.
+    const double fullSpeedup = full2.medianRate / results[0].medianRate, fastSpeedup = fast2.medianRate / results[1].medianRate;
+    fmt::print(stderr, "  2 threads / 1 thread: full {:.2f}, fast {:.2f}\n", fullSpeedup, fastSpeedup);
+    results.push_back(full2);
+    results.push_back(fast2);
     std::vector<std::string> runs;
-    for (const Config& c : configs) runs.push_back(benchConfig(c.name, sphere, c.options, 1, args));
-    runs.push_back(benchConfig("full", sphere, configs[0].options, 2, args));
-    runs.push_back(benchConfig("fast (all variants)", sphere, configs[1].options, 2, args));
+    for (const ConfigResult& r : results) runs.push_back(r.json);
     const std::string json = fmt::format(
-        R"({{"benchmark": "refine", "case": "sphere {} uniform points to >= {} points", "cpu": "{}", "hardware_threads": {}, "repeat": {}, "runs": [
+        R"({{"benchmark": "refine", "case": "sphere {} uniform points to >= {} points", "cpu": "{}", "hardware_threads": {}, "repeat": {}, )"
+        R"("two_thread_speedup": {{"full": {:.3f}, "fast": {:.3f}}}, "runs": [
   {}
 ]}})"
         "\n",
-        args.spherePoints, args.targetPoints, cpuName(), std::thread::hardware_concurrency(), args.repeat,
-        fmt::join(runs, ",\n  "));
+        args.spherePoints, args.targetPoints, cpuName(), std::thread::hardware_concurrency(), args.repeat, fullSpeedup,
+        fastSpeedup, fmt::join(runs, ",\n  "));
     writeJson(args.output, json);
 }
 

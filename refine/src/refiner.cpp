@@ -303,6 +303,18 @@ struct Refiner::State {
     LevelStats refineLevel(const ProgressFn& progress);
     void findSegments();
     bool splitsSegments() const { return !segments.empty() && hierarchy.levels() % 2 == 1; }
+    float segmentLength(const Segment& segment) const {
+        return glm::length(points.position[segment.b] - points.position[segment.a]);
+    }
+    // The neighbourhood filter of the options; `edgeControls`: keep the fan's edge control points.
+    FuzzyParams fuzzyParams(bool edgeControls) const {
+        FuzzyParams fuzzy;
+        fuzzy.thetaF = options.thetaF;
+        fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
+        fuzzy.euclideanGeodesic = options.euclideanGeodesic;
+        fuzzy.edgeControls = edgeControls;
+        return fuzzy;
+    }
 
 private:
     template <typename Points>
@@ -648,11 +660,7 @@ void Refiner::State::findSegments() {
     const auto count = static_cast<std::uint32_t>(points.size());
     std::vector<std::uint8_t> potential(count, 0);
     std::vector<std::array<std::uint32_t, 2>> ends(count), creaseEnds(count, {UINT32_MAX, UINT32_MAX});
-    FuzzyParams fuzzy;
-    fuzzy.thetaF = options.thetaF;
-    fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
-    fuzzy.euclideanGeodesic = options.euclideanGeodesic;
-    fuzzy.edgeControls = false;
+    const FuzzyParams fuzzy = fuzzyParams(false);
     pool.parallelFor(count, [&](std::size_t item, unsigned worker) {
         const auto p = static_cast<std::uint32_t>(item);
         WorkerScratch& s = scratch[worker];
@@ -702,11 +710,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
 
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = planeNormal(p);
-    FuzzyParams fuzzy;
-    fuzzy.thetaF = options.thetaF;
-    fuzzy.geodesicProjection = options.neighbourhood == NeighbourhoodKind::Accurate;
-    fuzzy.euclideanGeodesic = options.euclideanGeodesic;
-    fuzzy.edgeControls = options.smoothing && !options.centroidCandidates; // every candidate is a PN centre
+    const FuzzyParams fuzzy = fuzzyParams(options.smoothing && !options.centroidCandidates); // PN-centre candidates
     const TangentFrame frame(n);
     gatherNeighbourhood(p, frame, levelRadius[p], s);
     if (profile) s.times.neighbourhood += secondsSince(t0);
@@ -910,8 +914,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     if (options.targetRadius > 0.0f && !segments.empty()) {
         longestOwned.assign(count, 0.0f);
         for (const Segment& segment : segments)
-            longestOwned[segment.a] = std::max(longestOwned[segment.a],
-                                               glm::length(points.position[segment.b] - points.position[segment.a]));
+            longestOwned[segment.a] = std::max(longestOwned[segment.a], segmentLength(segment));
     }
     const auto skipped = [&](std::uint32_t i) {
         return levelRadius[i] <= options.targetRadius && (longestOwned.empty() || longestOwned[i] <= options.targetRadius);
@@ -1054,8 +1057,7 @@ std::span<const std::uint32_t> Refiner::inputOrder() const { return state_->inpu
 
 float Refiner::longestSegment() const {
     float longest = 0.0f;
-    for (const State::Segment& segment : state_->segments)
-        longest = std::max(longest, glm::length(state_->points.position[segment.b] - state_->points.position[segment.a]));
+    for (const State::Segment& segment : state_->segments) longest = std::max(longest, state_->segmentLength(segment));
     return longest;
 }
 

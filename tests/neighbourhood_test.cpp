@@ -215,7 +215,7 @@ TEST(FilterFuzzy, JitteredHexagonKeepsExactlyTheFirstRingInFanOrder) {
         checkHexResult(c, c.set, geodesic ? "Ng" : "Nf");
         // On a plane G = |d|: the geodesic projections are the points themselves (Ng = Nf).
         if (geodesic) {
-            ASSERT_EQ(scratch.px.size(), reference.set.size()); // input order, 18 entries
+            ASSERT_GE(scratch.px.size(), reference.set.size()); // input order, 18 entries (and padding)
             for (std::size_t k = 0; k < reference.set.size(); ++k)
                 EXPECT_LT(glm::length(projected(scratch, k) - reference.set.position[k]), 2e-6f) << k;
         }

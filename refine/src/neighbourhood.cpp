@@ -31,6 +31,8 @@ void NeighbourSet::clear() {
 
 namespace {
 
+constexpr std::size_t kLanes = 8; // the filter's pair loop runs over arrays padded to this
+
 // Scratch arrays only grow: every call writes entries [0, count) before reading them, and a
 // resize down then up again would refill the tail at almost every point.
 float* scratchArray(std::vector<float>& v, std::size_t count) {
@@ -105,6 +107,50 @@ void sortOrderByAngle(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
     }
 }
 
+// The filter's arrays, padded to a multiple of kLanes: the positions the badness is measured on
+// (px, py, pz), their unit directions from p (dx, dy, dz), tangent-plane coordinates (su, sv), and
+// `live`, 1 for an entry and 0 for padding.
+struct FilterArrays {
+    const float *px, *py, *pz, *dx, *dy, *dz, *su, *sv, *live;
+};
+
+// w_ij of entry i against every j (fuzzyBadness), written to succW[j] when j is a successor of i
+// and to predW[j] when it is a predecessor, 0 in the other. Succ_i: the j whose signed angle
+// ∠(q_i, p, q_j) lies in (0, π), Pred_i: those in (-π, 0), by the sign of the tangent-plane cross
+// product q_i × q_j. Choice: a j in exactly the same direction as i counts as a successor; with
+// the paper's open intervals a point straight behind another (w_ij = 1.5) would be in neither set
+// and survive. Branch-free so that the loop runs in SIMD lanes: coincident points (j = i
+// included) give a zero vector and w = 0, which changes no maximum; padding is masked to 0.
+void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t padded, float sinThetaF, float* __restrict succW,
+                    float* __restrict predW) {
+    const float* __restrict px = a.px;
+    const float* __restrict py = a.py;
+    const float* __restrict pz = a.pz;
+    const float* __restrict dx = a.dx;
+    const float* __restrict dy = a.dy;
+    const float* __restrict dz = a.dz;
+    const float* __restrict su = a.su;
+    const float* __restrict sv = a.sv;
+    const float* __restrict live = a.live;
+    const float inverseSin = 1.0f / sinThetaF;
+    const float pix = px[i], piy = py[i], piz = pz[i], sui = su[i], svi = sv[i];
+    for (std::size_t j = 0; j < padded; ++j) {
+        const float bx = pix - px[j], by = piy - py[j], bz = piz - pz[j];
+        const float length2 = bx * bx + by * by + bz * bz;
+        const float length = std::sqrt(length2 > 1e-30f ? length2 : 1e-30f);
+        const float sinIJ = (dx[j] * bx + dy[j] * by + dz[j] * bz) / length; // p_i behind p_j
+        float w = 0.5f * (sinIJ * inverseSin + 1.0f) * live[j];
+        w = sinIJ >= -sinThetaF ? w : 0.0f;
+        w = length2 > 0.0f ? w : 0.0f;
+        const float cross = sui * sv[j] - svi * su[j]; // q_i × q_j
+        const float ahead = sui * su[j] + svi * sv[j];
+        const float successor = cross > 0.0f ? w : 0.0f;
+        const float sameDirection = ahead > 0.0f ? w : 0.0f;
+        succW[j] = cross == 0.0f ? sameDirection : successor;
+        predW[j] = cross < 0.0f ? w : 0.0f;
+    }
+}
+
 } // namespace
 
 void sortFan(glm::vec3 p, glm::vec3 n, NeighbourSet& set, NeighbourhoodScratch& scratch) {
@@ -122,12 +168,13 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     measure(p, n, set, geodesic || params.edgeControls, scratch);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
     // (x, y, z apart) for the O(k²) loop below.
-    float* px = scratchArray(scratch.px, count);
-    float* py = scratchArray(scratch.py, count);
-    float* pz = scratchArray(scratch.pz, count);
-    float* dx = scratchArray(scratch.dx, count);
-    float* dy = scratchArray(scratch.dy, count);
-    float* dz = scratchArray(scratch.dz, count);
+    const std::size_t paddedCount = (count + kLanes - 1) / kLanes * kLanes;
+    float* px = scratchArray(scratch.px, paddedCount);
+    float* py = scratchArray(scratch.py, paddedCount);
+    float* pz = scratchArray(scratch.pz, paddedCount);
+    float* dx = scratchArray(scratch.dx, paddedCount);
+    float* dy = scratchArray(scratch.dy, paddedCount);
+    float* dz = scratchArray(scratch.dz, paddedCount);
     for (std::size_t k = 0; k < count; ++k) {
         const glm::vec3 d = set.position[k] - p;
         glm::vec3 y = set.position[k];
@@ -146,45 +193,22 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
         dx[k] = direction.x, dy[k] = direction.y, dz[k] = direction.z;
     }
 
-    // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij, Succ_i the j whose signed angle
-    // ∠(q_i, p, q_j) lies in (0, π), Pred_i those in (-π, 0): the sign of the tangent-plane cross
-    // product q_i × q_j. w_ij as in fuzzyBadness, written branch-free (coincident points give a
-    // zero vector and w = 0; j = i is skipped, its w = 0 changes no maximum). Choice: a j in
-    // exactly the same direction as i counts as a successor; with the paper's open intervals a
-    // point straight behind another (w_ij = 1.5) would be in neither set and survive.
-    // Each pair {i, j} is visited once: p_j - p_i, its length, q_j × q_i and q_j · q_i are the
-    // negations (or copies) of those of (i, j), exactly in floating point, so w_ji and its side
-    // come out bit for bit as if computed on their own.
+    // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij (badnessOfPairs).
     const float sinThetaF = std::sin(params.thetaF);
-    const float inverseSin = 1.0f / sinThetaF;
-    const float* su = scratch.su.data();
-    const float* sv = scratch.sv.data();
-    float* succOf = scratchArray(scratch.worstSucc, count);
-    float* predOf = scratchArray(scratch.worstPred, count);
-    std::fill_n(succOf, count, 0.0f);
-    std::fill_n(predOf, count, 0.0f);
+    float* su = scratchArray(scratch.su, paddedCount);
+    float* sv = scratchArray(scratch.sv, paddedCount);
+    float* live = scratchArray(scratch.live, paddedCount);
+    for (std::size_t k = count; k < paddedCount; ++k) px[k] = py[k] = pz[k] = dx[k] = dy[k] = dz[k] = su[k] = sv[k] = 0.0f;
+    for (std::size_t k = 0; k < paddedCount; ++k) live[k] = k < count ? 1.0f : 0.0f;
+    float* succW = scratchArray(scratch.succW, paddedCount);
+    float* predW = scratchArray(scratch.predW, paddedCount);
     scratch.order.clear();
     for (std::size_t i = 0; i < count; ++i) {
-        float worstSucc = succOf[i], worstPred = predOf[i];
-        for (std::size_t j = i + 1; j < count; ++j) {
-            const float bx = px[i] - px[j], by = py[i] - py[j], bz = pz[i] - pz[j];
-            const float length2 = bx * bx + by * by + bz * bz;
-            const float length = std::sqrt(std::max(length2, 1e-30f));
-            const float sinIJ = (dx[j] * bx + dy[j] * by + dz[j] * bz) / length; // p_i behind p_j
-            const float sinJI = -(dx[i] * bx + dy[i] * by + dz[i] * bz) / length; // p_j behind p_i
-            const bool apart = length2 > 0.0f;
-            const float wIJ = apart & (sinIJ >= -sinThetaF) ? 0.5f * (sinIJ * inverseSin + 1.0f) : 0.0f;
-            const float wJI = apart & (sinJI >= -sinThetaF) ? 0.5f * (sinJI * inverseSin + 1.0f) : 0.0f;
-            const float cross = su[i] * sv[j] - sv[i] * su[j]; // q_i × q_j; q_j × q_i = -cross
-            const bool sameDirection = (cross == 0.0f) & (su[i] * su[j] + sv[i] * sv[j] > 0.0f);
-            const float succIJ = (cross > 0.0f) | sameDirection ? wIJ : 0.0f;
-            const float predIJ = cross < 0.0f ? wIJ : 0.0f;
-            const float succJI = (cross < 0.0f) | sameDirection ? wJI : 0.0f;
-            const float predJI = cross > 0.0f ? wJI : 0.0f;
-            worstSucc = succIJ > worstSucc ? succIJ : worstSucc;
-            worstPred = predIJ > worstPred ? predIJ : worstPred;
-            succOf[j] = succJI > succOf[j] ? succJI : succOf[j];
-            predOf[j] = predJI > predOf[j] ? predJI : predOf[j];
+        badnessOfPairs(FilterArrays{px, py, pz, dx, dy, dz, su, sv, live}, i, paddedCount, sinThetaF, succW, predW);
+        float worstSucc = 0.0f, worstPred = 0.0f;
+        for (std::size_t j = 0; j < count; ++j) {
+            worstSucc = std::max(worstSucc, succW[j]);
+            worstPred = std::max(worstPred, predW[j]);
         }
         if (worstSucc + worstPred <= 1.0f) scratch.order.push_back(static_cast<std::uint32_t>(i));
     }

@@ -83,7 +83,8 @@ struct NeighbourhoodScratch {
     std::vector<float> px, py, pz;     // the positions the badness is measured on
     std::vector<float> dx, dy, dz;     // their unit directions from p
     std::vector<float> su, sv;         // tangent-plane coordinates of the neighbours
-    std::vector<float> worstSucc, worstPred; // running maxima of w_ij over Succ_i and Pred_i
+    std::vector<float> live;           // 1 for an entry, 0 for padding
+    std::vector<float> succW, predW;   // w_ij of one i against each j, by the side of j
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
 };

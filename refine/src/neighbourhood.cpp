@@ -107,11 +107,12 @@ void sortOrderByAngle(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
     }
 }
 
-// The filter's arrays, padded to a multiple of kLanes: the positions the badness is measured on
-// (px, py, pz), their unit directions from p (dx, dy, dz), tangent-plane coordinates (su, sv), and
-// `live`, 1 for an entry and 0 for padding.
+// The filter's arrays, allocated to a multiple of kLanes entries: the positions the badness is
+// measured on (px, py, pz), their unit directions from p (dx, dy, dz) and tangent-plane
+// coordinates (su, sv). The entries past the set's size hold finite leftovers (the arrays only
+// grow, zero-filled, and every value written is finite); their results are computed and ignored.
 struct FilterArrays {
-    const float *px, *py, *pz, *dx, *dy, *dz, *su, *sv, *live;
+    const float *px, *py, *pz, *dx, *dy, *dz, *su, *sv;
 };
 
 // w_ij of entry i against every j (fuzzyBadness), written to succW[j] when j is a successor of i
@@ -120,7 +121,7 @@ struct FilterArrays {
 // product q_i × q_j. Choice: a j in exactly the same direction as i counts as a successor; with
 // the paper's open intervals a point straight behind another (w_ij = 1.5) would be in neither set
 // and survive. Branch-free so that the loop runs in SIMD lanes: coincident points (j = i
-// included) give a zero vector and w = 0, which changes no maximum; padding is masked to 0.
+// included) give a zero vector and w = 0, which changes no maximum.
 void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t padded, float sinThetaF, float* __restrict succW,
                     float* __restrict predW) {
     const float* __restrict px = a.px;
@@ -131,7 +132,6 @@ void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t padded, fl
     const float* __restrict dz = a.dz;
     const float* __restrict su = a.su;
     const float* __restrict sv = a.sv;
-    const float* __restrict live = a.live;
     const float inverseSin = 1.0f / sinThetaF;
     const float pix = px[i], piy = py[i], piz = pz[i], sui = su[i], svi = sv[i];
     for (std::size_t j = 0; j < padded; ++j) {
@@ -139,7 +139,7 @@ void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t padded, fl
         const float length2 = bx * bx + by * by + bz * bz;
         const float length = std::sqrt(length2 > 1e-30f ? length2 : 1e-30f);
         const float sinIJ = (dx[j] * bx + dy[j] * by + dz[j] * bz) / length; // p_i behind p_j
-        float w = 0.5f * (sinIJ * inverseSin + 1.0f) * live[j];
+        float w = 0.5f * (sinIJ * inverseSin + 1.0f);
         w = sinIJ >= -sinThetaF ? w : 0.0f;
         w = length2 > 0.0f ? w : 0.0f;
         const float cross = sui * sv[j] - svi * su[j]; // q_i × q_j
@@ -197,14 +197,11 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     const float sinThetaF = std::sin(params.thetaF);
     float* su = scratchArray(scratch.su, paddedCount);
     float* sv = scratchArray(scratch.sv, paddedCount);
-    float* live = scratchArray(scratch.live, paddedCount);
-    for (std::size_t k = count; k < paddedCount; ++k) px[k] = py[k] = pz[k] = dx[k] = dy[k] = dz[k] = su[k] = sv[k] = 0.0f;
-    for (std::size_t k = 0; k < paddedCount; ++k) live[k] = k < count ? 1.0f : 0.0f;
     float* succW = scratchArray(scratch.succW, paddedCount);
     float* predW = scratchArray(scratch.predW, paddedCount);
     scratch.order.clear();
     for (std::size_t i = 0; i < count; ++i) {
-        badnessOfPairs(FilterArrays{px, py, pz, dx, dy, dz, su, sv, live}, i, paddedCount, sinThetaF, succW, predW);
+        badnessOfPairs(FilterArrays{px, py, pz, dx, dy, dz, su, sv}, i, paddedCount, sinThetaF, succW, predW);
         float worstSucc = 0.0f, worstPred = 0.0f;
         for (std::size_t j = 0; j < count; ++j) {
             worstSucc = std::max(worstSucc, succW[j]);

@@ -83,7 +83,6 @@ struct NeighbourhoodScratch {
     std::vector<float> px, py, pz;     // the positions the badness is measured on
     std::vector<float> dx, dy, dz;     // their unit directions from p
     std::vector<float> su, sv;         // tangent-plane coordinates of the neighbours
-    std::vector<float> live;           // 1 for an entry, 0 for padding
     std::vector<float> succW, predW;   // w_ij of one i against each j, by the side of j
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;

@@ -27,7 +27,6 @@
 #include <cmath>
 #include <limits>
 #include <optional>
-#include <ranges>
 #include <span>
 
 #include <glm/geometric.hpp>
@@ -110,6 +109,7 @@ struct NearbyPoint {
 };
 
 struct alignas(64) WorkerScratch { // one cache line apart: workers write their counters
+    std::vector<std::uint32_t> group; // the points of the cell being refined
     std::vector<NearbyPoint> nearby; // candidates for the Euclidean neighbourhoods of a cell
     NeighbourSet fan;
     NeighbourhoodScratch neighbourhood;
@@ -317,8 +317,7 @@ struct Refiner::State {
     }
 
 private:
-    template <typename Points>
-    void gatherNearby(const Points& group, std::optional<std::uint64_t> cell, WorkerScratch& s);
+    void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell, WorkerScratch& s);
     void gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
     glm::vec3 creaseOf(std::uint32_t i) const { return points.hasCrease() ? points.crease[i] : glm::vec3(0.0f); }
@@ -342,8 +341,7 @@ private:
 // single large point is found through the bounding-sphere hierarchy (section 7). Both give the
 // same set; its order does not matter (the neighbourhoods are sorted, and Y_p breaks ties in
 // distance by storage position).
-template <typename Points>
-void Refiner::State::gatherNearby(const Points& group, std::optional<std::uint64_t> cell, WorkerScratch& s) {
+void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell, WorkerScratch& s) {
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
     float largest = 0.0f;
     for (const std::uint32_t p : group) {
@@ -666,7 +664,7 @@ void Refiner::State::findSegments() {
         WorkerScratch& s = scratch[worker];
         const glm::vec3 x = points.position[p], n = planeNormal(p);
         const TangentFrame frame(n);
-        gatherNearby(std::array<std::uint32_t, 1>{p}, std::nullopt, s);
+        gatherNearby(std::span(&p, 1), std::nullopt, s);
         bool open = true;
         for (const float reach : {levelRadius[p], kRetryReach * levelRadius[p]}) {
             gatherNeighbourhood(p, frame, reach, s);
@@ -951,7 +949,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
     for (std::uint32_t i : large) {
-        gatherNearby(std::array<std::uint32_t, 1>{i}, std::nullopt, scratch[0]);
+        gatherNearby(std::span(&i, 1), std::nullopt, scratch[0]);
         refinePoint(i, largeCell, scratch[0]);
     }
     done += large.size();
@@ -960,8 +958,9 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (const std::vector<std::uint32_t>& group : cellsByColour) {
         pool.parallelFor(group.size(), [&](std::size_t item, unsigned worker) {
             const Cell cell = cells[group[item]];
-            const auto members = std::span(keyed).subspan(cell.begin, cell.end - cell.begin) |
-                                 std::views::transform([](const auto& entry) { return entry.second; });
+            std::vector<std::uint32_t>& members = scratch[worker].group;
+            members.clear();
+            for (std::uint32_t k = cell.begin; k < cell.end; ++k) members.push_back(keyed[k].second);
             gatherNearby(members, keyed[cell.begin].first, scratch[worker]);
             for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], scratch[worker]);
             const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);

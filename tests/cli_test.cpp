@@ -263,6 +263,7 @@ struct BadInput {
     std::string name;
     std::string content; // the input file's bytes; empty: no file at all
     Usage usage = Usage::NotAllowed;
+    std::string says = ""; // a phrase the message must contain, when not empty
 };
 
 std::string validBinaryPly(const TempDir& dir) {
@@ -301,6 +302,13 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
         {"two points", headerAscii(2) + "0 0 0 0 0 1\n1 0 0 0 0 1\n"},
         {"three coincident points",
          headerAscii(3) + "0.5 0.5 0.5 0 0 1\n0.5 0.5 0.5 0 0 1\n0.5 0.5 0.5 0 0 1\n"},
+        // Squared distances overflow (1e60) or underflow (1e-60) in single precision: no radius.
+        {"coordinates beyond single precision",
+         headerAscii(4) + "0 0 0 0 0 1\n1e30 0 0 0 0 1\n0 1e30 0 0 0 1\n1e30 1e30 0 0 0 1\n", Usage::NotAllowed,
+         "no radius can be estimated"},
+        {"coordinates below single precision",
+         headerAscii(4) + "0 0 0 0 0 1\n1e-30 0 0 0 0 1\n0 1e-30 0 0 0 1\n1e-30 1e-30 0 0 0 1\n", Usage::NotAllowed,
+         "no radius can be estimated"},
         {"negative radius",
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
@@ -317,6 +325,7 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
         EXPECT_FALSE(fs::exists(out));
         EXPECT_EQ(dir.entries(), before) << "files left behind";
         EXPECT_NE(r.err.find(in.string()), std::string::npos) << "the message names the file: " << r.err;
+        EXPECT_NE(r.err.find(c.says), std::string::npos) << "the message says \"" << c.says << "\": " << r.err;
         fs::remove(in);
     }
 }
@@ -440,6 +449,7 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
     const fs::path in = dir / "in.ply", out = dir / "out.png";
     struct Case {
         std::string name, content, args;
+        std::string says = ""; // a phrase the message must contain, when not empty
     };
     const std::vector<Case> cases = {
         {"missing file", "", ""},
@@ -448,6 +458,8 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
         {"truncated", headerAscii(4) + "0 0 0 0 0 1\n1 0", ""},
         {"zero-sized image", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--width 0"},
         {"eye on the target", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--camera 1,1,1,1,1,1,0,1,0"},
+        {"extent beyond single precision",
+         headerAscii(3) + "-3e38 0 0 0 0 1\n3e38 0 0 0 0 1\n0 3e38 0 0 0 1\n", "", "single precision"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.name);
@@ -456,6 +468,7 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
         std::cout << "[render, " << c.name << "] exit " << r.exitCode << ": " << r.err;
         EXPECT_TRUE(r.exited && r.exitCode != 0);
         EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+        EXPECT_NE(r.err.find(c.says), std::string::npos) << "the message says \"" << c.says << "\": " << r.err;
         EXPECT_FALSE(fs::exists(out));
         fs::remove(in);
     }

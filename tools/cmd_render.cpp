@@ -83,7 +83,9 @@ void runRender(const RenderArgs& args) {
 #endif
     contextOptions.validation |= args.validation;
     auto context = unwrap(Context::create(contextOptions));
-    const SplatScene scene = unwrap(SplatScene::create(*context, points));
+    auto created = SplatScene::create(*context, points);
+    if (!created) throw CommandError(name + ": " + created.error().message);
+    const SplatScene scene = std::move(created).value();
 
     RenderSettings settings;
     settings.width = args.width;

@@ -1,5 +1,7 @@
 #include "refine_run.h"
 
+#include <cmath>
+
 #include <fmt/core.h>
 
 #include "commands.h"
@@ -12,7 +14,15 @@ RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsi
                              float evenOutFactor, bool estimate, const std::string& inputName) {
     if (points.size() < 3)
         throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
-    if (!points.hasRadius() || estimate) estimateRadii(points, options.threads);
+    if (!points.hasRadius() || estimate) {
+        estimateRadii(points, options.threads);
+        for (std::size_t i = 0; i < points.size(); ++i)
+            if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
+                throw CommandError(fmt::format("{}: no radius can be estimated for point {}: it has no neighbour but "
+                                               "coincident points or points along its normal, or its distances "
+                                               "overflow single precision",
+                                               inputName, i));
+    }
     if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
 
     Refiner refiner(std::move(points), options);

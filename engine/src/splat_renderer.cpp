@@ -662,8 +662,8 @@ const RenderSettings& SplatRenderer::settings() const {
 
 Result<RgbaImage> SplatRenderer::render(const SplatScene& scene, const Camera& camera, FrameStats* stats) {
     if (!camera.valid())
-        return Error{"camera: eye and target must differ, up must not be parallel to the view direction, "
-                     "and the field of view must lie in (0, 180) degrees"};
+        return Error{"camera: eye and target must differ (by a distance single precision can measure), up must "
+                     "not be parallel to the view direction, and the field of view must lie in (0, 180) degrees"};
     FrameStats local;
     try {
         return impl_->render(scene, camera, stats != nullptr ? *stats : local);

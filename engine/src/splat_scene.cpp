@@ -1,6 +1,7 @@
 #include "pnsplat/engine/splat_scene.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <string>
 
@@ -53,6 +54,11 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
     std::vector<std::uint32_t> code(count);
     if (count > 0) {
         scene.bounds_ = boundingSphere(points.position, order.data(), count);
+        const Sphere& bounds = scene.bounds_;
+        if (!std::isfinite(bounds.radius) || !std::isfinite(bounds.centre.x) || !std::isfinite(bounds.centre.y) ||
+            !std::isfinite(bounds.centre.z))
+            return Error{"the points spread farther than single precision can measure (their bounding sphere "
+                         "overflows); scale the model down"};
         // Morton codes on a 1024³ grid over the bounding cube; ties keep input order.
         const glm::vec3 lo = scene.bounds_.centre - glm::vec3(scene.bounds_.radius);
         const float scale = scene.bounds_.radius > 0.0f ? 1023.0f / (2.0f * scene.bounds_.radius) : 0.0f;

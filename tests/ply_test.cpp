@@ -3,6 +3,7 @@
 #include "pnsplat/refine/ply.h"
 
 #include <array>
+#include <cctype>
 #include <atomic>
 #include <bit>
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <random>
 #include <string>
@@ -20,6 +22,9 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/radius_estimation.h"
+#include "pnsplat/refine/refiner.h"
+#include "pnsplat/refine/shapes.h"
 #include "test_data.h"
 
 namespace pnsplat {
@@ -672,6 +677,112 @@ TEST_F(PlyTest, FandiskCreasePointsHaveTwoNormals) {
         EXPECT_TRUE(sameBits(back->points.normal, points.normal));
         EXPECT_TRUE(sameBits(back->points.crease, points.crease));
     }
+}
+
+// --- Mutated files ---------------------------------------------------------------------------
+
+// Random damage to valid files (bit flips, stray bytes, cuts, repeated chunks, header numbers
+// replaced by extreme ones), fixed seeds: every mutant is either read into a consistent point set
+// or rejected with a one-line message, and whatever is read goes through radius estimation and a
+// level of refinement, or is rejected by validateForRefinement, without a crash or a hang (the
+// sanitizer suites run this too).
+std::string mutate(std::string bytes, std::mt19937_64& rng) {
+    const auto pick = [&](std::size_t n) { return n == 0 ? std::size_t{0} : static_cast<std::size_t>(rng() % n); };
+    static const std::array<const char*, 8> kNumbers = {"0", "1", "-1", "4294967295", "99999999999", "1e38", "nan", "3"};
+    static const std::string kChars = "\n 0123456789-+.e\t\r";
+    const int operations = 1 + static_cast<int>(rng() % 4);
+    for (int k = 0; k < operations && !bytes.empty(); ++k) {
+        const std::size_t at = pick(bytes.size());
+        switch (rng() % 6) {
+        case 0: bytes[at] = static_cast<char>(bytes[at] ^ (1 << (rng() % 8))); break;
+        case 1: bytes[at] = static_cast<char>(rng() & 0xff); break;
+        case 2: bytes[at] = kChars[pick(kChars.size())]; break;
+        case 3: bytes.resize(at); break;
+        case 4: bytes.insert(at, bytes.substr(pick(bytes.size()), 1 + pick(64))); break;
+        default: {
+            // A number of the header (a count, a property's position) becomes an extreme one.
+            const std::size_t headerEnd = std::min(bytes.find("end_header"), bytes.size());
+            std::vector<std::size_t> digits;
+            for (std::size_t i = 0; i < headerEnd; ++i)
+                if (std::isdigit(static_cast<unsigned char>(bytes[i])) && (i == 0 || bytes[i - 1] == ' ')) digits.push_back(i);
+            if (digits.empty()) break;
+            const std::size_t begin = digits[pick(digits.size())];
+            std::size_t end = begin;
+            while (end < bytes.size() && std::isdigit(static_cast<unsigned char>(bytes[end]))) ++end;
+            bytes.replace(begin, end - begin, kNumbers[pick(kNumbers.size())]);
+        }
+        }
+    }
+    return bytes;
+}
+
+TEST_F(PlyTest, MutatedFilesAreReadConsistentlyOrRejectedWithOneLine) {
+    PointSet coloured = sampleSphereUniform(60, 1.0f);
+    coloured.radius.assign(coloured.size(), 0.3f);
+    coloured.colour.assign(coloured.size(), glm::u8vec3(200, 120, 40));
+    PointSet creased = sampleSphereUniform(40, 1.0f);
+    creased.crease.assign(creased.size(), glm::vec3(0.0f));
+    for (std::size_t i = 0; i < creased.size(); i += 5) creased.crease[i] = glm::vec3(0.0f, 0.0f, 1.0f);
+    std::vector<std::string> seeds;
+    for (const PlyFormat format : {PlyFormat::Ascii, PlyFormat::BinaryLittleEndian}) {
+        for (const PointSet* points : {&coloured, &creased}) {
+            const fs::path path = file("seed.ply");
+            ASSERT_TRUE(writePly(path, *points, format).ok());
+            std::ifstream in(path, std::ios::binary);
+            std::string bytes(fs::file_size(path), '\0');
+            in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+            ASSERT_TRUE(in.good());
+            seeds.push_back(std::move(bytes));
+        }
+    }
+    seeds.push_back(asciiHeader(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0.2 0 0 1\n");
+
+    std::mt19937_64 rng(20261123);
+    constexpr int kMutantsPerSeed = 300;
+    std::size_t read = 0, rejected = 0, refined = 0;
+    for (const std::string& seed : seeds) {
+        for (int m = 0; m < kMutantsPerSeed; ++m) {
+            const fs::path path = writeFile("mutant.ply", mutate(seed, rng));
+            PlyReadOptions options;
+            options.readFaces = (m % 2) == 1;
+            const Result<PlyData> result = readPly(path, options);
+            if (!result.ok()) {
+                ++rejected;
+                const std::string& message = result.error().message;
+                EXPECT_FALSE(message.empty());
+                EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+                continue;
+            }
+            ++read;
+            PointSet points = result->points;
+            const std::size_t n = points.size();
+            ASSERT_GT(n, 0u);
+            ASSERT_EQ(points.normal.size(), n);
+            ASSERT_TRUE(points.radius.empty() || points.radius.size() == n);
+            ASSERT_TRUE(points.colour.empty() || points.colour.size() == n);
+            ASSERT_TRUE(points.crease.empty() || points.crease.size() == n);
+            for (std::size_t i = 0; i < n; ++i) {
+                ASSERT_TRUE(std::isfinite(points.position[i].x) && std::isfinite(points.position[i].y) &&
+                            std::isfinite(points.position[i].z));
+                ASSERT_NEAR(glm::length(points.normal[i]), 1.0f, 1e-5f);
+                if (points.hasRadius()) {
+                    ASSERT_TRUE(points.radius[i] >= 0.0f && std::isfinite(points.radius[i]));
+                }
+            }
+            for (const glm::u32vec3& t : result->triangles) ASSERT_TRUE(t.x < n && t.y < n && t.z < n);
+            if (n < 3 || n > 500) continue;
+            if (!points.hasRadius()) estimateRadii(points, 1);
+            if (!validateForRefinement(points).ok()) continue;
+            Refiner refiner(std::move(points), RefineOptions{});
+            refiner.refineLevel();
+            EXPECT_GE(refiner.points().size(), n);
+            ++refined;
+        }
+    }
+    std::cout << "    mutants: " << read << " read (" << refined << " refined), " << rejected << " rejected\n";
+    EXPECT_GT(read, 0u);
+    EXPECT_GT(rejected, 0u);
+    EXPECT_GT(refined, 0u);
 }
 
 } // namespace

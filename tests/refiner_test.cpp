@@ -708,6 +708,27 @@ TEST(RefinerLevels, ChildRangesPartitionEachLevelAndChildrenStayNearTheirParent)
 }
 
 // ---------------------------------------------------------------------------------------------
+// Radii far too large for the sampling (every point reaches the whole model): each neighbourhood
+// is cut to the kMaxNeighbours nearest points, which the statistics report, and the level still
+// refines and interpolates. Ordinary radii never reach the bound.
+
+TEST(RefinerNeighbourhood, OversizedRadiiAreCutToTheNearestAndCounted) {
+    PointSet input = sampleSphereUniform(1000, 1.0f);
+    input.radius.assign(input.size(), 5.0f); // the sphere's diameter is 2
+    Refiner refiner(input, options());
+    const LevelStats stats = refiner.refineLevel();
+    std::cout << "    radius 5 on a unit sphere of 1000 points: " << stats.cappedNeighbourhoods
+              << " neighbourhoods cut, " << stats.inserted << " points inserted\n";
+    EXPECT_EQ(stats.cappedNeighbourhoods, input.size());
+    EXPECT_GT(stats.inserted, input.size() / 2);
+    for (std::size_t i = 0; i < input.size(); ++i) // P0 is the input, reordered
+        ASSERT_EQ(refiner.points().position[i], input.position[refiner.inputOrder()[i]]);
+
+    Refiner ordinary(withRadii(sampleSphereUniform(1000, 1.0f)), options());
+    for (int level = 0; level < 4; ++level) EXPECT_EQ(ordinary.refineLevel().cappedNeighbourhoods, 0u) << level;
+}
+
+// ---------------------------------------------------------------------------------------------
 // validateForRefinement: the input checks of the Refiner's precondition.
 
 TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {

@@ -77,6 +77,11 @@ void runRefine(const RefineArgs& args) {
     const std::string evened = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
     fmt::print("{}: {} points in, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
                inputName, inputCount, outputCount, done, evened, refineSeconds, rate, total, output);
+    if (run.cappedNeighbourhoods > 0)
+        fmt::print(stderr,
+                   "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and used the {} "
+                   "nearest; the radii look too large for the sampling (--estimate-radii replaces them)\n",
+                   run.cappedNeighbourhoods, kMaxNeighbours, kMaxNeighbours);
 }
 
 } // namespace

@@ -32,6 +32,7 @@ RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsi
         bar.setLabel(fmt::format("level {}", run.levels + 1));
         const LevelStats stats = refiner.refineLevel([&](std::size_t d, std::size_t t) { bar.update(d, t); });
         run.seconds += stats.seconds;
+        run.cappedNeighbourhoods += stats.cappedNeighbourhoods;
         ++run.levels;
         if (stats.inserted == 0) break; // converged: nothing more to insert
     }
@@ -40,6 +41,7 @@ RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsi
         for (const LevelStats& stats : evenOut(refiner, evenOutFactor, kEvenOutMaxLevels,
                                                [&](std::size_t d, std::size_t t) { bar.update(d, t); })) {
             run.seconds += stats.seconds;
+            run.cappedNeighbourhoods += stats.cappedNeighbourhoods;
             ++run.levels;
             ++run.evenOutLevels;
         }

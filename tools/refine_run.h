@@ -13,6 +13,7 @@ struct RefineRun {
     unsigned levels = 0;       // levels run (fewer than asked when nothing more was inserted)
     unsigned evenOutLevels = 0; // adaptive levels of evenOut after them (part of `levels`)
     double seconds = 0.0;      // time spent refining (not estimating radii)
+    std::size_t cappedNeighbourhoods = 0; // over all levels (LevelStats), a sign of radii too large
 };
 
 // Estimates radii when `points` has none (or when `estimateRadii`), checks the input

@@ -118,7 +118,8 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     std::vector<RingMember> outer; // Y_p
     std::vector<Candidate> candidates;
     PhaseTimes times;
-    std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0, boundaryInserted = 0;
+    std::vector<NearbyPoint> nearest; // the kMaxNeighbours nearest, for an oversized neighbourhood
+    std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0, boundaryInserted = 0, capped = 0;
 };
 
 // Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
@@ -319,6 +320,8 @@ struct Refiner::State {
 private:
     void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell, WorkerScratch& s);
     void gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s);
+    void collectNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
+                              std::span<const NearbyPoint> candidates, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
     glm::vec3 creaseOf(std::uint32_t i) const { return points.hasCrease() ? points.crease[i] : glm::vec3(0.0f); }
     glm::vec3 planeNormal(std::uint32_t p) const;
@@ -379,10 +382,30 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
 }
 
-// Nε_p, N'_p and Y_p of p; `frame` is the tangent frame of planeNormal(p). Crease points show the
-// normal of p's side (facing); a crease point p pairs each neighbour with the closer of its own
-// two normals for the validity cone.
+// Nε_p, N'_p and Y_p of p within `reach` (at most the kMaxNeighbours nearest points of Nε_p).
 void Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s) {
+    collectNeighbourhood(p, frame, reach, s.nearby, s);
+    if (s.fan.size() <= kMaxNeighbours) return;
+    ++s.capped;
+    const glm::vec3 x = points.position[p];
+    const auto distance2 = [&](const NearbyPoint& c) { return glm::dot(c.position - x, c.position - x); };
+    s.nearest.clear();
+    for (const NearbyPoint& c : s.nearby)
+        if (c.index != p && distance2(c) < reach * reach) s.nearest.push_back(c);
+    const auto middle = s.nearest.begin() + static_cast<std::ptrdiff_t>(kMaxNeighbours);
+    std::nth_element(s.nearest.begin(), middle, s.nearest.end(), [&](const NearbyPoint& a, const NearbyPoint& b) {
+        const float da = distance2(a), db = distance2(b);
+        return da != db ? da < db : a.index < b.index;
+    });
+    s.nearest.erase(middle, s.nearest.end());
+    collectNeighbourhood(p, frame, reach, s.nearest, s);
+}
+
+// Nε_p, N'_p and Y_p of p among `candidates`; `frame` is the tangent frame of planeNormal(p).
+// Crease points show the normal of p's side (facing); a crease point p pairs each neighbour with
+// the closer of its own two normals for the validity cone.
+void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
+                                          std::span<const NearbyPoint> candidates, WorkerScratch& s) {
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = frame.n;
     const bool creases = points.hasCrease();
@@ -393,7 +416,7 @@ void Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& fr
     s.fan.clear();
     s.ring.clear();
     s.outer.clear();
-    for (const NearbyPoint& candidate : s.nearby) {
+    for (const NearbyPoint& candidate : candidates) {
         const glm::vec3 toCandidate = candidate.position - x;
         const std::uint32_t i = candidate.index;
         // Nε_p (eq. 7): points of P(l) closer than r that pass the validity cone (eq. 6).
@@ -945,7 +968,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (std::vector<NewPoint>& store : cellPoints) store.clear();
     stats.sequentialPoints = large.size();
 
-    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0, s.retried = 0, s.boundaryInserted = 0;
+    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0, s.retried = 0, s.boundaryInserted = 0, s.capped = 0;
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
     for (std::uint32_t i : large) {
@@ -1020,6 +1043,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         stats.discarded += s.discarded;
         stats.incomplete += s.incomplete;
         stats.retried += s.retried;
+        stats.cappedNeighbourhoods += s.capped;
         stats.boundaryInserted += s.boundaryInserted;
         stats.phases.neighbourhood += s.times.neighbourhood;
         stats.phases.filtering += s.times.filtering;

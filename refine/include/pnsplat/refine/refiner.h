@@ -6,6 +6,7 @@
 // level is identical for any number of threads (SPEC 5: fixed spatial colouring, see refiner.cpp).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -28,6 +29,15 @@ enum class NeighbourhoodKind {
 inline constexpr float kLambda1 = 0.57735026918962576f;
 inline constexpr float kLambda2 = 0.5f;
 inline constexpr float kThetaC = std::numbers::pi_v<float> / 2.0f;
+
+// Choice (not in the paper): a Euclidean neighbourhood keeps at most this many points, the nearest.
+// The natural first ring has about 6 members and a radius that reaches it holds some 6 to 30
+// points (up to about 200 at the largest radii of the irregular inputs in ../shared/data, none of
+// which reaches this bound); only radii far too large for the sampling (a whole model within one
+// radius) give more, and then the O(k²) filter would make a level take hours. Those points use
+// their nearest kMaxNeighbours, which hold their first ring; LevelStats::cappedNeighbourhoods
+// counts them.
+inline constexpr std::size_t kMaxNeighbours = 256;
 
 struct RefineOptions {
     NeighbourhoodKind neighbourhood = NeighbourhoodKind::Accurate;
@@ -76,6 +86,7 @@ struct LevelStats {
     std::size_t discarded = 0;       // candidates that fell in the discard space
     std::size_t incomplete = 0;      // points whose new one-ring N'_p stayed incomplete
     std::size_t retried = 0;         // points whose fan was open and was searched again wider
+    std::size_t cappedNeighbourhoods = 0; // neighbourhoods cut to the kMaxNeighbours nearest
     std::size_t boundaryInserted = 0; // points inserted on boundary and crease segments (section 6)
     std::size_t boundarySegments = 0; // boundary and crease segments after this level
     double seconds = 0;              // wall clock

@@ -242,6 +242,23 @@ TEST(CliRefine, EvenOutAddsLevelsAfterTheUniformOnes) {
     EXPECT_NE(r2.out.find("evening out"), std::string::npos) << r2.out;
 }
 
+// Radii spanning the whole model: the refinement goes on (neighbourhoods cut to the nearest
+// kMaxNeighbours points) and the summary is followed by a warning that names the likely cause.
+TEST(CliRefine, OversizedRadiiRefineWithAWarning) {
+    const TempDir dir;
+    PointSet sphere = sampleSphereUniform(400, 1.0f);
+    sphere.radius.assign(sphere.size(), 5.0f);
+    const fs::path in = dir / "in.ply", out = dir / "out.ply";
+    ASSERT_TRUE(writePly(in, sphere).ok());
+    const RunResult r = run("refine " + quote(in) + " -l 1 -o " + quote(out));
+    std::cout << "[refine, radii spanning the model] exit " << r.exitCode << ": " << r.err;
+    EXPECT_TRUE(r.exited && r.exitCode == 0);
+    EXPECT_TRUE(fs::exists(out));
+    EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+    EXPECT_NE(r.err.find("warning"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("radii look too large"), std::string::npos) << r.err;
+}
+
 TEST(CliRefine, ThreadCountDoesNotChangeTheFile) {
     const TempDir dir;
     const fs::path one = dir / "one.ply", two = dir / "two.ply";
@@ -459,7 +476,7 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
         {"zero-sized image", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--width 0"},
         {"eye on the target", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--camera 1,1,1,1,1,1,0,1,0"},
         {"extent beyond single precision",
-         headerAscii(3) + "-3e38 0 0 0 0 1\n3e38 0 0 0 0 1\n0 3e38 0 0 0 1\n", "", "single precision"},
+         headerAscii(3) + "-3e38 0 0 0 0 1\n3e38 0 0 0 0 1\n0 3e38 0 0 0 1\n", "", "bounding sphere overflows"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.name);

@@ -3,9 +3,9 @@
 #include "pnsplat/refine/ply.h"
 
 #include <array>
-#include <cctype>
 #include <atomic>
 #include <bit>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -698,7 +698,11 @@ std::string mutate(std::string bytes, std::mt19937_64& rng) {
         case 1: bytes[at] = static_cast<char>(rng() & 0xff); break;
         case 2: bytes[at] = kChars[pick(kChars.size())]; break;
         case 3: bytes.resize(at); break;
-        case 4: bytes.insert(at, bytes.substr(pick(bytes.size()), 1 + pick(64))); break;
+        case 4: {
+            const std::size_t from = pick(bytes.size()), length = 1 + pick(64); // in this order
+            bytes.insert(at, bytes.substr(from, length));
+            break;
+        }
         default: {
             // A number of the header (a count, a property's position) becomes an extreme one.
             const std::size_t headerEnd = std::min(bytes.find("end_header"), bytes.size());

@@ -723,6 +723,13 @@ TEST(RefinerNeighbourhood, OversizedRadiiAreCutToTheNearestAndCounted) {
     EXPECT_GT(stats.inserted, input.size() / 2);
     for (std::size_t i = 0; i < input.size(); ++i) // P0 is the input, reordered
         ASSERT_EQ(refiner.points().position[i], input.position[refiner.inputOrder()[i]]);
+    // The kept neighbours are the nearest ones: the new points are PN centres of small triangles,
+    // on the sphere (measured 1e-5) with its normal. Far neighbours would make chords across it.
+    for (std::size_t i = input.size(); i < refiner.points().size(); ++i) {
+        const glm::vec3 x = refiner.points().position[i];
+        ASSERT_NEAR(glm::length(x), 1.0f, 1e-3f) << i;
+        ASSERT_GT(glm::dot(glm::normalize(x), refiner.points().normal[i]), 0.999f) << i;
+    }
 
     Refiner ordinary(withRadii(sampleSphereUniform(1000, 1.0f)), options());
     for (int level = 0; level < 4; ++level) EXPECT_EQ(ordinary.refineLevel().cappedNeighbourhoods, 0u) << level;

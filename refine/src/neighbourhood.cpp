@@ -109,8 +109,9 @@ void sortOrderByAngle(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
 
 // The filter's arrays, allocated to a multiple of kLanes entries: the positions the badness is
 // measured on (px, py, pz), their unit directions from p (dx, dy, dz) and tangent-plane
-// coordinates (su, sv). The entries past the set's size hold finite leftovers (the arrays only
-// grow, zero-filled, and every value written is finite); their results are computed and ignored.
+// coordinates (su, sv). The entries past the set's size hold leftovers of earlier sets (zeros
+// when the arrays grew); lanes are independent, so their results, computed and never read,
+// affect nothing else.
 struct FilterArrays {
     const float *px, *py, *pz, *dx, *dy, *dz, *su, *sv;
 };
@@ -167,7 +168,7 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     const bool geodesic = params.geodesicProjection && !params.euclideanGeodesic;
     measure(p, n, set, geodesic || params.edgeControls, scratch);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
-    // (x, y, z apart) for the O(k²) loop below.
+    // (x, y, z apart) for the O(k²) loop (badnessOfPairs).
     const std::size_t paddedCount = (count + kLanes - 1) / kLanes * kLanes;
     float* px = scratchArray(scratch.px, paddedCount);
     float* py = scratchArray(scratch.py, paddedCount);

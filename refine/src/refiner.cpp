@@ -318,8 +318,9 @@ struct Refiner::State {
     }
 
 private:
-    void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell, WorkerScratch& s);
-    void gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s);
+    void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell,
+                      WorkerScratch& s);
+    bool gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s);
     void collectNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
                               std::span<const NearbyPoint> candidates, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
@@ -344,7 +345,8 @@ private:
 // single large point is found through the bounding-sphere hierarchy (section 7). Both give the
 // same set; its order does not matter (the neighbourhoods are sorted, and Y_p breaks ties in
 // distance by storage position).
-void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell, WorkerScratch& s) {
+void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell,
+                                  WorkerScratch& s) {
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
     float largest = 0.0f;
     for (const std::uint32_t p : group) {
@@ -382,16 +384,20 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
 }
 
-// Nε_p, N'_p and Y_p of p within `reach` (at most the kMaxNeighbours nearest points of Nε_p).
-void Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s) {
+// Nε_p, N'_p and Y_p of p within `reach`. When more than kMaxNeighbours points pass, only the
+// kMaxNeighbours nearest points within reach (ties by index) are kept and then checked against
+// the validity cone, so N'_p and Y_p hold the children of those only. Returns whether it cut: a
+// wider reach would keep the same points.
+bool Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s) {
     collectNeighbourhood(p, frame, reach, s.nearby, s);
-    if (s.fan.size() <= kMaxNeighbours) return;
-    ++s.capped;
+    if (s.fan.size() <= kMaxNeighbours) return false;
     const glm::vec3 x = points.position[p];
     const auto distance2 = [&](const NearbyPoint& c) { return glm::dot(c.position - x, c.position - x); };
     s.nearest.clear();
     for (const NearbyPoint& c : s.nearby)
         if (c.index != p && distance2(c) < reach * reach) s.nearest.push_back(c);
+    if (s.nearest.size() <= kMaxNeighbours) return false; // the same points (rounding aside)
+    ++s.capped;
     const auto middle = s.nearest.begin() + static_cast<std::ptrdiff_t>(kMaxNeighbours);
     std::nth_element(s.nearest.begin(), middle, s.nearest.end(), [&](const NearbyPoint& a, const NearbyPoint& b) {
         const float da = distance2(a), db = distance2(b);
@@ -399,6 +405,7 @@ void Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& fr
     });
     s.nearest.erase(middle, s.nearest.end());
     collectNeighbourhood(p, frame, reach, s.nearest, s);
+    return true;
 }
 
 // Nε_p, N'_p and Y_p of p among `candidates`; `frame` is the tangent frame of planeNormal(p).
@@ -690,12 +697,13 @@ void Refiner::State::findSegments() {
         gatherNearby(std::span(&p, 1), std::nullopt, s);
         bool open = true;
         for (const float reach : {levelRadius[p], kRetryReach * levelRadius[p]}) {
-            gatherNeighbourhood(p, frame, reach, s);
+            const bool cut = gatherNeighbourhood(p, frame, reach, s);
             filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
             if (!fanIsOpen(s.fan)) {
                 open = false;
                 break;
             }
+            if (cut) break; // a wider search would keep the same neighbours
         }
         if (points.isCrease(p)) creaseEnds[p] = creaseNeighbours(p, s.fan);
         const std::size_t m = s.fan.size();
@@ -733,11 +741,11 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     const glm::vec3 n = planeNormal(p);
     const FuzzyParams fuzzy = fuzzyParams(options.smoothing && !options.centroidCandidates); // PN-centre candidates
     const TangentFrame frame(n);
-    gatherNeighbourhood(p, frame, levelRadius[p], s);
+    const bool cut = gatherNeighbourhood(p, frame, levelRadius[p], s);
     if (profile) s.times.neighbourhood += secondsSince(t0);
     filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
     if (profile) s.times.filtering += secondsSince(t0);
-    if (fanIsOpen(s.fan)) {
+    if (!cut && fanIsOpen(s.fan)) {
         // Choice: a fan open wider than θb may be a boundary, or a radius that fell short of the
         // natural first ring on one side (the radius update only reaches N'_p). Look once more
         // within kRetryReach·r before treating it as a boundary; the new one-ring then reaches
@@ -968,7 +976,10 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (std::vector<NewPoint>& store : cellPoints) store.clear();
     stats.sequentialPoints = large.size();
 
-    for (WorkerScratch& s : scratch) s.times = {}, s.inserted = 0, s.discarded = 0, s.incomplete = 0, s.retried = 0, s.boundaryInserted = 0, s.capped = 0;
+    for (WorkerScratch& s : scratch) {
+        s.times = {};
+        s.inserted = s.discarded = s.incomplete = s.retried = s.boundaryInserted = s.capped = 0;
+    }
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
     for (std::uint32_t i : large) {

@@ -78,7 +78,8 @@ inline float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThet
 }
 
 // Scratch buffers reused across calls (no allocation per point once warm). The float arrays keep
-// their largest size; entries [0, k) belong to the last set of k entries filtered.
+// their largest size; entries [0, k) belong to the last set of k entries filtered, and the pair
+// loop reads up to k rounded up to its SIMD width.
 struct NeighbourhoodScratch {
     std::vector<float> px, py, pz;     // the positions the badness is measured on
     std::vector<float> dx, dy, dz;     // their unit directions from p

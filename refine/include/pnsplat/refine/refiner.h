@@ -30,13 +30,13 @@ inline constexpr float kLambda1 = 0.57735026918962576f;
 inline constexpr float kLambda2 = 0.5f;
 inline constexpr float kThetaC = std::numbers::pi_v<float> / 2.0f;
 
-// Choice (not in the paper): a Euclidean neighbourhood keeps at most this many points, the nearest.
-// The natural first ring has about 6 members and a radius that reaches it holds some 6 to 30
-// points (up to about 200 at the largest radii of the irregular inputs in ../shared/data, none of
-// which reaches this bound); only radii far too large for the sampling (a whole model within one
-// radius) give more, and then the O(k²) filter would make a level take hours. Those points use
-// their nearest kMaxNeighbours, which hold their first ring; LevelStats::cappedNeighbourhoods
-// counts them.
+// Choice (not in the paper): when more than this many points within a point's radius pass the
+// validity cone, only this many nearest points within the radius are kept (and then checked
+// against the cone). The natural first ring has about 6 members and a radius that reaches it holds
+// some 6 to 30 points (up to about 200 at the largest radii of the irregular inputs in
+// ../shared/data, none of which reaches this bound); only radii far too large for the sampling (a
+// whole model within one radius) give more, and then the O(k²) filter would make a level take
+// hours. LevelStats::cappedNeighbourhoods counts the points cut so.
 inline constexpr std::size_t kMaxNeighbours = 256;
 
 struct RefineOptions {

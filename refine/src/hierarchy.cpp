@@ -20,8 +20,8 @@ PointHierarchy::PointHierarchy(std::span<const glm::vec3> roots) {
     rootOrder_.resize(count);
     std::iota(rootOrder_.begin(), rootOrder_.end(), 0u);
     levelEnd_.push_back(count);
-    spheres_.resize(count);
-    for (std::uint32_t i = 0; i < count; ++i) spheres_[i] = glm::vec4(roots[i], 0.0f);
+    positions_ = roots;
+    bounds_.assign(count, 0.0f);
     if (count > 0) {
         nodes_.reserve(2 * (count / kLeafSize + 1));
         build(0, count, roots);
@@ -59,7 +59,7 @@ void PointHierarchy::addLevel(std::vector<std::uint32_t> childBegin) {
     assert(std::is_sorted(childBegin.begin(), childBegin.end()));
     levelEnd_.push_back(childBegin.back());
     children_.push_back(std::move(childBegin));
-    spheres_.resize(levelEnd_.back(), glm::vec4(0.0f));
+    bounds_.resize(levelEnd_.back(), 0.0f);
 }
 
 void PointHierarchy::updateBounds(std::span<const glm::vec3> positions) {
@@ -70,10 +70,11 @@ void PointHierarchy::updateBounds(std::span<const glm::vec3> positions) {
         float bound = 0.0f;
         for (std::uint32_t l = levelOf(i); l < lastLevel; ++l) {
             for (std::uint32_t c = children_[l][i]; c < children_[l][i + 1]; ++c)
-                bound = std::max(bound, (glm::length(positions[c] - positions[i]) + spheres_[c].w) * kBoundRoundUp);
+                bound = std::max(bound, (glm::length(positions[c] - positions[i]) + bounds_[c]) * kBoundRoundUp);
         }
-        spheres_[i] = glm::vec4(positions[i], bound);
+        bounds_[i] = bound;
     }
+    positions_ = positions;
     refit();
 }
 
@@ -85,9 +86,9 @@ void PointHierarchy::refit() {
             node.lo = glm::vec3(std::numeric_limits<float>::max());
             node.hi = glm::vec3(std::numeric_limits<float>::lowest());
             for (std::uint32_t k = node.begin; k < node.end; ++k) {
-                const glm::vec4 sphere = spheres_[rootOrder_[k]];
-                node.lo = glm::min(node.lo, glm::vec3(sphere) - sphere.w);
-                node.hi = glm::max(node.hi, glm::vec3(sphere) + sphere.w);
+                const std::uint32_t i = rootOrder_[k];
+                node.lo = glm::min(node.lo, positions_[i] - bounds_[i]);
+                node.hi = glm::max(node.hi, positions_[i] + bounds_[i]);
             }
         } else {
             const Node& left = nodes_[n + 1];

@@ -20,7 +20,6 @@
 #include <glm/geometric.hpp>
 #include <glm/vector_relational.hpp>
 #include <glm/vec3.hpp>
-#include <glm/vec4.hpp>
 
 namespace pnsplat {
 
@@ -48,14 +47,15 @@ public:
 
     // Recomputes the bounding radii of all points bottom-up,
     //   bound_i = max over children c of (|p_c - p_i| + bound_c), 0 without children,
-    // and refits the kd-tree. `positions` holds at least pointCount() points.
+    // and refits the kd-tree. `positions` holds at least pointCount() points; queries read them
+    // until the next updateBounds, so they must stay valid and unchanged until then.
     void updateBounds(std::span<const glm::vec3> positions);
-    float bound(std::uint32_t i) const { return spheres_[i].w; }
+    float bound(std::uint32_t i) const { return bounds_[i]; }
 
     // Calls visit(i, squaredDistance) for every point i of P(levels()-1) whose bounding sphere
     // meets the ball (centre, radius): |centre - p_i| <= radius + bound_i. This includes every
-    // point closer than `radius`. Positions are those given to the last updateBounds. `stack` is
-    // the caller's scratch memory. Order: deterministic.
+    // point closer than `radius`. Positions are those given to the last updateBounds (or to the
+    // constructor before it). `stack` is the caller's scratch memory. Order: deterministic.
     struct StackEntry {
         std::uint32_t index, level;
         float distance2;
@@ -83,7 +83,8 @@ private:
     std::vector<std::uint32_t> rootOrder_;
     std::vector<std::uint32_t> levelEnd_;                 // levelEnd_[l] = |P(l)|
     std::vector<std::vector<std::uint32_t>> children_;   // children_[l][i], i in P(l)
-    std::vector<glm::vec4> spheres_; // (p_i, bound_i), interleaved for the traversal
+    std::span<const glm::vec3> positions_; // given to the last updateBounds (or the constructor)
+    std::vector<float> bounds_;            // bound_i
 };
 
 template <typename Visit>
@@ -92,11 +93,10 @@ void PointHierarchy::queryBox(glm::vec3 lo, glm::vec3 hi, float margin, std::vec
     const std::uint32_t lastLevel = levels() - 1;
     // A sphere (p_i, bound_i) meets the grown box when dist(p_i, [lo, hi]) <= margin + bound_i.
     const auto reaches = [&](std::uint32_t i, float& d2) {
-        const glm::vec4 s = spheres_[i];
-        const glm::vec3 centre(s);
+        const glm::vec3 centre = positions_[i];
         const glm::vec3 d = centre - glm::clamp(centre, lo, hi);
         d2 = glm::dot(d, d);
-        const float reach = margin + s.w;
+        const float reach = margin + bounds_[i];
         return d2 <= reach * reach;
     };
     const glm::vec3 grownLo = lo - margin, grownHi = hi + margin;

@@ -436,7 +436,8 @@ TEST(CliBench, RefineWritesEveryConfiguration) {
     for (const char* key : {"\"benchmark\": \"refine\"", "\"two_thread_speedup\": {\"full\": ", "\"name\": \"full\"",
                             "\"name\": \"fast (all variants)\"", "\"name\": \"variant 1 euclidean geodesic\"",
                             "\"name\": \"variant 2 plain angle\"", "\"name\": \"variant 3 fuzzy neighbourhood\"",
-                            "\"name\": \"variant 4 centroid candidates\"", "\"phase_share\": {\"neighbourhood\": "})
+                            "\"name\": \"variant 4 centroid candidates\"", "\"phase_share\": {\"neighbourhood\": ",
+                            "\"page_faults_median\": "})
         EXPECT_NE(json.find(key), std::string::npos) << key << " missing from " << json;
     std::size_t runs = 0;
     for (std::size_t at = json.find("\"points_per_second_median\""); at != std::string::npos;

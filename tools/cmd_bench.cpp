@@ -6,6 +6,8 @@
 #include <thread>
 #include <vector>
 
+#include <sys/resource.h>
+
 #include <fmt/core.h>
 #include <fmt/format.h>
 
@@ -32,11 +34,19 @@ struct RunResult {
     double seconds = 0;
     unsigned levels = 0;
     PhaseTimes phases;
+    long pageFaults = 0; // minor page faults of the process during the levels
 };
+
+long minorPageFaults() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return usage.ru_minflt;
+}
 
 RunResult refineOnce(const PointSet& input, const RefineOptions& options, std::size_t target) {
     Refiner refiner(input, options);
     RunResult result;
+    const long faultsBefore = minorPageFaults();
     while (refiner.points().size() < target) {
         const LevelStats stats = refiner.refineLevel();
         result.seconds += stats.seconds;
@@ -47,6 +57,7 @@ RunResult refineOnce(const PointSet& input, const RefineOptions& options, std::s
         ++result.levels;
         if (stats.inserted == 0) break;
     }
+    result.pageFaults = minorPageFaults() - faultsBefore;
     result.generated = refiner.points().size() - input.size();
     return result;
 }
@@ -87,16 +98,21 @@ ConfigResult benchConfig(const std::string& name, const PointSet& input, RefineO
                          const BenchArgs& args) {
     options.threads = threads;
     refineOnce(input, options, args.targetPoints); // warm-up
-    std::vector<double> rates;
+    std::vector<double> rates, faults;
     RunResult last;
     for (unsigned k = 0; k < args.repeat; ++k) {
         last = refineOnce(input, options, args.targetPoints);
         rates.push_back(static_cast<double>(last.generated) / last.seconds);
+        faults.push_back(static_cast<double>(last.pageFaults));
     }
+    // Page faults are reported because they cost several microseconds each on virtual machines
+    // (first touches of the arrays that grow with every level), a sizeable share of a run there.
     std::string json = fmt::format(R"({{"name": "{}", "threads": {}, "levels": {}, "points_out": {}, "generated": {}, )"
-                                   R"("points_per_second_median": {:.0f}, "points_per_second_min": {:.0f}, "points_per_second_max": {:.0f})",
+                                   R"("points_per_second_median": {:.0f}, "points_per_second_min": {:.0f}, "points_per_second_max": {:.0f}, )"
+                                   R"("page_faults_median": {:.0f})",
                                    name, threads, last.levels, last.generated + input.size(), last.generated, median(rates),
-                                   *std::min_element(rates.begin(), rates.end()), *std::max_element(rates.begin(), rates.end()));
+                                   *std::min_element(rates.begin(), rates.end()), *std::max_element(rates.begin(), rates.end()),
+                                   median(faults));
     if (threads == 1) {
         // The split per phase comes from a separate profiled run (timers cost a little).
         options.profile = true;

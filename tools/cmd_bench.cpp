@@ -89,12 +89,9 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
-struct ConfigResult {
-    std::string json;
-    double medianRate = 0; // generated points per second
-};
-
-ConfigResult benchConfig(const std::string& name, const PointSet& input, RefineOptions options, unsigned threads,
+// One configuration's JSON record: generated points per second over the timed runs, page faults,
+// and on one thread the time split per phase.
+std::string benchConfig(const std::string& name, const PointSet& input, RefineOptions options, unsigned threads,
                          const BenchArgs& args) {
     options.threads = threads;
     refineOnce(input, options, args.targetPoints); // warm-up
@@ -123,7 +120,21 @@ ConfigResult benchConfig(const std::string& name, const PointSet& input, RefineO
                             p.neighbourhood / sum, p.filtering / sum, p.selection / sum, p.interpolation / sum);
     }
     fmt::print(stderr, "  {:<28} {} thread(s): {:>10.0f} points/s\n", name, threads, median(rates));
-    return {json + "}", median(rates)};
+    return json + "}";
+}
+
+// Two threads over one thread from interleaved runs (1, 2, 1, 2, ...; medians): both see the same
+// allocator state (a process that has run longer keeps more freed memory and faults less).
+double twoThreadSpeedup(const PointSet& input, RefineOptions options, const BenchArgs& args) {
+    std::vector<double> rates[2];
+    for (unsigned k = 0; k <= args.repeat; ++k) {
+        for (unsigned threads = 1; threads <= 2; ++threads) {
+            options.threads = threads;
+            const RunResult r = refineOnce(input, options, args.targetPoints);
+            if (k > 0) rates[threads - 1].push_back(static_cast<double>(r.generated) / r.seconds); // k = 0: warm-up
+        }
+    }
+    return median(rates[1]) / median(rates[0]);
 }
 
 void runBenchRefine(const BenchArgs& args) {
@@ -151,17 +162,13 @@ void runBenchRefine(const BenchArgs& args) {
 
     fmt::print(stderr, "bench refine: sphere of {} uniform points to >= {} points, {} timed runs each\n",
                args.spherePoints, args.targetPoints, args.repeat);
-    std::vector<ConfigResult> results;
-    for (const Config& c : configs) results.push_back(benchConfig(c.name, sphere, c.options, 1, args));
-    const ConfigResult full2 = benchConfig("full", sphere, configs[0].options, 2, args);
-    const ConfigResult fast2 = benchConfig("fast (all variants)", sphere, configs[1].options, 2, args);
-    // Medians of 2 threads over medians of 1 thread, same process.
-    const double fullSpeedup = full2.medianRate / results[0].medianRate, fastSpeedup = fast2.medianRate / results[1].medianRate;
-    fmt::print(stderr, "  2 threads / 1 thread: full {:.2f}, fast {:.2f}\n", fullSpeedup, fastSpeedup);
-    results.push_back(full2);
-    results.push_back(fast2);
     std::vector<std::string> runs;
-    for (const ConfigResult& r : results) runs.push_back(r.json);
+    for (const Config& c : configs) runs.push_back(benchConfig(c.name, sphere, c.options, 1, args));
+    runs.push_back(benchConfig("full", sphere, configs[0].options, 2, args));
+    runs.push_back(benchConfig("fast (all variants)", sphere, configs[1].options, 2, args));
+    const double fullSpeedup = twoThreadSpeedup(sphere, configs[0].options, args);
+    const double fastSpeedup = twoThreadSpeedup(sphere, configs[1].options, args);
+    fmt::print(stderr, "  2 threads / 1 thread: full {:.2f}, fast {:.2f}\n", fullSpeedup, fastSpeedup);
     const std::string json = fmt::format(
         R"({{"benchmark": "refine", "case": "sphere {} uniform points to >= {} points", "cpu": "{}", "hardware_threads": {}, "repeat": {}, )"
         R"("two_thread_speedup": {{"full": {:.3f}, "fast": {:.3f}}}, "runs": [

@@ -256,6 +256,31 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     return sorted;
 }
 
+// Grows every array of `points` to n elements, the arrays side by side on the pool's workers: a
+// resize is mostly page faults on fresh memory, which the workers take in parallel.
+void growInParallel(PointSet& points, std::size_t n, WorkerPool& pool) {
+    const bool withRadius = points.hasRadius(), withColour = points.hasColour(), withCrease = points.hasCrease();
+    pool.parallelFor(5, [&](std::size_t array, unsigned) {
+        switch (array) {
+        case 0: points.position.resize(n); break;
+        case 1: points.normal.resize(n); break;
+        case 2: if (withRadius) points.radius.resize(n); break;
+        case 3: if (withColour) points.colour.resize(n); break;
+        default: if (withCrease) points.crease.resize(n); break;
+        }
+    });
+}
+
+// std::sort of `v` with the pool's workers: each sorts a slice, then the slices are merged. The
+// result is the same as std::sort's for a strict total order (no two elements equal).
+template <typename T>
+void sortInParallel(std::vector<T>& v, WorkerPool& pool) {
+    const std::size_t slices = std::min<std::size_t>(pool.size(), v.size() / 4096 + 1);
+    const auto bound = [&](std::size_t k) { return v.begin() + static_cast<std::ptrdiff_t>(v.size() * k / slices); };
+    pool.parallelFor(slices, [&](std::size_t k, unsigned) { std::sort(bound(k), bound(k + 1)); });
+    for (std::size_t k = 1; k < slices; ++k) std::inplace_merge(v.begin(), bound(k), bound(k + 1));
+}
+
 } // namespace
 
 RefineOptions RefineOptions::fast() {
@@ -932,7 +957,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     std::vector<std::uint32_t> large;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
     for (std::uint32_t i = 0; i < count; ++i) keyed[i] = {cellKeyOf(points.position[i], lo, cellSize), i};
-    std::sort(keyed.begin(), keyed.end());
+    sortInParallel(keyed, pool); // (key, index): no two equal
     gridKey.resize(count);
     gridPoint.resize(count);
     for (std::uint32_t k = 0; k < count; ++k) gridKey[k] = keyed[k].first, gridPoint[k] = keyed[k].second;
@@ -1012,7 +1037,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         offset += childRange[i].count;
     }
     childBegin[count] = offset;
-    points.resize(offset);
+    growInParallel(points, offset, pool);
     constexpr std::uint32_t kAppendBlock = 4096; // parents per work item: each writes its own range
     pool.parallelFor((count + kAppendBlock - 1) / kAppendBlock, [&](std::size_t item, unsigned) {
         const auto first = static_cast<std::uint32_t>(item) * kAppendBlock;

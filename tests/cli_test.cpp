@@ -437,7 +437,8 @@ TEST(CliBench, RefineWritesEveryConfiguration) {
                             "\"name\": \"fast (all variants)\"", "\"name\": \"variant 1 euclidean geodesic\"",
                             "\"name\": \"variant 2 plain angle\"", "\"name\": \"variant 3 fuzzy neighbourhood\"",
                             "\"name\": \"variant 4 centroid candidates\"", "\"phase_share\": {\"neighbourhood\": ",
-                            "\"page_faults_median\": "})
+                            "\"page_faults_median\": ", "\"full_one_thread_by_processor\": {\"0\": ",
+                            "\"two_thread_ideal_speedup\": "})
         EXPECT_NE(json.find(key), std::string::npos) << key << " missing from " << json;
     std::size_t runs = 0;
     for (std::size_t at = json.find("\"points_per_second_median\""); at != std::string::npos;

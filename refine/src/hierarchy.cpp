@@ -62,6 +62,10 @@ void PointHierarchy::addLevel(std::vector<std::uint32_t> childBegin) {
     bounds_.resize(levelEnd_.back(), 0.0f);
 }
 
+void PointHierarchy::growTo(std::uint32_t points) {
+    if (points > bounds_.size()) bounds_.resize(points, 0.0f);
+}
+
 void PointHierarchy::updateBounds(std::span<const glm::vec3> positions) {
     assert(positions.size() >= pointCount());
     const std::uint32_t lastLevel = levels() - 1;

@@ -256,17 +256,19 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     return sorted;
 }
 
-// Grows every array of `points` to n elements, the arrays side by side on the pool's workers: a
-// resize is mostly page faults on fresh memory, which the workers take in parallel.
-void growInParallel(PointSet& points, std::size_t n, WorkerPool& pool) {
+// Grows every array of `points`, and the hierarchy's, to n points, the arrays side by side on the
+// pool's workers: a resize is mostly page faults on fresh memory, which the workers take in
+// parallel.
+void growInParallel(PointSet& points, PointHierarchy& hierarchy, std::uint32_t n, WorkerPool& pool) {
     const bool withRadius = points.hasRadius(), withColour = points.hasColour(), withCrease = points.hasCrease();
-    pool.parallelFor(5, [&](std::size_t array, unsigned) {
+    pool.parallelFor(6, [&](std::size_t array, unsigned) {
         switch (array) {
         case 0: points.position.resize(n); break;
         case 1: points.normal.resize(n); break;
         case 2: if (withRadius) points.radius.resize(n); break;
         case 3: if (withColour) points.colour.resize(n); break;
-        default: if (withCrease) points.crease.resize(n); break;
+        case 4: if (withCrease) points.crease.resize(n); break;
+        default: hierarchy.growTo(n); break;
         }
     });
 }
@@ -956,7 +958,12 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
     std::vector<std::uint32_t> large;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
-    for (std::uint32_t i = 0; i < count; ++i) keyed[i] = {cellKeyOf(points.position[i], lo, cellSize), i};
+    constexpr std::uint32_t kKeyBlock = 16384;
+    pool.parallelFor((count + kKeyBlock - 1) / kKeyBlock, [&](std::size_t item, unsigned) {
+        const auto first = static_cast<std::uint32_t>(item) * kKeyBlock;
+        for (std::uint32_t i = first; i < std::min(count, first + kKeyBlock); ++i)
+            keyed[i] = {cellKeyOf(points.position[i], lo, cellSize), i};
+    });
     sortInParallel(keyed, pool); // (key, index): no two equal
     gridKey.resize(count);
     gridPoint.resize(count);
@@ -1037,7 +1044,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         offset += childRange[i].count;
     }
     childBegin[count] = offset;
-    growInParallel(points, offset, pool);
+    growInParallel(points, hierarchy, offset, pool);
     constexpr std::uint32_t kAppendBlock = 4096; // parents per work item: each writes its own range
     pool.parallelFor((count + kAppendBlock - 1) / kAppendBlock, [&](std::size_t item, unsigned) {
         const auto first = static_cast<std::uint32_t>(item) * kAppendBlock;

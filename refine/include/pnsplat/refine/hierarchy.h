@@ -38,6 +38,9 @@ public:
     // childBegin[0] = |P(l)| and childBegin.back() = |P(l+1)|; the children of point i are
     // [childBegin[i], childBegin[i+1]).
     void addLevel(std::vector<std::uint32_t> childBegin);
+    // Makes room for `points` points ahead of the addLevel that brings them (which would otherwise
+    // grow its storage itself), so that another thread can take the page faults.
+    void growTo(std::uint32_t points);
 
     // Children of point i inserted during the transition l → l+1 (i must be in P(l)).
     std::uint32_t childBegin(std::uint32_t l, std::uint32_t i) const { return children_[l][i]; }

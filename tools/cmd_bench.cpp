@@ -92,19 +92,28 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
+double rate(const RunResult& r) { return static_cast<double>(r.generated) / r.seconds; }
+
+// One warm-up run, then args.repeat timed ones.
+std::vector<RunResult> timedRuns(const PointSet& input, const RefineOptions& options, const BenchArgs& args) {
+    refineOnce(input, options, args.targetPoints);
+    std::vector<RunResult> runs;
+    for (unsigned k = 0; k < args.repeat; ++k) runs.push_back(refineOnce(input, options, args.targetPoints));
+    return runs;
+}
+
 // One configuration's JSON record: generated points per second over the timed runs, page faults,
 // and on one thread the time split per phase.
 std::string benchConfig(const std::string& name, const PointSet& input, RefineOptions options, unsigned threads,
                          const BenchArgs& args) {
     options.threads = threads;
-    refineOnce(input, options, args.targetPoints); // warm-up
     std::vector<double> rates, faults;
-    RunResult last;
-    for (unsigned k = 0; k < args.repeat; ++k) {
-        last = refineOnce(input, options, args.targetPoints);
-        rates.push_back(static_cast<double>(last.generated) / last.seconds);
-        faults.push_back(static_cast<double>(last.pageFaults));
+    const std::vector<RunResult> runs = timedRuns(input, options, args);
+    for (const RunResult& r : runs) {
+        rates.push_back(rate(r));
+        faults.push_back(static_cast<double>(r.pageFaults));
     }
+    const RunResult& last = runs.back();
     // Page faults are reported because they cost several microseconds each on virtual machines
     // (first touches of the arrays that grow with every level), a sizeable share of a run there.
     std::string json = fmt::format(R"({{"name": "{}", "threads": {}, "levels": {}, "points_out": {}, "generated": {}, )"
@@ -134,7 +143,7 @@ double twoThreadSpeedup(const PointSet& input, RefineOptions options, const Benc
         for (unsigned threads = 1; threads <= 2; ++threads) {
             options.threads = threads;
             const RunResult r = refineOnce(input, options, args.targetPoints);
-            if (k > 0) rates[threads - 1].push_back(static_cast<double>(r.generated) / r.seconds); // k = 0: warm-up
+            if (k > 0) rates[threads - 1].push_back(rate(r)); // k = 0: warm-up
         }
     }
     return median(rates[1]) / median(rates[0]);
@@ -159,10 +168,7 @@ std::string ratesByProcessor(const PointSet& input, RefineOptions options, const
         CPU_SET(cpu, &one);
         if (sched_setaffinity(0, sizeof(one), &one) != 0) continue;
         std::vector<double> rates;
-        for (unsigned k = 0; k <= args.repeat; ++k) {
-            const RunResult r = refineOnce(input, options, args.targetPoints);
-            if (k > 0) rates.push_back(static_cast<double>(r.generated) / r.seconds); // k = 0: warm-up
-        }
+        for (const RunResult& r : timedRuns(input, options, args)) rates.push_back(rate(r));
         medians.push_back(median(rates));
         entries.push_back(fmt::format(R"("{}": {:.0f})", cpu, medians.back()));
     }

@@ -477,8 +477,12 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
         {"truncated", headerAscii(4) + "0 0 0 0 0 1\n1 0", ""},
         {"zero-sized image", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--width 0"},
         {"eye on the target", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--camera 1,1,1,1,1,1,0,1,0"},
-        {"extent beyond single precision",
-         headerAscii(3) + "-3e38 0 0 0 0 1\n3e38 0 0 0 0 1\n0 3e38 0 0 0 1\n", "", "bounding sphere overflows"},
+        {"extent beyond single precision", // with radii: the estimate would fail first
+         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
+         "-3e38 0 0 0 0 1 1\n3e38 0 0 0 0 1 1\n0 3e38 0 0 0 1 1\n",
+         "", "bounding sphere overflows"},
+        {"coincident points", headerAscii(3) + "1 2 3 0 0 1\n1 2 3 0 0 1\n1 2 3 0 0 1\n", "", "no radius can be estimated"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.name);

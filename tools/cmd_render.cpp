@@ -14,7 +14,6 @@
 #include "pnsplat/engine/image.h"
 #include "pnsplat/engine/splat_renderer.h"
 #include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/shapes.h"
 
 namespace pnsplat::tools {
@@ -50,7 +49,7 @@ PointSet loadForRendering(const std::string& input, std::string& name) {
         name = input;
         points = unwrap(readPly(input)).points;
     }
-    if (!points.hasRadius()) estimateRadii(points);
+    if (!points.hasRadius()) estimateRadiiOrFail(points, 0, name);
     return points;
 }
 

@@ -10,19 +10,21 @@
 
 namespace pnsplat::tools {
 
+void estimateRadiiOrFail(PointSet& points, unsigned threads, const std::string& inputName) {
+    estimateRadii(points, threads);
+    for (std::size_t i = 0; i < points.size(); ++i)
+        if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
+            throw CommandError(fmt::format("{}: no radius can be estimated for point {}: it has no neighbour but "
+                                           "coincident points or points along its normal, or its distances "
+                                           "overflow single precision",
+                                           inputName, i));
+}
+
 RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsigned levels, std::size_t targetPoints,
                              float evenOutFactor, bool estimate, const std::string& inputName) {
     if (points.size() < 3)
         throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
-    if (!points.hasRadius() || estimate) {
-        estimateRadii(points, options.threads);
-        for (std::size_t i = 0; i < points.size(); ++i)
-            if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
-                throw CommandError(fmt::format("{}: no radius can be estimated for point {}: it has no neighbour but "
-                                               "coincident points or points along its normal, or its distances "
-                                               "overflow single precision",
-                                               inputName, i));
-    }
+    if (!points.hasRadius() || estimate) estimateRadiiOrFail(points, options.threads, inputName);
     if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
 
     Refiner refiner(std::move(points), options);

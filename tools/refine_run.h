@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/refiner.h"
@@ -15,6 +16,11 @@ struct RefineRun {
     double seconds = 0.0;      // time spent refining (not estimating radii)
     std::size_t cappedNeighbourhoods = 0; // over all levels (LevelStats), a sign of radii too large
 };
+
+// Replaces the radii of `points` by estimated ones (SPEC 9); a point without any (no neighbour but
+// coincident points or points along its normal, or distances beyond single precision) is a
+// CommandError naming `inputName`.
+void estimateRadiiOrFail(PointSet& points, unsigned threads, const std::string& inputName);
 
 // Estimates radii when `points` has none (or when `estimateRadii`), checks the input
 // (CommandError naming `inputName`), then refines up to `levels` levels, stopping early once

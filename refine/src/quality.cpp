@@ -1,7 +1,7 @@
 // Quality metrics of `pnsplat eval` (see quality.h for the definitions). Not part of the paper.
 //
 // Structure: per-point work (closest surface point, nearest-neighbour spacing, coverage of the
-// reference samples) runs in parallelFor over flat arrays, one slot per point; every reduction
+// reference samples) runs in parallelForRanges over flat arrays, one slot per point; every reduction
 // (sums, maxima, percentile) then runs sequentially in point order, so the report does not depend
 // on the thread count. Closest points on a mesh come from a bounding-volume hierarchy of
 // triangles searched branch and bound (exact: no search radius to guess, robust to a few huge
@@ -36,17 +36,10 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 // ---- Worker threads ----
 
-// Runs body(begin, end) over [0, n) in chunks on the pool (the project's one place for worker
-// threads, worker_pool.h). The body must write only to slots of its own range; which worker runs
-// which chunk varies, so results must not depend on it.
-template <typename Body>
-void parallelFor(WorkerPool& pool, std::size_t n, const Body& body) {
-    constexpr std::size_t kChunk = 2048;
-    const std::size_t chunks = (n + kChunk - 1) / kChunk;
-    pool.parallelFor(chunks, [&](std::size_t chunk, unsigned) {
-        body(chunk * kChunk, std::min(n, (chunk + 1) * kChunk));
-    });
-}
+// Per-point loops run on the pool (the project's one place for worker threads, worker_pool.h) in
+// ranges of this many points; a body writes only to slots of its own range, so results never
+// depend on which worker ran which range.
+constexpr std::size_t kChunk = 2048;
 
 // ---- Nearest points: nanoflann over a flat array of positions ----
 
@@ -469,7 +462,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     if (reference.isAnalytic()) {
         const AnalyticSurface& s = *reference.surface;
         report.diagonal = s.boundingDiagonal();
-        parallelFor(pool, n, [&](std::size_t begin, std::size_t end) {
+        parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
             for (std::size_t i = begin; i < end; ++i) {
                 distance[i] = s.distance(refined.position[i]);
                 angle[i] = normalError(i, s.normalAt(refined.position[i]));
@@ -480,7 +473,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
         const std::vector<glm::vec3>& vn = reference.points.normal;
         report.diagonal = diagonalOf(vp);
         const TriangleMeshIndex mesh(vp, reference.triangles);
-        parallelFor(pool, n, [&](std::size_t begin, std::size_t end) {
+        parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
             for (std::size_t i = begin; i < end; ++i) {
                 const TriangleMeshIndex::Hit hit = mesh.closest(refined.position[i]);
                 const glm::u32vec3 t = reference.triangles[hit.triangle];
@@ -496,7 +489,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
         const PositionsAdaptor adaptor{reference.points.position};
         report.diagonal = diagonalOf(reference.points.position);
         const std::unique_ptr<PointTree> tree = makePointTree(adaptor);
-        parallelFor(pool, n, [&](std::size_t begin, std::size_t end) {
+        parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
             for (std::size_t i = begin; i < end; ++i) {
                 const std::uint32_t q = nearest(*tree, refined.position[i]).first;
                 const glm::vec3 nq = reference.points.normal[q];
@@ -537,7 +530,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     const std::unique_ptr<PointTree> refinedTreePtr = makePointTree(refinedAdaptor);
     const PointTree& refinedTree = *refinedTreePtr;
     std::vector<float>& spacing = distance; // reuse the array
-    parallelFor(pool, n, [&](std::size_t begin, std::size_t end) {
+    parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
         for (std::size_t i = begin; i < end; ++i) {
             std::array<std::uint32_t, 2> index{};
             std::array<float, 2> d2{};
@@ -581,7 +574,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     const auto threshold2 = static_cast<float>(4.0 * spacingMean * spacingMean);
     constexpr std::size_t kTangentialNearest = 8;
     std::vector<std::uint8_t> uncovered(m), uncoveredTangential(m);
-    parallelFor(pool, m, [&](std::size_t begin, std::size_t end) {
+    parallelForRanges(pool, m, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
         std::array<std::uint32_t, kTangentialNearest> index;
         std::array<float, kTangentialNearest> d2;
         for (std::size_t j = begin; j < end; ++j) {

@@ -47,11 +47,11 @@ void estimateRadii(PointSet& points, unsigned threads) {
     };
     std::vector<Scratch> scratch(pool.size());
     constexpr std::size_t kBatch = 256;
-    pool.parallelFor((count + kBatch - 1) / kBatch, [&](std::size_t batch, unsigned worker) {
+    parallelForRanges(pool, count, kBatch, [&](std::size_t begin, std::size_t end, unsigned worker) {
         Scratch& s = scratch[worker];
         std::array<std::uint32_t, kMaxCandidates + 1> index;
         std::array<float, kMaxCandidates + 1> distance2;
-        for (std::size_t i = batch * kBatch; i < std::min(count, (batch + 1) * kBatch); ++i) {
+        for (std::size_t i = begin; i < end; ++i) {
             const glm::vec3 x = points.position[i], n = points.normal[i];
             const std::size_t found = tree.knnSearch(&x.x, kMaxCandidates + 1, index.data(), distance2.data());
             // Skip the point itself and coincident duplicates.

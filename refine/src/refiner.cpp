@@ -958,10 +958,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
     std::vector<std::uint32_t> large;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
-    constexpr std::uint32_t kKeyBlock = 16384;
-    pool.parallelFor((count + kKeyBlock - 1) / kKeyBlock, [&](std::size_t item, unsigned) {
-        const auto first = static_cast<std::uint32_t>(item) * kKeyBlock;
-        for (std::uint32_t i = first; i < std::min(count, first + kKeyBlock); ++i)
+    parallelForRanges(pool, count, 16384, [&](std::size_t begin, std::size_t end, unsigned) {
+        for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i)
             keyed[i] = {cellKeyOf(points.position[i], lo, cellSize), i};
     });
     sortInParallel(keyed, pool); // (key, index): no two equal
@@ -1045,10 +1043,9 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
     childBegin[count] = offset;
     growInParallel(points, hierarchy, offset, pool);
-    constexpr std::uint32_t kAppendBlock = 4096; // parents per work item: each writes its own range
-    pool.parallelFor((count + kAppendBlock - 1) / kAppendBlock, [&](std::size_t item, unsigned) {
-        const auto first = static_cast<std::uint32_t>(item) * kAppendBlock;
-        for (std::uint32_t i = first; i < std::min(count, first + kAppendBlock); ++i) {
+    // Ranges of parents: each writes the children's own range of the arrays.
+    parallelForRanges(pool, count, 4096, [&](std::size_t begin, std::size_t end, unsigned) {
+        for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i) {
             const ChildRange range = childRange[i];
             for (std::uint32_t k = 0; k < range.count; ++k) {
                 const NewPoint& np = cellPoints[range.cell][range.begin + k];

@@ -49,4 +49,13 @@ private:
     bool stopping_ = false;
 };
 
+// pool.parallelFor over consecutive ranges of `chunk` items: body(begin, end, worker) for every
+// range [begin, end) of [0, n) (the last may be shorter), under parallelFor's contract.
+template <typename Body>
+void parallelForRanges(WorkerPool& pool, std::size_t n, std::size_t chunk, const Body& body) {
+    pool.parallelFor((n + chunk - 1) / chunk, [&](std::size_t item, unsigned worker) {
+        body(item * chunk, std::min(n, (item + 1) * chunk), worker);
+    });
+}
+
 } // namespace pnsplat

@@ -396,6 +396,46 @@ TEST(CurvedAngle, CurvedCaseIsAtLeastThePlainAngle) {
     EXPECT_GT(largestExcess, 0.01);
 }
 
+// The shortcut for gaps of N'_p: either the curved angle bit for bit, or 0 for an angle surely
+// below θc (measured in double precision, below 87°), and both occur.
+TEST(CurvedAngle, UnlessSmallIsExactOrZeroOnlyBelowARightAngle) {
+    std::mt19937_64 rng(17);
+    const auto around = [&](glm::vec3 centre, double polarDeg) {
+        glm::vec3 u, v;
+        tangents(centre, u, v);
+        const double theta = polarDeg * kPi / 180.0, phi = 2.0 * kPi * uniform01(rng);
+        return glm::vec3(glm::normalize(glm::dvec3(centre) * std::cos(theta) +
+                                        (glm::dvec3(u) * std::cos(phi) + glm::dvec3(v) * std::sin(phi)) * std::sin(theta)));
+    };
+    int skipped = 0, exact = 0;
+    for (int trial = 0; trial < 4000; ++trial) {
+        const glm::vec3 p = randomUnit(rng);
+        const glm::vec3 p0 = around(p, uniform(rng, 2, 50)), p1 = around(p, uniform(rng, 2, 50));
+        // Normals of the sphere, tilted by up to 20° for half of the trials.
+        const float tilt = trial % 2 == 0 ? 0.0f : uniform(rng, 0, 20);
+        const glm::vec3 n0 = around(p0, tilt), n1 = around(p1, tilt);
+        const float value = curvedAngleUnlessSmall(p, p0, n0, p1, n1);
+        const float curved = curvedAngle(p, p0, n0, p1, n1);
+        if (value != 0.0f) {
+            EXPECT_EQ(value, curved) << trial;
+            ++exact;
+            continue;
+        }
+        ++skipped;
+        const EdgeControls e = edgeControlPoints(p0, n0, p1, n1);
+        const auto angle = [&](glm::vec3 a, glm::vec3 b) {
+            const glm::dvec3 u = glm::normalize(glm::dvec3(a - p)), v = glm::normalize(glm::dvec3(b - p));
+            return std::acos(std::clamp(glm::dot(u, v), -1.0, 1.0));
+        };
+        const double reference = angle(p0, e.ab) + angle(e.ab, e.ba) + angle(e.ba, p1);
+        EXPECT_LT(reference, 87.001 * kPi / 180.0) << trial;
+        EXPECT_LT(curved, kPi / 2.0) << trial;
+    }
+    std::cout << "curved angle shortcut: " << skipped << " surely below a right angle, " << exact << " measured\n";
+    EXPECT_GT(skipped, 400);
+    EXPECT_GT(exact, 400);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Neighbour validity (eq. 6 with '<')
 

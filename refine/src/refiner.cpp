@@ -47,6 +47,7 @@ constexpr float kRetryReach = 1.5f;
 // c_β,max = max over β of (5/6 + 5/6 + cos(β/2) + 2/3 sin(β/2)) / 3 = (5/3 + √(13)/3) / 3 (eq. 14).
 constexpr float kCBetaMax = 0.956172f; // rounded down
 constexpr float kLargeQuantile = 0.99f;
+constexpr std::size_t kPrefetchAhead = 8; // grid entries between a point's prefetch and its read
 constexpr float kMinCreaseCos = -0.98480775f; // cos 170°
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
@@ -80,7 +81,7 @@ struct RingMember {
     glm::vec3 position;
     glm::vec3 normal;
     float angle;           // around n_p
-    float gapToNext = 0;   // curved angle to the next member, valid when !gapStale
+    float gapToNext = 0;   // gapValue to the next member, valid when !gapStale
     bool gapStale = true;
     bool gapExhausted = false; // no candidate left inside this gap
 };
@@ -118,6 +119,7 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     std::vector<RingMember> outer; // Y_p
     std::vector<Candidate> candidates;
     PhaseTimes times;
+    std::vector<std::uint32_t> inReach; // the candidates within reach of the point being refined
     std::vector<NearbyPoint> nearest; // the kMaxNeighbours nearest, for an oversized neighbourhood
     std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0, boundaryInserted = 0, capped = 0;
 };
@@ -402,11 +404,24 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
                      ++k) {
                     // The distance to the box as the hierarchy measures it.
                     const std::uint32_t i = gridPoint[k];
+                    if (k + kPrefetchAhead < gridPoint.size()) {
+                        __builtin_prefetch(&points.position[gridPoint[k + kPrefetchAhead]]);
+                        __builtin_prefetch(&points.normal[gridPoint[k + kPrefetchAhead]]);
+                    }
                     const glm::vec3 d = points.position[i] - glm::clamp(points.position[i], lo, hi);
                     if (glm::dot(d, d) <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
                 }
             }
         }
+    }
+    // Every point of the group reads the children of the refined points among these (and then
+    // again from cache): start their loads, the child ranges first.
+    for (const NearbyPoint& c : s.nearby) __builtin_prefetch(&childRange[c.index]);
+    for (const NearbyPoint& c : s.nearby) {
+        if (!refined[c.index]) continue;
+        const ChildRange range = childRange[c.index];
+        const auto* children = reinterpret_cast<const char*>(cellPoints[range.cell].data() + range.begin);
+        for (std::size_t line = 0; line < range.count * sizeof(NewPoint); line += 64) __builtin_prefetch(children + line);
     }
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
 }
@@ -450,11 +465,18 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
     s.fan.clear();
     s.ring.clear();
     s.outer.clear();
-    for (const NearbyPoint& candidate : candidates) {
-        const glm::vec3 toCandidate = candidate.position - x;
+    // Nε_p (eq. 7): points of P(l) closer than r that pass the validity cone (eq. 6). Most
+    // candidates are out of reach: they are sorted out first, without branches.
+    s.inReach.resize(candidates.size());
+    std::size_t inReach = 0;
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+        const glm::vec3 d = candidates[k].position - x;
+        s.inReach[inReach] = static_cast<std::uint32_t>(k);
+        inReach += static_cast<std::size_t>((glm::dot(d, d) < reach2) & (candidates[k].index != p));
+    }
+    for (std::size_t j = 0; j < inReach; ++j) {
+        const NearbyPoint& candidate = candidates[s.inReach[j]];
         const std::uint32_t i = candidate.index;
-        // Nε_p (eq. 7): points of P(l) closer than r that pass the validity cone (eq. 6).
-        if (!(glm::dot(toCandidate, toCandidate) < reach2) || i == p) continue;
         glm::vec3 ni = candidate.normal, np = n;
         if (creases) {
             ni = facing(candidate.normal, points.crease[i], n);
@@ -612,12 +634,13 @@ NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, 
 
 // The "curved angle" between consecutive members of N'_p (eq. 5), or their plain angle
 // (variant 2). A gap wider than π cannot be measured by unsigned angles: its counter-clockwise
-// sweep is used, which is always above θc.
+// sweep is used, which is always above θc. Gaps are only compared with θc and ranked above it,
+// so a curved angle surely below θc is not measured (curvedAngleUnlessSmall).
 float Refiner::State::gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const {
     const float s = ringSize == 1 ? kTwoPi : sweep(a.angle, b.angle);
     if (s > kPi) return s;
     if (options.plainAngle) return angleAt(x, a.position, b.position);
-    return curvedAngle(x, a.position, a.normal, b.position, b.normal);
+    return curvedAngleUnlessSmall(x, a.position, a.normal, b.position, b.normal);
 }
 
 void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const {

@@ -150,6 +150,21 @@ inline float curvedAngle(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, 
     return angleAt(p, p0, e.ab) + angleAt(p, e.ab, e.ba) + angleAt(p, e.ba, p1);
 }
 
+// The curved angle for a caller that only compares it with a right angle (θc) and ranks those at or
+// above: 0 when it is surely below, because each of its three angles is below 29° (their sum below
+// 87°, farther from π/2 than any rounding reaches), which their squared cosines show without the
+// three arctangents; otherwise curvedAngle(p, p0, n0, p1, n1), bit for bit.
+inline float curvedAngleUnlessSmall(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
+    const EdgeControls e = edgeControlPoints(p0, n0, p1, n1);
+    const glm::vec3 u0 = p0 - p, u1 = e.ab - p, u2 = e.ba - p, u3 = p1 - p;
+    const float l0 = glm::dot(u0, u0), l1 = glm::dot(u1, u1), l2 = glm::dot(u2, u2), l3 = glm::dot(u3, u3);
+    const float d01 = glm::dot(u0, u1), d12 = glm::dot(u1, u2), d23 = glm::dot(u2, u3);
+    constexpr float kCos2Of29Degrees = 0.764960f;
+    const auto below29 = [&](float d, float la, float lb) { return d > 0.0f && d * d > kCos2Of29Degrees * la * lb; };
+    if (below29(d01, l0, l1) && below29(d12, l1, l2) && below29(d23, l2, l3)) return 0.0f;
+    return angleBetween(u0, u1) + angleBetween(u1, u2) + angleBetween(u2, u3);
+}
+
 // Neighbour validity (eq. 6, SPEC 2): p1 may be a neighbour of p0 only when it lies outside the cone
 // of apex p0, axis n0+n1 and half-angle γ/2 (γ the angle between the normals):
 //   |(n0+n1) · normalize(p1-p0)| < 1 + n0·n1.

@@ -32,6 +32,7 @@
 #include <glm/geometric.hpp>
 
 #include "pnsplat/refine/hierarchy.h"
+#include "pnsplat/refine/huge_pages.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/worker_pool.h"
@@ -121,6 +122,7 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     PhaseTimes times;
     std::vector<std::uint32_t> inReach; // the candidates within reach of the point being refined
     std::vector<NearbyPoint> nearest; // the kMaxNeighbours nearest, for an oversized neighbourhood
+    BlockArena<NewPoint> store;       // the points this worker inserts, cell after cell
     std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0, boundaryInserted = 0, capped = 0;
 };
 
@@ -259,17 +261,17 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
 }
 
 // Grows every array of `points`, and the hierarchy's, to n points, the arrays side by side on the
-// pool's workers: a resize is mostly page faults on fresh memory, which the workers take in
-// parallel.
+// pool's workers: growing is mostly page faults on fresh memory (huge pages where offered), which
+// the workers take in parallel.
 void growInParallel(PointSet& points, PointHierarchy& hierarchy, std::uint32_t n, WorkerPool& pool) {
     const bool withRadius = points.hasRadius(), withColour = points.hasColour(), withCrease = points.hasCrease();
     pool.parallelFor(6, [&](std::size_t array, unsigned) {
         switch (array) {
-        case 0: points.position.resize(n); break;
-        case 1: points.normal.resize(n); break;
-        case 2: if (withRadius) points.radius.resize(n); break;
-        case 3: if (withColour) points.colour.resize(n); break;
-        case 4: if (withCrease) points.crease.resize(n); break;
+        case 0: growAdvised(points.position, n); break;
+        case 1: growAdvised(points.normal, n); break;
+        case 2: if (withRadius) growAdvised(points.radius, n); break;
+        case 3: if (withColour) growAdvised(points.colour, n); break;
+        case 4: if (withCrease) growAdvised(points.crease, n); break;
         default: hierarchy.growTo(n); break;
         }
     });
@@ -307,7 +309,10 @@ struct Refiner::State {
     std::vector<float> levelRadius; // radii of P(l) at the start of the level (read-only during it)
     std::vector<std::uint8_t> refined;
     std::vector<ChildRange> childRange;
-    std::vector<std::vector<NewPoint>> cellPoints;
+    // The points inserted in each cell, contiguous: cellBase[c][0, cellCount[c]), in the store of
+    // the worker that refines the cell (the last cell: the large points, refined first).
+    std::vector<NewPoint*> cellBase;
+    std::vector<std::uint32_t> cellCount;
     // Every point of P(l) by colour cell: cell keys in increasing order and the points, (key, index)
     // sorted. A group of points of one cell finds its surroundings here (gatherNearby).
     std::vector<std::uint64_t> gridKey;
@@ -363,7 +368,12 @@ private:
     NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const;
     void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
     void splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s);
-    NewPoint& newPoint(const RingMember& m) { return cellPoints[m.cell][m.local]; }
+    NewPoint& newPoint(const RingMember& m) { return cellBase[m.cell][m.local]; }
+    // Appends np to `cell`, refined by the worker of `s`; returns its index in the cell.
+    std::uint32_t store(std::uint32_t cell, const NewPoint& np, WorkerScratch& s) {
+        s.store.append(cellBase[cell], cellCount[cell], np);
+        return cellCount[cell]++;
+    }
 };
 
 // The points of P(l) that the refinement of a group of points (one cell, or one large point) may
@@ -420,7 +430,7 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
     for (const NearbyPoint& c : s.nearby) {
         if (!refined[c.index]) continue;
         const ChildRange range = childRange[c.index];
-        const auto* children = reinterpret_cast<const char*>(cellPoints[range.cell].data() + range.begin);
+        const auto* children = reinterpret_cast<const char*>(cellBase[range.cell] + range.begin);
         for (std::size_t line = 0; line < range.count * sizeof(NewPoint); line += 64) __builtin_prefetch(children + line);
     }
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
@@ -495,7 +505,7 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
         // points closer than 1.5·r_lim are read here, and none of them is refined concurrently.
         if (!refined[i]) continue;
         const ChildRange range = childRange[i];
-        const NewPoint* children = cellPoints[range.cell].data() + range.begin;
+        const NewPoint* children = cellBase[range.cell] + range.begin;
         for (std::uint32_t k = 0; k < range.count; ++k) {
             const glm::vec3 d = children[k].position - x;
             const float distance2 = glm::dot(d, d);
@@ -662,7 +672,6 @@ void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMem
 // with the same |ab|/3 legs, and the new points are crease points whose two normals interpolate
 // the ends' paired normals.
 void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s) {
-    auto& cellStore = cellPoints[cell];
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = points.normal[p], nc = creaseOf(p);
     const TangentFrame frame(planeNormal(p));
@@ -685,7 +694,7 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             c1 = e.ab;
             c2 = e.ba;
         }
-        segmentChild[segment] = static_cast<std::uint32_t>(cellStore.size()) - firstChild;
+        segmentChild[segment] = cellCount[cell] - firstChild;
         glm::vec3 curve[2];
         for (int third = 1; third <= 2; ++third) {
             const float t = static_cast<float>(third) / 3.0f, u = 1.0f - t;
@@ -700,8 +709,7 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             if (segments[segment].crease) np.crease = glm::normalize((1.0f - t) * nc + t * nbc);
             if (points.hasColour())
                 np.colour = glm::u8vec3(glm::round(glm::mix(glm::vec3(points.colour[p]), glm::vec3(points.colour[b]), t)));
-            const auto local = static_cast<std::uint32_t>(cellStore.size());
-            cellStore.push_back(np);
+            const std::uint32_t local = store(cell, np, s);
             ++s.inserted;
             ++s.boundaryInserted;
             if (third == 1)
@@ -818,8 +826,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     const float lambda2 = kLambda2;
     std::vector<RingMember>& ring = s.ring;
     std::vector<Candidate>& candidates = s.candidates;
-    auto& cellStore = cellPoints[cell];
-    const auto firstChild = static_cast<std::uint32_t>(cellStore.size());
+    const std::uint32_t firstChild = cellCount[cell];
     double interpolationSeconds = 0;
     if (splitsSegments()) splitSegments(p, cell, firstChild, s);
 
@@ -901,8 +908,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         Clock::time_point ti;
         if (profile) ti = Clock::now();
         const NewPoint np = newPointFrom(p, s.fan, c);
-        const auto local = static_cast<std::uint32_t>(cellStore.size());
-        cellStore.push_back(np);
+        const std::uint32_t local = store(cell, np, s);
         ++s.inserted;
         RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
         insertIntoRing(ring, m);
@@ -935,7 +941,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         }
         points.radius[p] = kRadiusMargin * newRadius;
     }
-    childRange[p] = ChildRange{cell, firstChild, static_cast<std::uint32_t>(cellStore.size()) - firstChild};
+    childRange[p] = ChildRange{cell, firstChild, cellCount[cell] - firstChild};
     refined[p] = 1;
     if (profile) {
         const double total = secondsSince(t0);
@@ -951,6 +957,12 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     stats.level = hierarchy.levels();
     stats.pointsBefore = count;
 
+    // This level's arrays, in advised storage when they grow (huge_pages.h).
+    reserveAdvised(levelRadius, count);
+    reserveAdvised(refined, count);
+    reserveAdvised(childRange, count);
+    reserveAdvised(gridKey, count);
+    reserveAdvised(gridPoint, count);
     levelRadius = points.radius;
     hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
@@ -967,7 +979,9 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
 
     // Colouring (see the top of this file).
-    std::vector<float> sortedRadii = levelRadius;
+    std::vector<float> sortedRadii;
+    reserveAdvised(sortedRadii, count);
+    sortedRadii.assign(levelRadius.begin(), levelRadius.end());
     const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
     std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
                      sortedRadii.end());
@@ -980,7 +994,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
     const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
     std::vector<std::uint32_t> large;
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
+    growAdvised(keyed, count);
     parallelForRanges(pool, count, 16384, [&](std::size_t begin, std::size_t end, unsigned) {
         for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i)
             keyed[i] = {cellKeyOf(points.position[i], lo, cellSize), i};
@@ -1023,18 +1038,18 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         cells.push_back(Cell{k, e});
         k = e;
     }
-    // The cells' stores keep their capacity from level to level (a cell holds about as many points
-    // at every level, the cell size following the radii).
-    cellPoints.resize(cells.size() + 1);
-    for (std::vector<NewPoint>& store : cellPoints) store.clear();
+    cellBase.assign(cells.size() + 1, nullptr);
+    cellCount.assign(cells.size() + 1, 0);
     stats.sequentialPoints = large.size();
 
     for (WorkerScratch& s : scratch) {
+        s.store.clear();
         s.times = {};
         s.inserted = s.discarded = s.incomplete = s.retried = s.boundaryInserted = s.capped = 0;
     }
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
+    cellBase[largeCell] = scratch[0].store.open();
     for (std::uint32_t i : large) {
         gatherNearby(std::span(&i, 1), std::nullopt, scratch[0]);
         refinePoint(i, largeCell, scratch[0]);
@@ -1045,6 +1060,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (const std::vector<std::uint32_t>& group : cellsByColour) {
         pool.parallelFor(group.size(), [&](std::size_t item, unsigned worker) {
             const Cell cell = cells[group[item]];
+            cellBase[group[item]] = scratch[worker].store.open();
             std::vector<std::uint32_t>& members = scratch[worker].group;
             members.clear();
             for (std::uint32_t k = cell.begin; k < cell.end; ++k) members.push_back(keyed[k].second);
@@ -1058,7 +1074,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     if (progress) progress(done, stats.refinedPoints);
 
     // Append the new points grouped by parent, parents in index order (section 7).
-    std::vector<std::uint32_t> childBegin(count + 1);
+    std::vector<std::uint32_t> childBegin;
+    growAdvised(childBegin, count + 1);
     std::uint32_t offset = count;
     for (std::uint32_t i = 0; i < count; ++i) {
         childBegin[i] = offset;
@@ -1071,7 +1088,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i) {
             const ChildRange range = childRange[i];
             for (std::uint32_t k = 0; k < range.count; ++k) {
-                const NewPoint& np = cellPoints[range.cell][range.begin + k];
+                const NewPoint& np = cellBase[range.cell][range.begin + k];
                 const std::uint32_t o = childBegin[i] + k;
                 points.position[o] = np.position;
                 points.normal[o] = np.normal;

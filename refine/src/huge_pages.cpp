@@ -1,0 +1,24 @@
+#include "pnsplat/refine/huge_pages.h"
+
+#include <cstdint>
+
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
+
+namespace pnsplat {
+
+void adviseHugePages(void* data, std::size_t bytes) {
+#ifdef __linux__
+    const auto address = reinterpret_cast<std::uintptr_t>(data);
+    const std::uintptr_t begin = (address + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+    const std::uintptr_t end = (address + bytes) / kHugePageBytes * kHugePageBytes;
+    // Advice only: where it is refused (no transparent huge pages) the pages stay small.
+    if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+    (void)data;
+    (void)bytes;
+#endif
+}
+
+} // namespace pnsplat

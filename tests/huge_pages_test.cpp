@@ -1,0 +1,61 @@
+// Advised growth and the block arena (huge_pages.h): contents survive growth and moves.
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "pnsplat/refine/huge_pages.h"
+
+namespace pnsplat {
+namespace {
+
+TEST(HugePages, AdvisedGrowthKeepsTheElementsAndZeroesTheNewOnes) {
+    std::vector<std::uint32_t> v = {7, 8, 9};
+    growAdvised(v, std::size_t{3} << 20); // 12 MiB: whole huge pages inside
+    ASSERT_EQ(v.size(), std::size_t{3} << 20);
+    EXPECT_EQ(v[0], 7u);
+    EXPECT_EQ(v[2], 9u);
+    EXPECT_EQ(v[3], 0u);
+    EXPECT_EQ(v.back(), 0u);
+    reserveAdvised(v, 10); // fits: nothing changes
+    EXPECT_EQ(v.size(), std::size_t{3} << 20);
+}
+
+struct Item {
+    std::uint32_t run, k;
+    float pad[14];
+};
+
+// Runs of random lengths, some longer than a block, through two passes (clear() in between): every
+// run stays contiguous and holds what was appended, also after later runs moved on to new blocks.
+TEST(BlockArena, RunsStayContiguousAcrossBlocks) {
+    BlockArena<Item> arena;
+    std::mt19937_64 rng(21);
+    for (int pass = 0; pass < 2; ++pass) {
+        arena.clear();
+        std::vector<Item*> runs;
+        std::vector<std::uint32_t> lengths;
+        std::size_t total = 0;
+        for (std::uint32_t run = 0; total < 600000; ++run) {
+            const auto length = static_cast<std::uint32_t>(run % 50 == 49 ? 200000 + rng() % 1000 : rng() % 300);
+            Item* base = arena.open();
+            for (std::uint32_t k = 0; k < length; ++k) arena.append(base, k, Item{run, k, {}});
+            runs.push_back(base);
+            lengths.push_back(length);
+            total += length;
+        }
+        std::size_t checked = 0;
+        for (std::uint32_t run = 0; run < runs.size(); ++run) {
+            for (std::uint32_t k = 0; k < lengths[run]; ++k) {
+                ASSERT_EQ(runs[run][k].run, run) << pass << " " << k;
+                ASSERT_EQ(runs[run][k].k, k) << pass << " " << run;
+            }
+            checked += lengths[run];
+        }
+        EXPECT_EQ(checked, total);
+    }
+}
+
+} // namespace
+} // namespace pnsplat

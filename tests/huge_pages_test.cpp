@@ -18,8 +18,17 @@ TEST(HugePages, AdvisedGrowthKeepsTheElementsAndZeroesTheNewOnes) {
     EXPECT_EQ(v[2], 9u);
     EXPECT_EQ(v[3], 0u);
     EXPECT_EQ(v.back(), 0u);
-    reserveAdvised(v, 10); // fits: nothing changes
-    EXPECT_EQ(v.size(), std::size_t{3} << 20);
+}
+
+TEST(HugePages, LargeBlocksOfTheAllocatorAreWholeHugePages) {
+    HugePageVector<std::uint64_t> v = {1, 2, 3};
+    v.resize(std::size_t{1} << 18); // 2 MiB
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(v.data()) % kHugePageBytes, 0u);
+    EXPECT_EQ(v[1], 2u);
+    EXPECT_EQ(v.back(), 0u);
+    v.resize(5);
+    v.shrink_to_fit(); // a small block again
+    EXPECT_EQ(v[2], 3u);
 }
 
 struct Item {

@@ -6,8 +6,6 @@
 #include <limits>
 #include <numeric>
 
-#include "pnsplat/refine/huge_pages.h"
-
 namespace pnsplat {
 
 namespace {
@@ -65,7 +63,7 @@ void PointHierarchy::addLevel(std::vector<std::uint32_t> childBegin) {
 }
 
 void PointHierarchy::growTo(std::uint32_t points) {
-    if (points > bounds_.size()) growAdvised(bounds_, points);
+    if (points > bounds_.size()) bounds_.resize(points, 0.0f);
 }
 
 void PointHierarchy::updateBounds(std::span<const glm::vec3> positions) {

@@ -1,6 +1,8 @@
 #include "pnsplat/refine/huge_pages.h"
 
 #include <cstdint>
+#include <cstdlib>
+#include <new>
 
 #ifdef __linux__
 #include <sys/mman.h>
@@ -20,5 +22,15 @@ void adviseHugePages(void* data, std::size_t bytes) {
     (void)bytes;
 #endif
 }
+
+void* allocateHugePages(std::size_t bytes) {
+    const std::size_t rounded = (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+    void* data = std::aligned_alloc(kHugePageBytes, rounded);
+    if (data == nullptr) throw std::bad_alloc();
+    adviseHugePages(data, rounded);
+    return data;
+}
+
+void releaseHugePages(void* data) { std::free(data); }
 
 } // namespace pnsplat

@@ -22,12 +22,14 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cassert>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
 #include <span>
+#include <utility>
 
 #include <glm/geometric.hpp>
 
@@ -277,14 +279,29 @@ void growInParallel(PointSet& points, PointHierarchy& hierarchy, std::uint32_t n
     });
 }
 
-// std::sort of `v` with the pool's workers: each sorts a slice, then the slices are merged. The
-// result is the same as std::sort's for a strict total order (no two elements equal).
-template <typename T>
-void sortInParallel(std::vector<T>& v, WorkerPool& pool) {
-    const std::size_t slices = std::min<std::size_t>(pool.size(), v.size() / 4096 + 1);
-    const auto bound = [&](std::size_t k) { return v.begin() + static_cast<std::ptrdiff_t>(v.size() * k / slices); };
-    pool.parallelFor(slices, [&](std::size_t k, unsigned) { std::sort(bound(k), bound(k + 1)); });
-    for (std::size_t k = 1; k < slices; ++k) std::inplace_merge(v.begin(), bound(k), bound(k + 1));
+// Sorts (cell key, index) pairs given in increasing index order by key, then index: the order
+// std::sort gives them. A stable least-significant-digit radix sort over the bits the keys use,
+// in digits of at most 11 bits within each coordinate: typically three passes over the array
+// where a comparison sort makes log2(n).
+using CellKeys = HugePageVector<std::pair<std::uint64_t, std::uint32_t>>;
+void sortCellKeys(CellKeys& keyed) {
+    constexpr unsigned kDigitBits = 11;
+    std::uint64_t used = 0;
+    for (const auto& entry : keyed) used |= entry.first;
+    CellKeys buffer(keyed.size());
+    for (unsigned field = 0; field < 3; ++field) { // z, y, x
+        const auto width = static_cast<unsigned>(std::bit_width((used >> (21 * field)) & kCellCoordinateMask));
+        for (unsigned low = 0; low < width; low += kDigitBits) {
+            const unsigned shift = 21 * field + low;
+            const std::uint64_t mask = (std::uint64_t{1} << std::min(kDigitBits, width - low)) - 1;
+            std::array<std::uint32_t, std::size_t{1} << kDigitBits> start{}; // counts, then first slots
+            for (const auto& entry : keyed) ++start[(entry.first >> shift) & mask];
+            std::uint32_t offset = 0;
+            for (std::uint32_t& slot : start) offset += std::exchange(slot, offset);
+            for (const auto& entry : keyed) buffer[start[(entry.first >> shift) & mask]++] = entry;
+            keyed.swap(buffer);
+        }
+    }
 }
 
 } // namespace
@@ -306,17 +323,18 @@ struct Refiner::State {
     PointHierarchy hierarchy;
 
     // The level being built.
-    std::vector<float> levelRadius; // radii of P(l) at the start of the level (read-only during it)
-    std::vector<std::uint8_t> refined;
-    std::vector<ChildRange> childRange;
+    // Arrays of one entry per point of P(l) (huge_pages.h).
+    HugePageVector<float> levelRadius; // radii of P(l) at the start of the level (read-only during it)
+    HugePageVector<std::uint8_t> refined;
+    HugePageVector<ChildRange> childRange;
     // The points inserted in each cell, contiguous: cellBase[c][0, cellCount[c]), in the store of
     // the worker that refines the cell (the last cell: the large points, refined first).
     std::vector<NewPoint*> cellBase;
     std::vector<std::uint32_t> cellCount;
     // Every point of P(l) by colour cell: cell keys in increasing order and the points, (key, index)
     // sorted. A group of points of one cell finds its surroundings here (gatherNearby).
-    std::vector<std::uint64_t> gridKey;
-    std::vector<std::uint32_t> gridPoint;
+    HugePageVector<std::uint64_t> gridKey;
+    HugePageVector<std::uint32_t> gridPoint;
     std::vector<WorkerScratch> scratch;
 
     // Boundary and crease segments (section 6), found at the first step and kept explicitly. A
@@ -957,13 +975,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     stats.level = hierarchy.levels();
     stats.pointsBefore = count;
 
-    // This level's arrays, in advised storage when they grow (huge_pages.h).
-    reserveAdvised(levelRadius, count);
-    reserveAdvised(refined, count);
-    reserveAdvised(childRange, count);
-    reserveAdvised(gridKey, count);
-    reserveAdvised(gridPoint, count);
-    levelRadius = points.radius;
+    levelRadius.assign(points.radius.begin(), points.radius.end());
     hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
     childRange.assign(count, ChildRange{});
@@ -979,9 +991,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
 
     // Colouring (see the top of this file).
-    std::vector<float> sortedRadii;
-    reserveAdvised(sortedRadii, count);
-    sortedRadii.assign(levelRadius.begin(), levelRadius.end());
+    std::vector<float> sortedRadii(levelRadius.begin(), levelRadius.end());
     const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
     std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
                      sortedRadii.end());
@@ -994,13 +1004,12 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
     const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
     std::vector<std::uint32_t> large;
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
-    growAdvised(keyed, count);
+    CellKeys keyed(count);
     parallelForRanges(pool, count, 16384, [&](std::size_t begin, std::size_t end, unsigned) {
         for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i)
             keyed[i] = {cellKeyOf(points.position[i], lo, cellSize), i};
     });
-    sortInParallel(keyed, pool); // (key, index): no two equal
+    sortCellKeys(keyed);
     gridKey.resize(count);
     gridPoint.resize(count);
     for (std::uint32_t k = 0; k < count; ++k) gridKey[k] = keyed[k].first, gridPoint[k] = keyed[k].second;
@@ -1074,8 +1083,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     if (progress) progress(done, stats.refinedPoints);
 
     // Append the new points grouped by parent, parents in index order (section 7).
-    std::vector<std::uint32_t> childBegin;
-    growAdvised(childBegin, count + 1);
+    std::vector<std::uint32_t> childBegin(count + 1);
     std::uint32_t offset = count;
     for (std::uint32_t i = 0; i < count; ++i) {
         childBegin[i] = offset;

@@ -21,6 +21,8 @@
 #include <glm/vector_relational.hpp>
 #include <glm/vec3.hpp>
 
+#include "pnsplat/refine/huge_pages.h"
+
 namespace pnsplat {
 
 class PointHierarchy {
@@ -87,7 +89,7 @@ private:
     std::vector<std::uint32_t> levelEnd_;                 // levelEnd_[l] = |P(l)|
     std::vector<std::vector<std::uint32_t>> children_;   // children_[l][i], i in P(l)
     std::span<const glm::vec3> positions_; // given to the last updateBounds (or the constructor)
-    std::vector<float> bounds_;            // bound_i
+    HugePageVector<float> bounds_;         // bound_i
 };
 
 template <typename Visit>

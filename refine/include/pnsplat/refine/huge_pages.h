@@ -19,22 +19,51 @@ inline constexpr std::size_t kHugePageBytes = std::size_t{1} << 21;
 // keep their size.
 void adviseHugePages(void* data, std::size_t bytes);
 
-// Makes room for n elements in v, keeping its elements: new storage is advised before anything is
-// written to it. Exactly n fit, no more (the callers grow by levels).
-template <typename T>
-void reserveAdvised(std::vector<T>& v, std::size_t n) {
-    if (n <= v.capacity()) return;
-    std::vector<T> grown;
-    grown.reserve(n);
-    adviseHugePages(grown.data(), n * sizeof(T));
-    grown.insert(grown.end(), v.begin(), v.end());
-    v.swap(grown);
-}
+// Memory aligned to huge pages and advised as such, whole huge pages (at least `bytes`); release
+// with releaseHugePages. Throws std::bad_alloc.
+void* allocateHugePages(std::size_t bytes);
+void releaseHugePages(void* data);
 
-// Grows v to n elements, the new ones value-initialized, in advised storage.
+// Allocator for the refinement's internal arrays: blocks of half a huge page and more are whole
+// advised huge pages, smaller ones come from operator new.
+template <typename T>
+struct HugePageAllocator {
+    using value_type = T;
+    static constexpr std::size_t kSmallBytes = kHugePageBytes / 2;
+
+    HugePageAllocator() = default;
+    template <typename U>
+    HugePageAllocator(const HugePageAllocator<U>&) noexcept {} // NOLINT: allocators convert implicitly
+
+    T* allocate(std::size_t n) {
+        const std::size_t bytes = n * sizeof(T);
+        return static_cast<T*>(bytes < kSmallBytes ? ::operator new(bytes) : allocateHugePages(bytes));
+    }
+    void deallocate(T* data, std::size_t n) noexcept {
+        if (n * sizeof(T) < kSmallBytes) {
+            ::operator delete(data);
+        } else {
+            releaseHugePages(data);
+        }
+    }
+    friend bool operator==(const HugePageAllocator&, const HugePageAllocator&) { return true; }
+};
+
+template <typename T>
+using HugePageVector = std::vector<T, HugePageAllocator<T>>;
+
+// Grows the std::vector v (a point set's array) to n elements, the new ones value-initialized,
+// keeping its elements, in new storage advised before anything is written to it; exactly n fit
+// (the callers grow by levels). Only the whole huge pages inside the storage are advised.
 template <typename T>
 void growAdvised(std::vector<T>& v, std::size_t n) {
-    reserveAdvised(v, n);
+    if (n > v.capacity()) {
+        std::vector<T> grown;
+        grown.reserve(n);
+        adviseHugePages(grown.data(), n * sizeof(T));
+        grown.insert(grown.end(), v.begin(), v.end());
+        v.swap(grown);
+    }
     v.resize(n);
 }
 
@@ -61,7 +90,7 @@ public:
 
 private:
     struct Free {
-        void operator()(T* p) const { std::free(p); }
+        void operator()(T* p) const { releaseHugePages(p); }
     };
     struct Block {
         std::unique_ptr<T[], Free> data;
@@ -74,11 +103,8 @@ private:
         std::size_t next = blocks_.empty() ? 0 : block_ + 1;
         while (next < blocks_.size() && blocks_[next].capacity < needed) ++next;
         if (next == blocks_.size()) {
-            const std::size_t bytes = (std::max(needed * sizeof(T), kBlockBytes) + kHugePageBytes - 1) / kHugePageBytes *
-                                      kHugePageBytes;
-            T* data = static_cast<T*>(std::aligned_alloc(kHugePageBytes, bytes));
-            if (data == nullptr) throw std::bad_alloc();
-            adviseHugePages(data, bytes);
+            const std::size_t bytes = std::max(needed * sizeof(T), kBlockBytes);
+            T* data = static_cast<T*>(allocateHugePages(bytes));
             blocks_.push_back(Block{std::unique_ptr<T[], Free>(data), bytes / sizeof(T)});
         }
         T* moved = blocks_[next].data.get();

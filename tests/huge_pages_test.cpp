@@ -1,4 +1,4 @@
-// Advised growth and the block arena (huge_pages.h): contents survive growth and moves.
+// The huge-page allocator and the block arena (huge_pages.h): contents survive growth and moves.
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -9,16 +9,6 @@
 
 namespace pnsplat {
 namespace {
-
-TEST(HugePages, AdvisedGrowthKeepsTheElementsAndZeroesTheNewOnes) {
-    std::vector<std::uint32_t> v = {7, 8, 9};
-    growAdvised(v, std::size_t{3} << 20); // 12 MiB: whole huge pages inside
-    ASSERT_EQ(v.size(), std::size_t{3} << 20);
-    EXPECT_EQ(v[0], 7u);
-    EXPECT_EQ(v[2], 9u);
-    EXPECT_EQ(v[3], 0u);
-    EXPECT_EQ(v.back(), 0u);
-}
 
 TEST(HugePages, LargeBlocksOfTheAllocatorAreWholeHugePages) {
     HugePageVector<std::uint64_t> v = {1, 2, 3};

@@ -134,9 +134,9 @@ PointSet randomPoints(std::size_t n, bool withRadius, bool withColour, unsigned 
     return points;
 }
 
-template <typename T>
-bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
-    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+template <typename Array>
+bool sameBits(const Array& a, const Array& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0);
 }
 
 // --- Round trips -----------------------------------------------------------------------------

@@ -70,7 +70,7 @@ void refineLevels(Refiner& refiner, unsigned levels) {
 
 // The upper median of the radii, as evenOut takes it.
 float medianRadius(const PointSet& set) {
-    std::vector<float> radii = set.radius;
+    auto radii = set.radius;
     std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
     return radii[radii.size() / 2];
 }
@@ -315,7 +315,7 @@ TEST(RefinerEvenOut, RefinesOnlyTheLargePointsUntilNoneIsLeft) {
     Refiner refiner(input, options());
     refineLevels(refiner, 3);
     const float target = kEvenOutFactor * medianRadius(refiner.points());
-    const std::vector<float> before = refiner.points().radius;
+    const auto before = refiner.points().radius;
     const std::size_t above = std::ranges::count_if(before, [&](float r) { return r > target; });
 
     const std::vector<LevelStats> levels = evenOut(refiner, kEvenOutFactor, kEvenOutMaxLevels);
@@ -400,9 +400,9 @@ void expectRadiiShrink(const PointSet& input, unsigned levels, const std::string
     Refiner refiner(input, options());
     std::cout << std::setprecision(6) << "[" << name << "] c_beta,max = " << kConvergenceBound << "\n";
     for (unsigned l = 0; l < levels; ++l) {
-        const std::vector<float> before = refiner.points().radius;
+        const auto before = refiner.points().radius;
         refiner.refineLevel();
-        const std::vector<float>& after = refiner.points().radius;
+        const auto& after = refiner.points().radius;
         double worst = 0;
         std::size_t violations = 0;
         for (std::size_t i = 0; i < before.size(); ++i) {
@@ -551,7 +551,7 @@ TEST(RefinerColour, NewColoursAreMeansOfThreeInputColours) {
     const PointSet input = colouredInput(name);
     ASSERT_TRUE(input.hasColour());
     Refiner refiner(input, options());
-    const std::vector<float> radius0 = refiner.points().radius;
+    const auto radius0 = refiner.points().radius;
     const PointSet p0 = refiner.points(); // P0 in the refiner's order
     refiner.refineLevel();
     const PointSet& out = refiner.points();
@@ -615,16 +615,16 @@ TEST(RefinerColour, NewColoursAreMeansOfThreeInputColours) {
 TEST(RefinerAdaptive, OnlyPointsAboveTargetRadiusAreRefined) {
     // Random sampling: radii vary, so a median target splits the set.
     const PointSet input = withRadii(sampleSphereRandom(2000, 1.0f, 11));
-    std::vector<float> sorted = input.radius;
+    auto sorted = input.radius;
     std::sort(sorted.begin(), sorted.end());
     const float target = sorted[sorted.size() / 2];
     RefineOptions o = options();
     o.targetRadius = target;
     Refiner refiner(input, o);
     for (std::uint32_t l = 0; l < 2; ++l) {
-        const std::vector<float> before = refiner.points().radius;
+        const auto before = refiner.points().radius;
         const LevelStats s = refiner.refineLevel();
-        const std::vector<float>& after = refiner.points().radius;
+        const auto& after = refiner.points().radius;
         std::size_t small = 0, smallWithChildren = 0, smallChanged = 0, large = 0, largeShrunk = 0,
                     largeWithChildren = 0;
         for (std::size_t i = 0; i < before.size(); ++i) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <span>
 #include <string>
 
 #include <glm/common.hpp>
@@ -24,7 +25,7 @@ std::uint32_t spread(std::uint32_t v) {
     return v;
 }
 
-Sphere boundingSphere(const std::vector<glm::vec3>& positions, const std::uint32_t* order, std::size_t count) {
+Sphere boundingSphere(std::span<const glm::vec3> positions, const std::uint32_t* order, std::size_t count) {
     glm::vec3 lo(positions[order[0]]), hi(lo);
     for (std::size_t k = 1; k < count; ++k) {
         lo = glm::min(lo, positions[order[k]]);

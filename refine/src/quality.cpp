@@ -18,6 +18,7 @@
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <span>
 #include <string_view>
 #include <system_error>
 
@@ -44,7 +45,7 @@ constexpr std::size_t kChunk = 2048;
 // ---- Nearest points: nanoflann over a flat array of positions ----
 
 struct PositionsAdaptor {
-    const std::vector<glm::vec3>& positions;
+    std::span<const glm::vec3> positions;
     std::size_t kdtree_get_point_count() const { return positions.size(); }
     float kdtree_get_pt(std::size_t i, std::size_t dim) const {
         return positions[i][static_cast<glm::length_t>(dim)];
@@ -115,7 +116,7 @@ float boxDistance2(glm::vec3 p, glm::vec3 lo, glm::vec3 hi) {
     return glm::dot(d, d);
 }
 
-double diagonalOf(const std::vector<glm::vec3>& positions) {
+double diagonalOf(std::span<const glm::vec3> positions) {
     Box box;
     for (const glm::vec3& p : positions) box.grow(p);
     return positions.empty() ? 0.0 : glm::length(glm::dvec3(box.hi) - glm::dvec3(box.lo));
@@ -123,8 +124,8 @@ double diagonalOf(const std::vector<glm::vec3>& positions) {
 
 // Area-weighted vertex normals (sum of the un-normalised face cross products around a vertex,
 // normalised): how ../shared/data made its reference normals. Isolated vertices get +z.
-std::vector<glm::vec3> areaWeightedNormals(const std::vector<glm::vec3>& positions,
-                                           const std::vector<glm::u32vec3>& triangles) {
+HugePageVector<glm::vec3> areaWeightedNormals(std::span<const glm::vec3> positions,
+                                              const std::vector<glm::u32vec3>& triangles) {
     std::vector<glm::dvec3> sum(positions.size(), glm::dvec3(0.0));
     for (const glm::u32vec3& t : triangles) {
         const glm::dvec3 a(positions[t.x]), b(positions[t.y]), c(positions[t.z]);
@@ -133,7 +134,7 @@ std::vector<glm::vec3> areaWeightedNormals(const std::vector<glm::vec3>& positio
         sum[t.y] += n;
         sum[t.z] += n;
     }
-    std::vector<glm::vec3> normals(positions.size());
+    HugePageVector<glm::vec3> normals(positions.size());
     for (std::size_t i = 0; i < sum.size(); ++i) {
         const double len = glm::length(sum[i]);
         normals[i] = len > 0.0 ? glm::vec3(sum[i] / len) : glm::vec3(0.0f, 0.0f, 1.0f);
@@ -268,7 +269,7 @@ glm::vec3 closestPointBarycentric(glm::vec3 p, glm::vec3 a, glm::vec3 b, glm::ve
 
 // ---- TriangleMeshIndex ----
 
-TriangleMeshIndex::TriangleMeshIndex(const std::vector<glm::vec3>& positions,
+TriangleMeshIndex::TriangleMeshIndex(std::span<const glm::vec3> positions,
                                      const std::vector<glm::u32vec3>& triangles) {
     assert(!triangles.empty());
     const std::size_t n = triangles.size();
@@ -469,8 +470,8 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
             }
         });
     } else if (reference.isMesh()) {
-        const std::vector<glm::vec3>& vp = reference.points.position;
-        const std::vector<glm::vec3>& vn = reference.points.normal;
+        const auto& vp = reference.points.position;
+        const auto& vn = reference.points.normal;
         report.diagonal = diagonalOf(vp);
         const TriangleMeshIndex mesh(vp, reference.triangles);
         parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
@@ -562,14 +563,14 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
                               : sampleTorusUniform(options.analyticSamples, s.R, s.r);
         for (glm::vec3& p : analyticSamples.position) p += s.centre;
     }
-    const std::vector<glm::vec3>& samples =
+    const auto& samples =
         reference.isAnalytic() ? analyticSamples.position : reference.points.position;
     const std::size_t m = samples.size();
     report.referencePoints = m;
     // The tangential variant measures the offset to the nearest of the kTangentialNearest refined
     // points in the sample's tangent plane only, so that a refined surface lying a little off the
     // true one (the approximation error of a sparse input) does not count as a hole.
-    const std::vector<glm::vec3>& sampleNormals =
+    const auto& sampleNormals =
         reference.isAnalytic() ? analyticSamples.normal : reference.points.normal;
     const auto threshold2 = static_cast<float>(4.0 * spacingMean * spacingMean);
     constexpr std::size_t kTangentialNearest = 8;

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <span>
 
 #include <glm/geometric.hpp>
 #include <nanoflann.hpp>
@@ -18,7 +19,7 @@ namespace pnsplat {
 namespace {
 
 struct Cloud {
-    const std::vector<glm::vec3>& points;
+    std::span<const glm::vec3> points;
     std::size_t kdtree_get_point_count() const { return points.size(); }
     float kdtree_get_pt(std::size_t i, std::size_t dim) const { return points[i][static_cast<int>(dim)]; }
     template <class Box>

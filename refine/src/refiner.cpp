@@ -269,11 +269,11 @@ void growInParallel(PointSet& points, PointHierarchy& hierarchy, std::uint32_t n
     const bool withRadius = points.hasRadius(), withColour = points.hasColour(), withCrease = points.hasCrease();
     pool.parallelFor(6, [&](std::size_t array, unsigned) {
         switch (array) {
-        case 0: growAdvised(points.position, n); break;
-        case 1: growAdvised(points.normal, n); break;
-        case 2: if (withRadius) growAdvised(points.radius, n); break;
-        case 3: if (withColour) growAdvised(points.colour, n); break;
-        case 4: if (withCrease) growAdvised(points.crease, n); break;
+        case 0: points.position.resize(n); break;
+        case 1: points.normal.resize(n); break;
+        case 2: if (withRadius) points.radius.resize(n); break;
+        case 3: if (withColour) points.colour.resize(n); break;
+        case 4: if (withCrease) points.crease.resize(n); break;
         default: hierarchy.growTo(n); break;
         }
     });
@@ -1174,7 +1174,7 @@ float Refiner::longestSegment() const {
 
 std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress) {
     if (!(factor > 0.0f)) return {};
-    std::vector<float> radii = refiner.points().radius;
+    std::vector<float> radii(refiner.points().radius.begin(), refiner.points().radius.end());
     const auto middle = radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2);
     std::nth_element(radii.begin(), middle, radii.end());
     const float target = factor * *middle;

@@ -1,7 +1,7 @@
-// Memory for the arrays that grow with every level, backed by transparent huge pages where the
-// system offers them (Linux, madvise mode): a level writes megabytes of fresh memory, and with
-// 4 KiB pages every one of them costs a page fault (several microseconds each on virtual
-// machines, a tenth of a level there). Elsewhere the advice is a no-op. Any thread.
+// Memory for point arrays, backed by transparent huge pages where the system offers them (Linux,
+// madvise mode): a level of refinement writes megabytes of fresh memory, and with 4 KiB pages
+// every one of them costs a page fault (several microseconds each on virtual machines, a tenth of
+// a level there; one per 2 MiB with huge pages). Elsewhere the advice is a no-op. Any thread.
 #pragma once
 
 #include <algorithm>
@@ -15,17 +15,13 @@ namespace pnsplat {
 
 inline constexpr std::size_t kHugePageBytes = std::size_t{1} << 21;
 
-// Advises huge pages for the whole 2 MiB pages inside [data, data + bytes); pages touched already
-// keep their size.
-void adviseHugePages(void* data, std::size_t bytes);
-
 // Memory aligned to huge pages and advised as such, whole huge pages (at least `bytes`); release
 // with releaseHugePages. Throws std::bad_alloc.
 void* allocateHugePages(std::size_t bytes);
 void releaseHugePages(void* data);
 
-// Allocator for the refinement's internal arrays: blocks of half a huge page and more are whole
-// advised huge pages, smaller ones come from operator new.
+// Allocator for point arrays (PointSet's, the refinement's): blocks of half a huge page and more
+// are whole advised huge pages, smaller ones come from operator new.
 template <typename T>
 struct HugePageAllocator {
     using value_type = T;
@@ -33,7 +29,7 @@ struct HugePageAllocator {
 
     HugePageAllocator() = default;
     template <typename U>
-    HugePageAllocator(const HugePageAllocator<U>&) noexcept {} // NOLINT: allocators convert implicitly
+    HugePageAllocator(const HugePageAllocator<U>&) noexcept {} // implicit, as allocators convert
 
     T* allocate(std::size_t n) {
         const std::size_t bytes = n * sizeof(T);
@@ -51,21 +47,6 @@ struct HugePageAllocator {
 
 template <typename T>
 using HugePageVector = std::vector<T, HugePageAllocator<T>>;
-
-// Grows the std::vector v (a point set's array) to n elements, the new ones value-initialized,
-// keeping its elements, in new storage advised before anything is written to it; exactly n fit
-// (the callers grow by levels). Only the whole huge pages inside the storage are advised.
-template <typename T>
-void growAdvised(std::vector<T>& v, std::size_t n) {
-    if (n > v.capacity()) {
-        std::vector<T> grown;
-        grown.reserve(n);
-        adviseHugePages(grown.data(), n * sizeof(T));
-        grown.insert(grown.end(), v.begin(), v.end());
-        v.swap(grown);
-    }
-    v.resize(n);
-}
 
 // Append-only storage in huge-page-advised blocks for one writer, reused from level to level. Runs
 // of elements ("cells") stay contiguous: a run that no longer fits its block moves whole to the

@@ -15,14 +15,16 @@
 #include <glm/vec3.hpp>
 #include <glm/gtc/type_precision.hpp>
 
+#include "pnsplat/refine/huge_pages.h"
+
 namespace pnsplat {
 
 struct PointSet {
-    std::vector<glm::vec3> position;
-    std::vector<glm::vec3> normal;
-    std::vector<float> radius;       // empty when the source gave none (see estimateRadii)
-    std::vector<glm::u8vec3> colour; // empty when the model has no colour
-    std::vector<glm::vec3> crease;   // second normals; empty when no point is a crease point
+    HugePageVector<glm::vec3> position;
+    HugePageVector<glm::vec3> normal;
+    HugePageVector<float> radius;       // empty when the source gave none (see estimateRadii)
+    HugePageVector<glm::u8vec3> colour; // empty when the model has no colour
+    HugePageVector<glm::vec3> crease;   // second normals; empty when no point is a crease point
 
     std::size_t size() const { return position.size(); }
     bool empty() const { return position.empty(); }

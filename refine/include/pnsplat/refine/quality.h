@@ -33,6 +33,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -91,7 +92,7 @@ public:
     };
 
     // Preconditions: every index < positions.size(); at least one triangle.
-    TriangleMeshIndex(const std::vector<glm::vec3>& positions, const std::vector<glm::u32vec3>& triangles);
+    TriangleMeshIndex(std::span<const glm::vec3> positions, const std::vector<glm::u32vec3>& triangles);
 
     Hit closest(glm::vec3 p) const;
     std::size_t triangleCount() const { return order_.size(); }

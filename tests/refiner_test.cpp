@@ -18,6 +18,7 @@
 #include <numbers>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <glm/common.hpp>
@@ -86,6 +87,7 @@ PointSet randomSphereCap() {
 }
 
 template <typename T>
+    requires std::is_trivially_copyable_v<T>
 bool sameBits(const T& a, const T& b) {
     return std::memcmp(&a, &b, sizeof(T)) == 0;
 }

@@ -975,7 +975,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     stats.level = hierarchy.levels();
     stats.pointsBefore = count;
 
-    levelRadius.assign(points.radius.begin(), points.radius.end());
+    levelRadius = points.radius;
     hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
     childRange.assign(count, ChildRange{});
@@ -991,7 +991,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
 
     // Colouring (see the top of this file).
-    std::vector<float> sortedRadii(levelRadius.begin(), levelRadius.end());
+    HugePageVector<float> sortedRadii = levelRadius;
     const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
     std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
                      sortedRadii.end());

@@ -1,5 +1,6 @@
 // An oriented point set (a set of splats), stored as flat parallel arrays (structure of arrays) so
-// that per-point loops touch only the attributes they use.
+// that per-point loops touch only the attributes they use; large arrays are whole huge pages
+// (HugePageVector, huge_pages.h), and functions read them as spans.
 //
 // Units are the model's own; normals are unit length; a radius is the splat radius, which the
 // refinement requires to reach at least the farthest neighbour of the point's natural first ring

@@ -51,6 +51,7 @@ constexpr float kRetryReach = 1.5f;
 constexpr float kCBetaMax = 0.956172f; // rounded down
 constexpr float kLargeQuantile = 0.99f;
 constexpr std::size_t kPrefetchAhead = 8; // grid entries between a point's prefetch and its read
+constexpr std::size_t kCellsPerTask = 16;  // cells of one colour handed to a worker at a time
 constexpr float kMinCreaseCos = -0.98480775f; // cos 170°
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
@@ -1067,16 +1068,21 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     if (progress) progress(done, stats.refinedPoints);
     std::atomic<std::size_t> processed{0};
     for (const std::vector<std::uint32_t>& group : cellsByColour) {
-        pool.parallelFor(group.size(), [&](std::size_t item, unsigned worker) {
-            const Cell cell = cells[group[item]];
-            cellBase[group[item]] = scratch[worker].store.open();
-            std::vector<std::uint32_t>& members = scratch[worker].group;
-            members.clear();
-            for (std::uint32_t k = cell.begin; k < cell.end; ++k) members.push_back(keyed[k].second);
-            gatherNearby(members, keyed[cell.begin].first, scratch[worker]);
-            for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], scratch[worker]);
-            const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
-            if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, stats.refinedPoints);
+        // Runs of consecutive cells per task: cells next to each other in the list are neighbours
+        // in space, with points close in memory (and counters in one cache line); two workers
+        // refining them at once would write the same cache lines.
+        parallelForRanges(pool, group.size(), kCellsPerTask, [&](std::size_t begin, std::size_t end, unsigned worker) {
+            WorkerScratch& s = scratch[worker];
+            for (std::size_t item = begin; item < end; ++item) {
+                const Cell cell = cells[group[item]];
+                cellBase[group[item]] = s.store.open();
+                s.group.clear();
+                for (std::uint32_t k = cell.begin; k < cell.end; ++k) s.group.push_back(keyed[k].second);
+                gatherNearby(s.group, keyed[cell.begin].first, s);
+                for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], s);
+                const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
+                if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, stats.refinedPoints);
+            }
         });
     }
     done += processed.load();

@@ -21,6 +21,20 @@ TEST(HugePages, LargeBlocksOfTheAllocatorAreWholeHugePages) {
     EXPECT_EQ(v[2], 3u);
 }
 
+// Blocks are powers of two of huge pages; a released one serves the next request of its size.
+TEST(HugePages, ReleasedBlocksAreReused) {
+    void* a = allocateHugePages(3 * kHugePageBytes);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(a) % kHugePageBytes, 0u);
+    static_cast<char*>(a)[4 * kHugePageBytes - 1] = 1; // the block is 4 huge pages
+    releaseHugePages(a, 3 * kHugePageBytes);
+    void* b = allocateHugePages(4 * kHugePageBytes - 1); // the same size class
+    EXPECT_EQ(b, a);
+    void* c = allocateHugePages(4 * kHugePageBytes - 1); // another block
+    EXPECT_NE(c, a);
+    releaseHugePages(b, 4 * kHugePageBytes - 1);
+    releaseHugePages(c, 4 * kHugePageBytes - 1);
+}
+
 struct Item {
     std::uint32_t run, k;
     float pad[14];

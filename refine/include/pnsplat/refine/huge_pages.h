@@ -15,10 +15,13 @@ namespace pnsplat {
 
 inline constexpr std::size_t kHugePageBytes = std::size_t{1} << 21;
 
-// Memory aligned to huge pages and advised as such, whole huge pages (at least `bytes`); release
-// with releaseHugePages. Throws std::bad_alloc.
+// A block of at least `bytes` aligned to huge pages and advised as such: a power of two of whole
+// huge pages. Throws std::bad_alloc. Release it with the same `bytes`: released blocks are kept
+// for reuse, up to kKeptHugePageBytes in all, as malloc keeps freed heap memory (a block in use
+// is already faulted in; a fresh one costs a fault and a cleared page per 2 MiB).
 void* allocateHugePages(std::size_t bytes);
-void releaseHugePages(void* data);
+void releaseHugePages(void* data, std::size_t bytes);
+inline constexpr std::size_t kKeptHugePageBytes = std::size_t{256} << 20;
 
 // Allocator for point arrays (PointSet's, the refinement's): blocks of half a huge page and more
 // are whole advised huge pages, smaller ones come from operator new.
@@ -39,7 +42,7 @@ struct HugePageAllocator {
         if (n * sizeof(T) < kSmallBytes) {
             ::operator delete(data);
         } else {
-            releaseHugePages(data);
+            releaseHugePages(data, n * sizeof(T));
         }
     }
     friend bool operator==(const HugePageAllocator&, const HugePageAllocator&) { return true; }
@@ -70,11 +73,12 @@ public:
     }
 
 private:
-    struct Free {
-        void operator()(T* p) const { releaseHugePages(p); }
+    struct Release {
+        std::size_t bytes;
+        void operator()(T* p) const { releaseHugePages(p, bytes); }
     };
     struct Block {
-        std::unique_ptr<T[], Free> data;
+        std::unique_ptr<T[], Release> data;
         std::size_t capacity;
     };
     static constexpr std::size_t kBlockBytes = 4 * kHugePageBytes;
@@ -86,7 +90,7 @@ private:
         if (next == blocks_.size()) {
             const std::size_t bytes = std::max(needed * sizeof(T), kBlockBytes);
             T* data = static_cast<T*>(allocateHugePages(bytes));
-            blocks_.push_back(Block{std::unique_ptr<T[], Free>(data), bytes / sizeof(T)});
+            blocks_.push_back(Block{std::unique_ptr<T[], Release>(data, Release{bytes}), bytes / sizeof(T)});
         }
         T* moved = blocks_[next].data.get();
         std::copy(run, run + count, moved);

@@ -23,12 +23,13 @@ void* allocateHugePages(std::size_t bytes);
 void releaseHugePages(void* data, std::size_t bytes);
 inline constexpr std::size_t kKeptHugePageBytes = std::size_t{256} << 20;
 
-// Allocator for point arrays (PointSet's, the refinement's): blocks of half a huge page and more
-// are whole advised huge pages, smaller ones come from operator new.
+// Allocator for point arrays (PointSet's, the refinement's): blocks of 128 KiB and more (those
+// malloc would map afresh, faulting every 4 KiB) are whole advised huge pages, kept for reuse;
+// smaller ones come from operator new.
 template <typename T>
 struct HugePageAllocator {
     using value_type = T;
-    static constexpr std::size_t kSmallBytes = kHugePageBytes / 2;
+    static constexpr std::size_t kSmallBytes = std::size_t{128} << 10;
 
     HugePageAllocator() = default;
     template <typename U>

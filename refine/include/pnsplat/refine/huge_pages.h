@@ -21,7 +21,7 @@ inline constexpr std::size_t kHugePageBytes = std::size_t{1} << 21;
 // is already faulted in; a fresh one costs a fault and a cleared page per 2 MiB).
 void* allocateHugePages(std::size_t bytes);
 void releaseHugePages(void* data, std::size_t bytes);
-inline constexpr std::size_t kKeptHugePageBytes = std::size_t{256} << 20;
+inline constexpr std::size_t kKeptHugePageBytes = std::size_t{128} << 20;
 
 // Allocator for point arrays (PointSet's, the refinement's): blocks of 128 KiB and more (those
 // malloc would map afresh, faulting every 4 KiB) are whole advised huge pages, kept for reuse;

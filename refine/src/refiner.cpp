@@ -125,7 +125,7 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     PhaseTimes times;
     std::vector<std::uint32_t> inReach; // the candidates within reach of the point being refined
     std::vector<NearbyPoint> nearest; // the kMaxNeighbours nearest, for an oversized neighbourhood
-    BlockArena<NewPoint> store;       // the points this worker inserts, cell after cell
+    BlockArena<NewPoint> arena;       // the points this worker inserts, cell after cell
     std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0, boundaryInserted = 0, capped = 0;
 };
 
@@ -328,7 +328,7 @@ struct Refiner::State {
     HugePageVector<float> levelRadius; // radii of P(l) at the start of the level (read-only during it)
     HugePageVector<std::uint8_t> refined;
     HugePageVector<ChildRange> childRange;
-    // The points inserted in each cell, contiguous: cellBase[c][0, cellCount[c]), in the store of
+    // The points inserted in each cell, contiguous: cellBase[c][0, cellCount[c]), in the arena of
     // the worker that refines the cell (the last cell: the large points, refined first).
     std::vector<NewPoint*> cellBase;
     std::vector<std::uint32_t> cellCount;
@@ -390,7 +390,7 @@ private:
     NewPoint& newPoint(const RingMember& m) { return cellBase[m.cell][m.local]; }
     // Appends np to `cell`, refined by the worker of `s`; returns its index in the cell.
     std::uint32_t store(std::uint32_t cell, const NewPoint& np, WorkerScratch& s) {
-        s.store.append(cellBase[cell], cellCount[cell], np);
+        s.arena.append(cellBase[cell], cellCount[cell], np);
         return cellCount[cell]++;
     }
 };
@@ -1053,13 +1053,13 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     stats.sequentialPoints = large.size();
 
     for (WorkerScratch& s : scratch) {
-        s.store.clear();
+        s.arena.clear();
         s.times = {};
         s.inserted = s.discarded = s.incomplete = s.retried = s.boundaryInserted = s.capped = 0;
     }
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
-    cellBase[largeCell] = scratch[0].store.open();
+    cellBase[largeCell] = scratch[0].arena.open();
     for (std::uint32_t i : large) {
         gatherNearby(std::span(&i, 1), std::nullopt, scratch[0]);
         refinePoint(i, largeCell, scratch[0]);
@@ -1075,7 +1075,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             WorkerScratch& s = scratch[worker];
             for (std::size_t item = begin; item < end; ++item) {
                 const Cell cell = cells[group[item]];
-                cellBase[group[item]] = s.store.open();
+                cellBase[group[item]] = s.arena.open();
                 s.group.clear();
                 for (std::uint32_t k = cell.begin; k < cell.end; ++k) s.group.push_back(keyed[k].second);
                 gatherNearby(s.group, keyed[cell.begin].first, s);
@@ -1180,7 +1180,7 @@ float Refiner::longestSegment() const {
 
 std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress) {
     if (!(factor > 0.0f)) return {};
-    std::vector<float> radii(refiner.points().radius.begin(), refiner.points().radius.end());
+    HugePageVector<float> radii = refiner.points().radius;
     const auto middle = radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2);
     std::nth_element(radii.begin(), middle, radii.end());
     const float target = factor * *middle;

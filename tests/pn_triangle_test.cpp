@@ -396,8 +396,10 @@ TEST(CurvedAngle, CurvedCaseIsAtLeastThePlainAngle) {
     EXPECT_GT(largestExcess, 0.01);
 }
 
-// The shortcut for gaps of N'_p: either the curved angle bit for bit, or 0 for an angle surely
-// below θc (measured in double precision, below 87°), and both occur.
+// The shortcuts for gaps of N'_p: either the angle bit for bit, or 0 for an angle surely below θc
+// (measured in double precision, below 89°), and both occur; the curved angle's second test (the
+// cosine of the sum) takes sums from 87° on. Also at the scale of a small object in metres, where
+// the sixth powers of the legs' lengths leave float's range.
 TEST(CurvedAngle, UnlessSmallIsExactOrZeroOnlyBelowARightAngle) {
     std::mt19937_64 rng(17);
     const auto around = [&](glm::vec3 centre, double polarDeg) {
@@ -407,33 +409,54 @@ TEST(CurvedAngle, UnlessSmallIsExactOrZeroOnlyBelowARightAngle) {
         return glm::vec3(glm::normalize(glm::dvec3(centre) * std::cos(theta) +
                                         (glm::dvec3(u) * std::cos(phi) + glm::dvec3(v) * std::sin(phi)) * std::sin(theta)));
     };
-    int skipped = 0, exact = 0;
-    for (int trial = 0; trial < 4000; ++trial) {
-        const glm::vec3 p = randomUnit(rng);
-        const glm::vec3 p0 = around(p, uniform(rng, 2, 50)), p1 = around(p, uniform(rng, 2, 50));
-        // Normals of the sphere, tilted by up to 20° for half of the trials.
-        const float tilt = trial % 2 == 0 ? 0.0f : uniform(rng, 0, 20);
-        const glm::vec3 n0 = around(p0, tilt), n1 = around(p1, tilt);
-        const float value = curvedAngleUnlessSmall(p, p0, n0, p1, n1);
-        const float curved = curvedAngle(p, p0, n0, p1, n1);
-        if (value != 0.0f) {
-            EXPECT_EQ(value, curved) << trial;
-            ++exact;
-            continue;
+    const auto referenceAngle = [](glm::vec3 o, glm::vec3 a, glm::vec3 b) {
+        const glm::dvec3 u = glm::normalize(glm::dvec3(a - o)), v = glm::normalize(glm::dvec3(b - o));
+        return std::acos(std::clamp(glm::dot(u, v), -1.0, 1.0));
+    };
+    for (const float scale : {1.0f, 1e-5f}) {
+        int skipped = 0, skippedAbove87 = 0, exact = 0, plainSkipped = 0, plainExact = 0;
+        for (int trial = 0; trial < 4000; ++trial) {
+            const glm::vec3 p = randomUnit(rng);
+            const glm::vec3 p0 = around(p, uniform(rng, 2, 50)), p1 = around(p, uniform(rng, 2, 50));
+            // Normals of the sphere, tilted by up to 20° for half of the trials.
+            const float tilt = trial % 2 == 0 ? 0.0f : uniform(rng, 0, 20);
+            const glm::vec3 n0 = around(p0, tilt), n1 = around(p1, tilt);
+            // A sphere of radius `scale` around the origin: p, p0 and p1 on it.
+            const glm::vec3 sp = p * scale, sp0 = p0 * scale, sp1 = p1 * scale;
+
+            const float plainValue = angleAtUnlessSmall(sp, sp0, sp1);
+            if (plainValue != 0.0f) {
+                EXPECT_EQ(plainValue, angleAt(sp, sp0, sp1)) << trial;
+                ++plainExact;
+            } else {
+                EXPECT_LT(referenceAngle(sp, sp0, sp1), 89.001 * kPi / 180.0) << trial;
+                ++plainSkipped;
+            }
+
+            const float value = curvedAngleUnlessSmall(sp, sp0, n0, sp1, n1);
+            const float curved = curvedAngle(sp, sp0, n0, sp1, n1);
+            if (value != 0.0f) {
+                EXPECT_EQ(value, curved) << trial;
+                ++exact;
+                continue;
+            }
+            ++skipped;
+            const EdgeControls e = edgeControlPoints(sp0, n0, sp1, n1);
+            const double reference =
+                referenceAngle(sp, sp0, e.ab) + referenceAngle(sp, e.ab, e.ba) + referenceAngle(sp, e.ba, sp1);
+            EXPECT_LT(reference, 89.001 * kPi / 180.0) << trial;
+            EXPECT_LT(curved, kPi / 2.0) << trial;
+            if (reference > 87.0 * kPi / 180.0) ++skippedAbove87;
         }
-        ++skipped;
-        const EdgeControls e = edgeControlPoints(p0, n0, p1, n1);
-        const auto angle = [&](glm::vec3 a, glm::vec3 b) {
-            const glm::dvec3 u = glm::normalize(glm::dvec3(a - p)), v = glm::normalize(glm::dvec3(b - p));
-            return std::acos(std::clamp(glm::dot(u, v), -1.0, 1.0));
-        };
-        const double reference = angle(p0, e.ab) + angle(e.ab, e.ba) + angle(e.ba, p1);
-        EXPECT_LT(reference, 87.001 * kPi / 180.0) << trial;
-        EXPECT_LT(curved, kPi / 2.0) << trial;
+        std::cout << "scale " << scale << ": curved angle shortcut: " << skipped << " surely below a right angle ("
+                  << skippedAbove87 << " from 87°), " << exact << " measured; plain angle: " << plainSkipped << " and "
+                  << plainExact << "\n";
+        EXPECT_GT(skipped, 400);
+        EXPECT_GT(skippedAbove87, 20);
+        EXPECT_GT(exact, 400);
+        EXPECT_GT(plainSkipped, 400);
+        EXPECT_GT(plainExact, 400);
     }
-    std::cout << "curved angle shortcut: " << skipped << " surely below a right angle, " << exact << " measured\n";
-    EXPECT_GT(skipped, 400);
-    EXPECT_GT(exact, 400);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -664,11 +664,11 @@ NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, 
 // The "curved angle" between consecutive members of N'_p (eq. 5), or their plain angle
 // (variant 2). A gap wider than π cannot be measured by unsigned angles: its counter-clockwise
 // sweep is used, which is always above θc. Gaps are only compared with θc and ranked above it,
-// so a curved angle surely below θc is not measured (curvedAngleUnlessSmall).
+// so an angle surely below θc is not measured (curvedAngleUnlessSmall, angleAtUnlessSmall).
 float Refiner::State::gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const {
     const float s = ringSize == 1 ? kTwoPi : sweep(a.angle, b.angle);
     if (s > kPi) return s;
-    if (options.plainAngle) return angleAt(x, a.position, b.position);
+    if (options.plainAngle) return angleAtUnlessSmall(x, a.position, b.position);
     return curvedAngleUnlessSmall(x, a.position, a.normal, b.position, b.normal);
 }
 

@@ -150,10 +150,25 @@ inline float curvedAngle(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, 
     return angleAt(p, p0, e.ab) + angleAt(p, e.ab, e.ba) + angleAt(p, e.ba, p1);
 }
 
-// The curved angle for a caller that only compares it with a right angle (θc) and ranks those at or
-// above: 0 when it is surely below, because each of its three angles is below 29° (their sum below
-// 87°, farther from π/2 than any rounding reaches), which their squared cosines show without the
-// three arctangents; otherwise curvedAngle(p, p0, n0, p1, n1), bit for bit.
+// For callers that only compare an angle with a right angle (θc) and rank those at or above: the
+// angle, bit for bit, or 0 when it is surely below 89° (farther from π/2 than any rounding of the
+// angle functions reaches), which is told from dot and cross products without arctangents.
+inline constexpr float kSin2Of1Degree = 3.0459e-4f; // sin²(1°)
+
+// angleAt(o, a, b) unless surely below 89°: cos ∠ > sin 1°.
+inline float angleAtUnlessSmall(glm::vec3 o, glm::vec3 a, glm::vec3 b) {
+    const glm::vec3 u = a - o, v = b - o;
+    const float d = glm::dot(u, v);
+    if (d > 0.0f && d * d > kSin2Of1Degree * glm::dot(u, u) * glm::dot(v, v)) return 0.0f;
+    return detail::fastAtan2Upper(glm::length(glm::cross(u, v)), d);
+}
+
+// curvedAngle(p, p0, n0, p1, n1) unless surely below 89°. First without square roots: each of its
+// three angles below 29° (their sum below 87°), as their squared cosines show. Then the cosine of
+// the sum from the legs' dot products d and cross-product lengths x: with every angle below 90°
+// the sum is below 270°, and cos(a+b+c) > sin 1° puts it below 89°. Scaled by the legs' lengths,
+//   cos(a+b) ∝ d01·d12 - x01·x12,  sin(a+b) ∝ x01·d12 + d01·x12,
+//   cos(a+b+c) ∝ cos(a+b)·d23 - sin(a+b)·x23 = cos(a+b+c) · |u1|²|u2|²|u0||u3|.
 inline float curvedAngleUnlessSmall(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1) {
     const EdgeControls e = edgeControlPoints(p0, n0, p1, n1);
     const glm::vec3 u0 = p0 - p, u1 = e.ab - p, u2 = e.ba - p, u3 = p1 - p;
@@ -162,7 +177,18 @@ inline float curvedAngleUnlessSmall(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm
     constexpr float kCos2Of29Degrees = 0.764960f;
     const auto below29 = [&](float d, float la, float lb) { return d > 0.0f && d * d > kCos2Of29Degrees * la * lb; };
     if (below29(d01, l0, l1) && below29(d12, l1, l2) && below29(d23, l2, l3)) return 0.0f;
-    return angleBetween(u0, u1) + angleBetween(u1, u2) + angleBetween(u2, u3);
+    const float x01 = glm::length(glm::cross(u0, u1)), x12 = glm::length(glm::cross(u1, u2));
+    const float x23 = glm::length(glm::cross(u2, u3));
+    if (d01 > 0.0f && d12 > 0.0f && d23 > 0.0f) {
+        // In double precision: the sixth powers of lengths leave float's range for neighbours
+        // closer than about 1e-6 (a small object measured in metres).
+        const double c01 = d01, c12 = d12, c23 = d23, s01 = x01, s12 = x12, s23 = x23;
+        const double cosSum2 = c01 * c12 - s01 * s12, sinSum2 = s01 * c12 + c01 * s12;
+        const double cosSum3 = cosSum2 * c23 - sinSum2 * s23;
+        const double scale2 = double{l1} * double{l2}, ends = double{l0} * double{l3};
+        if (cosSum3 > 0.0 && cosSum3 * cosSum3 > double{kSin2Of1Degree} * scale2 * scale2 * ends) return 0.0f;
+    }
+    return detail::fastAtan2Upper(x01, d01) + detail::fastAtan2Upper(x12, d12) + detail::fastAtan2Upper(x23, d23);
 }
 
 // Neighbour validity (eq. 6, SPEC 2): p1 may be a neighbour of p0 only when it lies outside the cone

@@ -85,7 +85,7 @@ struct RingMember {
     glm::vec3 position;
     glm::vec3 normal;
     float angle;           // around n_p
-    float gapToNext = 0;   // gapValue to the next member, valid when !gapStale
+    float gapToNext = 0;   // gapValue to the next member, valid when neither stale nor exhausted
     bool gapStale = true;
     bool gapExhausted = false; // no candidate left inside this gap
 };
@@ -126,7 +126,7 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     std::vector<std::uint32_t> inReach; // the candidates within reach of the point being refined
     std::vector<NearbyPoint> nearest; // the kMaxNeighbours nearest, for an oversized neighbourhood
     BlockArena<NewPoint> arena;       // the points this worker inserts, cell after cell
-    std::size_t inserted = 0, discarded = 0, incomplete = 0, retried = 0, boundaryInserted = 0, capped = 0;
+    std::size_t inserted = 0, discarded = 0, retried = 0, boundaryInserted = 0, capped = 0;
 };
 
 // Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
@@ -849,10 +849,39 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     double interpolationSeconds = 0;
     if (splitsSegments()) splitSegments(p, cell, firstChild, s);
 
+    // 2. (below) The candidate that best balances the sampling of the gap after ring[j]:
+    //    max of min(∠p_j p p_k, ∠p_k p p_j+1), or candidates.size() when none is inside it; with
+    //    `anyInside`, the first candidate found inside instead of the best.
+    //    Choice: angles measured around n_p in the tangent plane (the plane that orders the fan),
+    //    and only candidates inside the gap compete, so a point is never put into a gap other than
+    //    the one being filled.
+    const auto candidateIn = [&](std::size_t j, bool anyInside) {
+        const RingMember& a = ring[j];
+        const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(j, ring.size())].angle);
+        std::size_t best = candidates.size();
+        float bestScore = -1.0f;
+        for (std::size_t k = 0; k < candidates.size(); ++k) {
+            if (candidates[k].taken) continue;
+            const float into = sweep(a.angle, candidates[k].angle);
+            const float score = std::min(into, gapSweep - into);
+            if (score >= kMinSplitAngle && score > bestScore) {
+                if (anyInside) return k;
+                bestScore = score;
+                best = k;
+            }
+        }
+        return best;
+    };
+    // For speed only: a curved angle costs more than looking for a candidate in its gap, a plain
+    // angle (variant 2) less, so only the first is looked at first.
+    const bool candidatesFirst = !options.plainAngle;
+
     // Candidates leave L_p by being marked taken; the others keep their order.
     for (std::size_t remaining = candidates.size(); remaining > 0; --remaining) {
         // 1. The pair of consecutive members of N'_p with the largest curved angle that is not
-        //    below θc (N'_p complete otherwise) and still has a candidate inside it.
+        //    below θc (N'_p complete otherwise) and still has a candidate inside it. A gap with no
+        //    candidate inside can never be chosen, and candidates only leave: it may be marked
+        //    exhausted at once, and its curved angle is then never measured (the same choice).
         std::size_t chosen = candidates.size();
         if (ring.empty()) {
             // An empty N'_p is incomplete; every candidate fills it equally: the first one left.
@@ -861,9 +890,9 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         } else {
             for (std::size_t j = 0; j < ring.size(); ++j) {
                 if (!ring[j].gapStale) continue;
-                ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
                 ring[j].gapStale = false;
-                ring[j].gapExhausted = false;
+                ring[j].gapExhausted = candidatesFirst && candidateIn(j, true) == candidates.size();
+                if (!ring[j].gapExhausted) ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
             }
             for (;;) {
                 std::size_t widest = ring.size();
@@ -872,22 +901,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
                     if (widest == ring.size() || ring[j].gapToNext > ring[widest].gapToNext) widest = j;
                 }
                 if (widest == ring.size()) break; // complete, or no candidate fills what is open
-                // 2. The candidate that best balances the sampling: max of min(∠p_j p p_k, ∠p_k p p_j+1).
-                //    Choice: angles measured around n_p in the tangent plane (the plane that orders
-                //    the fan), and only candidates inside the gap compete, so a point is never put
-                //    into a gap other than the one being filled.
-                const RingMember& a = ring[widest];
-                const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(widest, ring.size())].angle);
-                float bestScore = -1.0f;
-                for (std::size_t k = 0; k < candidates.size(); ++k) {
-                    if (candidates[k].taken) continue;
-                    const float into = sweep(a.angle, candidates[k].angle);
-                    const float score = std::min(into, gapSweep - into);
-                    if (score >= kMinSplitAngle && score > bestScore) {
-                        bestScore = score;
-                        chosen = k;
-                    }
-                }
+                chosen = candidateIn(widest, false);
                 if (chosen < candidates.size()) break;
                 ring[widest].gapExhausted = true;
             }
@@ -933,14 +947,6 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         insertIntoRing(ring, m);
         if (profile) interpolationSeconds += secondsSince(ti);
     }
-
-    // Whether N'_p ended complete (every curved angle below θc): statistics only.
-    bool complete = !ring.empty();
-    for (std::size_t j = 0; j < ring.size() && complete; ++j) {
-        if (ring[j].gapStale) ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
-        complete = ring[j].gapToNext < kThetaC;
-    }
-    if (!complete) ++s.incomplete;
 
     // Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
     // neighbours in the new ring. Choice for an empty N'_p (nothing found, nothing inserted: the
@@ -1055,7 +1061,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (WorkerScratch& s : scratch) {
         s.arena.clear();
         s.times = {};
-        s.inserted = s.discarded = s.incomplete = s.retried = s.boundaryInserted = s.capped = 0;
+        s.inserted = s.discarded = s.retried = s.boundaryInserted = s.capped = 0;
     }
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
@@ -1135,7 +1141,6 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (const WorkerScratch& s : scratch) {
         stats.inserted += s.inserted;
         stats.discarded += s.discarded;
-        stats.incomplete += s.incomplete;
         stats.retried += s.retried;
         stats.cappedNeighbourhoods += s.capped;
         stats.boundaryInserted += s.boundaryInserted;

@@ -84,7 +84,6 @@ struct LevelStats {
     std::size_t pointsBefore = 0;
     std::size_t inserted = 0;
     std::size_t discarded = 0;       // candidates that fell in the discard space
-    std::size_t incomplete = 0;      // points whose new one-ring N'_p stayed incomplete
     std::size_t retried = 0;         // points whose fan was open and was searched again wider
     std::size_t cappedNeighbourhoods = 0; // neighbourhoods cut to the kMaxNeighbours nearest
     std::size_t boundaryInserted = 0; // points inserted on boundary and crease segments (section 6)

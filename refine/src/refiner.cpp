@@ -115,7 +115,9 @@ struct NearbyPoint {
 
 struct alignas(64) WorkerScratch { // one cache line apart: workers write their counters
     std::vector<std::uint32_t> group; // the points of the cell being refined
-    std::vector<NearbyPoint> nearby; // candidates for the Euclidean neighbourhoods of a cell
+    std::optional<std::uint64_t> groupCell; // the colour cell of the group (none: a large point)
+    std::vector<NearbyPoint> nearby; // candidates for the Euclidean neighbourhoods of the group
+    std::vector<NearbyPoint> wideNearby; // the same for one point searched again wider
     NeighbourSet fan;
     NeighbourhoodScratch neighbourhood;
     std::vector<PointHierarchy::StackEntry> stack;
@@ -371,9 +373,10 @@ struct Refiner::State {
     }
 
 private:
-    void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell,
-                      WorkerScratch& s);
-    bool gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s);
+    void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell, float reachFactor,
+                      std::vector<NearbyPoint>& nearby, WorkerScratch& s);
+    bool gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
+                             std::span<const NearbyPoint> candidates, WorkerScratch& s);
     void collectNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
                               std::span<const NearbyPoint> candidates, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
@@ -396,15 +399,16 @@ private:
 };
 
 // The points of P(l) that the refinement of a group of points (one cell, or one large point) may
-// need: every point within kRetryReach·r_max of the group's box, found once. Each point of the
-// group then picks its Euclidean neighbourhood from this short list, which costs far less than one
-// search per point. The points of one colour cell (key `cell`) have r <= r_lim, so the box grown
-// by kRetryReach·r_max < s stays within the 3×3×3 cells around theirs, read from the grid; a
-// single large point is found through the bounding-sphere hierarchy (section 7). Both give the
-// same set; its order does not matter (the neighbourhoods are sorted, and Y_p breaks ties in
-// distance by storage position).
+// need: every point within reachFactor·r_max of the group's box, found once, into `nearby`. Each
+// point of the group then picks its Euclidean neighbourhood from this short list, which costs far
+// less than one search per point. reachFactor is 1 for the first search and kRetryReach for a
+// point searched again wider (rare: a group of its own then). The points of one colour cell (key
+// `cell`) have r <= r_lim, so the box grown by kRetryReach·r_max < s stays within the 3×3×3 cells
+// around theirs, read from the grid; a single large point is found through the bounding-sphere
+// hierarchy (section 7). Both give the same set; its order does not matter (the neighbourhoods
+// are sorted, and Y_p breaks ties in distance by storage position).
 void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell,
-                                  WorkerScratch& s) {
+                                  float reachFactor, std::vector<NearbyPoint>& nearby, WorkerScratch& s) {
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
     float largest = 0.0f;
     for (const std::uint32_t p : group) {
@@ -412,13 +416,13 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
         hi = glm::max(hi, points.position[p]);
         largest = std::max(largest, levelRadius[p]);
     }
-    const float margin = kRetryReach * largest;
+    const float margin = reachFactor * largest;
     Clock::time_point t0;
     if (options.profile) t0 = Clock::now();
-    s.nearby.clear();
+    nearby.clear();
     if (!cell) {
         hierarchy.queryBox(lo, hi, margin, s.stack, [&](std::uint32_t i, float d2) {
-            if (d2 <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
+            if (d2 <= margin * margin) nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
         });
     } else {
         const std::uint64_t cx = *cell >> 42, cy = (*cell >> 21) & kCellCoordinateMask;
@@ -438,15 +442,15 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
                         __builtin_prefetch(&points.normal[gridPoint[k + kPrefetchAhead]]);
                     }
                     const glm::vec3 d = points.position[i] - glm::clamp(points.position[i], lo, hi);
-                    if (glm::dot(d, d) <= margin * margin) s.nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
+                    if (glm::dot(d, d) <= margin * margin) nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
                 }
             }
         }
     }
     // Every point of the group reads the children of the refined points among these (and then
     // again from cache): start their loads, the child ranges first.
-    for (const NearbyPoint& c : s.nearby) __builtin_prefetch(&childRange[c.index]);
-    for (const NearbyPoint& c : s.nearby) {
+    for (const NearbyPoint& c : nearby) __builtin_prefetch(&childRange[c.index]);
+    for (const NearbyPoint& c : nearby) {
         if (!refined[c.index]) continue;
         const ChildRange range = childRange[c.index];
         const auto* children = reinterpret_cast<const char*>(cellBase[range.cell] + range.begin);
@@ -459,13 +463,14 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
 // kMaxNeighbours nearest points within reach (ties by index) are kept and then checked against
 // the validity cone, so N'_p and Y_p hold the children of those only. Returns whether it cut: a
 // wider reach would keep the same points.
-bool Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach, WorkerScratch& s) {
-    collectNeighbourhood(p, frame, reach, s.nearby, s);
+bool Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
+                                         std::span<const NearbyPoint> candidates, WorkerScratch& s) {
+    collectNeighbourhood(p, frame, reach, candidates, s);
     if (s.fan.size() <= kMaxNeighbours) return false;
     const glm::vec3 x = points.position[p];
     const auto distance2 = [&](const NearbyPoint& c) { return glm::dot(c.position - x, c.position - x); };
     s.nearest.clear();
-    for (const NearbyPoint& c : s.nearby)
+    for (const NearbyPoint& c : candidates)
         if (c.index != p && distance2(c) < reach * reach) s.nearest.push_back(c);
     if (s.nearest.size() <= kMaxNeighbours) return false; // the same points (rounding aside)
     ++s.capped;
@@ -771,10 +776,10 @@ void Refiner::State::findSegments() {
         WorkerScratch& s = scratch[worker];
         const glm::vec3 x = points.position[p], n = planeNormal(p);
         const TangentFrame frame(n);
-        gatherNearby(std::span(&p, 1), std::nullopt, s);
+        gatherNearby(std::span(&p, 1), std::nullopt, kRetryReach, s.nearby, s);
         bool open = true;
         for (const float reach : {levelRadius[p], kRetryReach * levelRadius[p]}) {
-            const bool cut = gatherNeighbourhood(p, frame, reach, s);
+            const bool cut = gatherNeighbourhood(p, frame, reach, s.nearby, s);
             filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
             if (!fanIsOpen(s.fan)) {
                 open = false;
@@ -818,7 +823,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     const glm::vec3 n = planeNormal(p);
     const FuzzyParams fuzzy = fuzzyParams(options.smoothing && !options.centroidCandidates); // PN-centre candidates
     const TangentFrame frame(n);
-    const bool cut = gatherNeighbourhood(p, frame, levelRadius[p], s);
+    const bool cut = gatherNeighbourhood(p, frame, levelRadius[p], s.nearby, s);
     if (profile) s.times.neighbourhood += secondsSince(t0);
     filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
     if (profile) s.times.filtering += secondsSince(t0);
@@ -828,7 +833,9 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         // within kRetryReach·r before treating it as a boundary; the new one-ring then reaches
         // across, and the gap is filled at this level instead of staying a hole.
         ++s.retried;
-        gatherNeighbourhood(p, frame, kRetryReach * levelRadius[p], s);
+        gatherNearby(std::span(&p, 1), s.groupCell, kRetryReach, s.wideNearby, s);
+        if (profile) t0 = Clock::now(); // gatherNearby counted its own time
+        gatherNeighbourhood(p, frame, kRetryReach * levelRadius[p], s.wideNearby, s);
         if (profile) s.times.neighbourhood += secondsSince(t0);
         filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
         if (profile) s.times.filtering += secondsSince(t0);
@@ -1066,8 +1073,9 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     std::size_t done = 0;
     const auto largeCell = static_cast<std::uint32_t>(cells.size());
     cellBase[largeCell] = scratch[0].arena.open();
+    scratch[0].groupCell.reset();
     for (std::uint32_t i : large) {
-        gatherNearby(std::span(&i, 1), std::nullopt, scratch[0]);
+        gatherNearby(std::span(&i, 1), std::nullopt, 1.0f, scratch[0].nearby, scratch[0]);
         refinePoint(i, largeCell, scratch[0]);
     }
     done += large.size();
@@ -1084,7 +1092,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
                 cellBase[group[item]] = s.arena.open();
                 s.group.clear();
                 for (std::uint32_t k = cell.begin; k < cell.end; ++k) s.group.push_back(keyed[k].second);
-                gatherNearby(s.group, keyed[cell.begin].first, s);
+                s.groupCell = keyed[cell.begin].first;
+                gatherNearby(s.group, s.groupCell, 1.0f, s.nearby, s);
                 for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], s);
                 const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
                 if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, stats.refinedPoints);

@@ -47,7 +47,7 @@ struct Synthetic {
 void addRandomLevel(Synthetic& s, PointHierarchy& h, std::mt19937_64& rng, std::uint32_t maxChildren, float spread) {
     const auto n = static_cast<std::uint32_t>(s.positions.size());
     const std::uint32_t newLevel = h.levels();
-    std::vector<std::uint32_t> begin;
+    HugePageVector<std::uint32_t> begin;
     begin.reserve(n + 1);
     begin.push_back(n);
     for (std::uint32_t i = 0; i < n; ++i) {
@@ -60,7 +60,7 @@ void addRandomLevel(Synthetic& s, PointHierarchy& h, std::mt19937_64& rng, std::
         }
         begin.push_back(static_cast<std::uint32_t>(s.positions.size()));
     }
-    s.childBegin.push_back(begin);
+    s.childBegin.emplace_back(begin.begin(), begin.end());
     h.addLevel(std::move(begin));
 }
 

@@ -53,7 +53,7 @@ std::uint32_t PointHierarchy::build(std::uint32_t begin, std::uint32_t end, std:
     return index;
 }
 
-void PointHierarchy::addLevel(std::vector<std::uint32_t> childBegin) {
+void PointHierarchy::addLevel(HugePageVector<std::uint32_t> childBegin) {
     assert(childBegin.size() == levelEnd_.back() + 1u);
     assert(childBegin.front() == levelEnd_.back());
     assert(std::is_sorted(childBegin.begin(), childBegin.end()));

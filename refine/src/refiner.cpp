@@ -139,8 +139,8 @@ inline std::size_t previousIndex(std::size_t j, std::size_t m) { return j == 0 ?
 // Counter-clockwise sweep from angle a to angle b, in [0, 2π).
 inline float sweep(float a, float b) {
     float d = b - a;
-    if (d < 0.0f) d += kTwoPi;
-    if (d >= kTwoPi) d -= kTwoPi;
+    d = d < 0.0f ? d + kTwoPi : d; // selects, not branches: the signs are unpredictable
+    d = d >= kTwoPi ? d - kTwoPi : d;
     return d;
 }
 
@@ -332,7 +332,7 @@ struct Refiner::State {
     HugePageVector<ChildRange> childRange;
     // The points inserted in each cell, contiguous: cellBase[c][0, cellCount[c]), in the arena of
     // the worker that refines the cell (the last cell: the large points, refined first).
-    std::vector<NewPoint*> cellBase;
+    HugePageVector<NewPoint*> cellBase;
     std::vector<std::uint32_t> cellCount;
     // Every point of P(l) by colour cell: cell keys in increasing order and the points, (key, index)
     // sorted. A group of points of one cell finds its surroundings here (gatherNearby).
@@ -1050,7 +1050,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     struct Cell {
         std::uint32_t begin, end; // into keyed
     };
-    std::vector<Cell> cells;
+    HugePageVector<Cell> cells;
+    cells.reserve(keyed.size()); // at most one cell per point: no growth, no copy
     std::array<std::vector<std::uint32_t>, 8> cellsByColour;
     for (std::uint32_t k = 0; k < keyed.size();) {
         std::uint32_t e = k;
@@ -1104,7 +1105,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     if (progress) progress(done, stats.refinedPoints);
 
     // Append the new points grouped by parent, parents in index order (section 7).
-    std::vector<std::uint32_t> childBegin(count + 1);
+    HugePageVector<std::uint32_t> childBegin(count + 1);
     std::uint32_t offset = count;
     for (std::uint32_t i = 0; i < count; ++i) {
         childBegin[i] = offset;

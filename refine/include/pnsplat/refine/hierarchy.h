@@ -39,7 +39,7 @@ public:
     // Records level l+1 = levels(): childBegin has |P(l)| + 1 entries, non-decreasing, with
     // childBegin[0] = |P(l)| and childBegin.back() = |P(l+1)|; the children of point i are
     // [childBegin[i], childBegin[i+1]).
-    void addLevel(std::vector<std::uint32_t> childBegin);
+    void addLevel(HugePageVector<std::uint32_t> childBegin);
     // Makes room for `points` points ahead of the addLevel that brings them (which would otherwise
     // grow its storage itself), so that another thread can take the page faults.
     void growTo(std::uint32_t points);
@@ -87,7 +87,7 @@ private:
     std::vector<Node> nodes_;
     std::vector<std::uint32_t> rootOrder_;
     std::vector<std::uint32_t> levelEnd_;                 // levelEnd_[l] = |P(l)|
-    std::vector<std::vector<std::uint32_t>> children_;   // children_[l][i], i in P(l)
+    std::vector<HugePageVector<std::uint32_t>> children_; // children_[l][i], i in P(l)
     std::span<const glm::vec3> positions_; // given to the last updateBounds (or the constructor)
     HugePageVector<float> bounds_;         // bound_i
 };

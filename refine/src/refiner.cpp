@@ -14,7 +14,9 @@
 //    reads belong to its own cell or to cells of other colours, never to storage that another
 //    worker is appending to. So cells of one colour are refined concurrently, each by one
 //    worker, its points in increasing index order; the colours follow each other in order 0..7.
-//  - Points with r > r_lim (at most 1 %) are refined first, one after the other, in index order.
+//  - Points with r > r_lim (about 1 %) are refined first, in a colouring of their own made the
+//    same way with s_L = kCellFactor · r_max (r_max their largest radius), and the same reasoning.
+//    One huge radius makes s_L huge and the large points few cells: slower, never wrong.
 // Every point sees exactly the points that the same sequential order would show it, whatever the
 // number of threads, so the output is identical for any thread count.
 #include "pnsplat/refine/refiner.h"
@@ -331,7 +333,7 @@ struct Refiner::State {
     HugePageVector<std::uint8_t> refined;
     HugePageVector<ChildRange> childRange;
     // The points inserted in each cell, contiguous: cellBase[c][0, cellCount[c]), in the arena of
-    // the worker that refines the cell (the last cell: the large points, refined first).
+    // the worker that refines the cell.
     HugePageVector<NewPoint*> cellBase;
     std::vector<std::uint32_t> cellCount;
     // Every point of P(l) by colour cell: cell keys in increasing order and the points, (key, index)
@@ -526,7 +528,7 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
         if (!validNeighbours(x, np, candidate.position, ni)) continue;
         s.fan.push(i, candidate.position, ni);
         // The points already inserted near p are the children of its neighbours (section 7). Only
-        // points closer than 1.5·r_lim are read here, and none of them is refined concurrently.
+        // points within p's reach are read here, and none of them is refined concurrently.
         if (!refined[i]) continue;
         const ChildRange range = childRange[i];
         const NewPoint* children = cellBase[range.cell] + range.begin;
@@ -1047,62 +1049,82 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         ++stats.refinedPoints;
         if (levelRadius[i] > radiusLimit) large.push_back(i);
     }
+    // The large points get a colouring of their own, at the scale of the largest of them, appended
+    // to `keyed` (their cells' keys use that scale).
+    const std::size_t smallEnd = keyed.size();
+    if (!large.empty()) {
+        float largest = 0.0f;
+        for (const std::uint32_t i : large) largest = std::max(largest, levelRadius[i]);
+        const float largeCellSize = std::max(kCellFactor * largest, extent / float(1u << 20));
+        CellKeys keyedLarge(large.size());
+        for (std::size_t k = 0; k < large.size(); ++k)
+            keyedLarge[k] = {cellKeyOf(points.position[large[k]], lo, largeCellSize), large[k]};
+        sortCellKeys(keyedLarge);
+        keyed.insert(keyed.end(), keyedLarge.begin(), keyedLarge.end());
+    }
     struct Cell {
         std::uint32_t begin, end; // into keyed
     };
     HugePageVector<Cell> cells;
     cells.reserve(keyed.size()); // at most one cell per point: no growth, no copy
-    std::array<std::vector<std::uint32_t>, 8> cellsByColour;
+    using Colouring = std::array<std::vector<std::uint32_t>, 8>; // cells by colour
+    Colouring smallByColour, largeByColour;
     for (std::uint32_t k = 0; k < keyed.size();) {
-        std::uint32_t e = k;
-        while (e < keyed.size() && keyed[e].first == keyed[k].first) ++e;
+        std::uint32_t e = k + 1;
+        while (e < keyed.size() && e != smallEnd && keyed[e].first == keyed[k].first) ++e;
         const std::uint64_t key = keyed[k].first;
         const unsigned colour = unsigned(key & 1u) | unsigned((key >> 21) & 1u) << 1 | unsigned((key >> 42) & 1u) << 2;
-        cellsByColour[colour].push_back(static_cast<std::uint32_t>(cells.size()));
+        (k < smallEnd ? smallByColour : largeByColour)[colour].push_back(static_cast<std::uint32_t>(cells.size()));
         cells.push_back(Cell{k, e});
         k = e;
     }
-    cellBase.assign(cells.size() + 1, nullptr);
-    cellCount.assign(cells.size() + 1, 0);
-    stats.sequentialPoints = large.size();
+    cellBase.assign(cells.size(), nullptr);
+    cellCount.assign(cells.size(), 0);
+    stats.largePoints = large.size();
 
     for (WorkerScratch& s : scratch) {
         s.arena.clear();
         s.times = {};
         s.inserted = s.discarded = s.retried = s.boundaryInserted = s.capped = 0;
     }
-    std::size_t done = 0;
-    const auto largeCell = static_cast<std::uint32_t>(cells.size());
-    cellBase[largeCell] = scratch[0].arena.open();
-    scratch[0].groupCell.reset();
-    for (std::uint32_t i : large) {
-        gatherNearby(std::span(&i, 1), std::nullopt, 1.0f, scratch[0].nearby, scratch[0]);
-        refinePoint(i, largeCell, scratch[0]);
-    }
-    done += large.size();
-    if (progress) progress(done, stats.refinedPoints);
-    std::atomic<std::size_t> processed{0};
-    for (const std::vector<std::uint32_t>& group : cellsByColour) {
-        // Runs of consecutive cells per task: cells next to each other in the list are neighbours
-        // in space, with points close in memory (and counters in one cache line); two workers
-        // refining them at once would write the same cache lines.
-        parallelForRanges(pool, group.size(), kCellsPerTask, [&](std::size_t begin, std::size_t end, unsigned worker) {
-            WorkerScratch& s = scratch[worker];
-            for (std::size_t item = begin; item < end; ++item) {
-                const Cell cell = cells[group[item]];
-                cellBase[group[item]] = s.arena.open();
-                s.group.clear();
-                for (std::uint32_t k = cell.begin; k < cell.end; ++k) s.group.push_back(keyed[k].second);
-                s.groupCell = keyed[cell.begin].first;
-                gatherNearby(s.group, s.groupCell, 1.0f, s.nearby, s);
-                for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, group[item], s);
-                const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
-                if (worker == 0 && progress && (item & 63u) == 0) progress(done + total, stats.refinedPoints);
+    // A cell's points find their surroundings together, from the grid; a large point alone,
+    // through the hierarchy (its reach may pass the 3×3×3 cells of the grid).
+    const auto refineCell = [&](std::uint32_t c, bool largeCell, WorkerScratch& s) {
+        const Cell cell = cells[c];
+        cellBase[c] = s.arena.open();
+        if (largeCell) {
+            s.groupCell.reset();
+            for (std::uint32_t k = cell.begin; k < cell.end; ++k) {
+                const std::uint32_t i = keyed[k].second;
+                gatherNearby(std::span(&i, 1), std::nullopt, 1.0f, s.nearby, s);
+                refinePoint(i, c, s);
             }
-        });
+            return;
+        }
+        s.group.clear();
+        for (std::uint32_t k = cell.begin; k < cell.end; ++k) s.group.push_back(keyed[k].second);
+        s.groupCell = keyed[cell.begin].first;
+        gatherNearby(s.group, s.groupCell, 1.0f, s.nearby, s);
+        for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, c, s);
+    };
+    std::atomic<std::size_t> processed{0};
+    // The large points first, colour after colour, then the others.
+    for (const bool largeCells : {true, false}) {
+        for (const std::vector<std::uint32_t>& group : largeCells ? largeByColour : smallByColour) {
+            // Runs of consecutive cells per task: cells next to each other in the list are
+            // neighbours in space, with points close in memory (and counters in one cache line);
+            // two workers refining them at once would write the same cache lines.
+            parallelForRanges(pool, group.size(), kCellsPerTask, [&](std::size_t begin, std::size_t end, unsigned worker) {
+                for (std::size_t item = begin; item < end; ++item) {
+                    refineCell(group[item], largeCells, scratch[worker]);
+                    const Cell cell = cells[group[item]];
+                    const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
+                    if (worker == 0 && progress && (item & 63u) == 0) progress(total, stats.refinedPoints);
+                }
+            });
+        }
     }
-    done += processed.load();
-    if (progress) progress(done, stats.refinedPoints);
+    if (progress) progress(processed.load(), stats.refinedPoints);
 
     // Append the new points grouped by parent, parents in index order (section 7).
     HugePageVector<std::uint32_t> childBegin(count + 1);

@@ -90,7 +90,7 @@ struct LevelStats {
     std::size_t boundarySegments = 0; // boundary and crease segments after this level
     double seconds = 0;              // wall clock
     PhaseTimes phases;               // filled when RefineOptions::profile
-    std::size_t sequentialPoints = 0; // points too large for the parallel colouring
+    std::size_t largePoints = 0;      // points above r_lim, refined in a colouring of their own
     std::size_t refinedPoints = 0;    // points of P(level-1) refined (all but adaptive skips)
 };
 

@@ -22,6 +22,7 @@
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/shapes.h"
 #include "test_data.h"
 
@@ -423,6 +424,46 @@ TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
     const RunResult wrong = run("eval " + quote(out) + " --reference sphere:1 --input " + quote(other));
     ASSERT_TRUE(wrong.exited && wrong.exitCode == 0) << wrong.err;
     EXPECT_NE(wrong.out.find("\"input_preserved\": false"), std::string::npos) << wrong.out;
+}
+
+// --hole-map: the refined points in grey, then the reference samples counted as holes (here the
+// removed cap, gaps: red), as discs of the hole distance. A map that cannot be written fails the
+// command before any report is written.
+TEST(CliEval, HoleMapMarksTheRemovedCap) {
+    const TempDir dir;
+    const fs::path holed = dir / "holed.ply", map = dir / "map.ply", report = dir / "report.json";
+    PointSet sphere = sampleSphereUniform(20000, 1.0f);
+    estimateRadii(sphere, 2);
+    PointSet withoutCap;
+    for (std::size_t i = 0; i < sphere.size(); ++i)
+        if (sphere.position[i].z <= 0.8f) withoutCap.appendFrom(sphere, i);
+    ASSERT_TRUE(writePly(holed, withoutCap).ok());
+    const RunResult r = run("eval " + quote(holed) + " --reference sphere:1 --hole-map " + quote(map));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    auto read = readPly(map);
+    ASSERT_TRUE(read.ok()) << read.error().message;
+    const PointSet& m = read->points;
+    ASSERT_TRUE(m.hasColour() && m.hasRadius());
+    ASSERT_GT(m.size(), withoutCap.size() + 14000); // about 9 % of 200,000 samples
+    std::cout << "[eval --hole-map, sphere without its cap] " << m.size() - withoutCap.size() << " holes marked\n";
+    for (std::size_t i = 0; i < withoutCap.size(); ++i) {
+        ASSERT_EQ(m.position[i], withoutCap.position[i]);
+        ASSERT_EQ(m.colour[i], glm::u8vec3(200, 200, 200));
+    }
+    std::size_t gaps = 0;
+    for (std::size_t i = withoutCap.size(); i < m.size(); ++i) {
+        ASSERT_GT(m.position[i].z, 0.8f) << i;
+        ASSERT_EQ(m.radius[i], m.radius.back());
+        gaps += m.colour[i] == glm::u8vec3(255, 0, 0);
+    }
+    EXPECT_GT(gaps, (m.size() - withoutCap.size()) * 9 / 10); // the rest off-surface, along the rim
+    EXPECT_GT(m.radius.back(), 0.0f);
+
+    const RunResult unwritable = run("eval " + quote(holed) + " --reference sphere:1 -o " + quote(report) +
+                                     " --hole-map " + quote(dir / "missing" / "map.ply"));
+    std::cout << "[eval --hole-map missing/map.ply] exit " << unwritable.exitCode << ": " << unwritable.err;
+    EXPECT_TRUE(failsCleanly(unwritable, Usage::Allowed));
+    EXPECT_FALSE(fs::exists(report));
 }
 
 

@@ -260,6 +260,46 @@ TEST(SphereEval, RemovedPatchReportsHoles) {
     EXPECT_GT(report.holes, 0.07);
     EXPECT_LT(report.holes, 0.1);
     EXPECT_NEAR(report.uniformityCv, fullReport.uniformityCv, 0.01);
+    // The holes are the samples of the cap, gaps in the tangent plane too, except in a thin band
+    // along the rim: there the sphere curves away from the sample's tangent plane, and the points
+    // below the rim come closer in it than in space.
+    ASSERT_EQ(report.holePoints.size(), report.holeReferencePoints);
+    EXPECT_TRUE(fullReport.holePoints.empty());
+    const float rimReach = static_cast<float>(2.0 * report.spacingMean);
+    std::size_t gaps = 0;
+    float highestOffSurface = 0.0f;
+    for (std::size_t i = 0; i < report.holePoints.size(); ++i) {
+        const glm::vec3 q = report.holePoints.position[i];
+        EXPECT_GT(q.z, 0.8f) << "hole " << i;
+        EXPECT_NEAR(glm::length(q), 1.0f, 1e-5f);
+        EXPECT_GT(glm::dot(report.holePoints.normal[i], q), 0.999f);
+        if (report.holePoints.colour[i] == kGapColour) {
+            ++gaps;
+        } else {
+            EXPECT_EQ(report.holePoints.colour[i], kOffSurfaceColour);
+            highestOffSurface = std::max(highestOffSurface, q.z);
+        }
+    }
+    std::cout << "[sphere without its cap] " << report.holeReferencePoints << " holes, " << gaps
+              << " gaps; off-surface up to z = " << highestOffSurface << " (rim 0.8, hole distance " << rimReach
+              << ")\n";
+    EXPECT_EQ(gaps, static_cast<std::size_t>(std::lround(report.holesTangential * 200000.0)));
+    EXPECT_GT(gaps, report.holePoints.size() * 9 / 10);
+    EXPECT_LT(highestOffSurface, 0.8f + rimReach);
+}
+
+// A sampling lifted off the true surface by more than twice its spacing covers it in the tangent
+// plane: every sample is a hole in space, and each is marked off-surface, none a gap.
+TEST(SphereEval, LiftedSurfaceHolesAreOffSurfaceNotGaps) {
+    PointSet lifted = sampleSphereUniform(20000, 1.0f);
+    for (glm::vec3& p : lifted.position) p *= 1.08f;
+    const QualityReport report =
+        evaluateQuality(lifted, parseReference("sphere:1").value(), nullptr, {.threads = 2, .analyticSamples = 20000});
+    ASSERT_LT(2.0 * report.spacingMean, 0.08); // the lift is beyond the hole distance
+    EXPECT_EQ(report.holeReferencePoints, 20000u);
+    EXPECT_EQ(report.holesTangential, 0.0);
+    ASSERT_EQ(report.holePoints.size(), 20000u);
+    for (const glm::u8vec3& colour : report.holePoints.colour) EXPECT_EQ(colour, kOffSurfaceColour);
 }
 
 TEST(Uniformity, PerfectGridHasZeroVariation) {

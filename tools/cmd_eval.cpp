@@ -20,6 +20,7 @@ struct EvalArgs {
     std::string reference;
     std::string input;
     std::string output;
+    std::string holeMap;
     unsigned threads = 0;
 };
 
@@ -29,6 +30,23 @@ void writeText(const std::string& path, const std::string& text) {
     const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
     const bool closed = std::fclose(file) == 0;
     if (!written || !closed) throw CommandError(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
+}
+
+// The refined points in grey with the reference points counted as holes among them, in their
+// colours (quality.h), as discs as wide as the hole test's distance: where the holes are, to
+// render with `pnsplat render`.
+PointSet holeMap(PointSet refined, const QualityReport& report) {
+    constexpr glm::u8vec3 kGrey{200, 200, 200};
+    refined.colour.assign(refined.size(), kGrey);
+    const PointSet& holes = report.holePoints;
+    for (std::size_t i = 0; i < holes.size(); ++i) {
+        refined.position.push_back(holes.position[i]);
+        refined.normal.push_back(holes.normal[i]);
+        refined.colour.push_back(holes.colour[i]);
+        if (refined.hasRadius()) refined.radius.push_back(static_cast<float>(2.0 * report.spacingMean));
+        if (refined.hasCrease()) refined.crease.emplace_back(0.0f);
+    }
+    return refined;
 }
 
 void runEval(const EvalArgs& args) {
@@ -44,6 +62,7 @@ void runEval(const EvalArgs& args) {
     options.threads = args.threads;
     const QualityReport report =
         evaluateQuality(refined, reference, args.input.empty() ? nullptr : &input, options);
+    if (!args.holeMap.empty()) unwrap(writePly(args.holeMap, holeMap(std::move(refined), report)));
     const std::string json = toJson(report) + "\n";
     if (args.output.empty()) fmt::print("{}", json);
     else writeText(args.output, json);
@@ -61,6 +80,10 @@ void addEvalCommand(CLI::App& app) {
         ->required();
     cmd->add_option("--input", args->input, "The original sparse input (PLY), to check it is kept bit for bit");
     cmd->add_option("-o,--output", args->output, "Write the JSON report to this file instead of stdout");
+    cmd->add_option("--hole-map", args->holeMap,
+                    "Write a PLY to look at (pnsplat render): the refined points in grey and the reference points "
+                    "counted as holes, red where no refined point is near in their tangent plane either (a gap in "
+                    "the sampling), orange where the refined surface passes off the true one");
     cmd->add_option("--threads", args->threads, "Worker threads (0 = all hardware threads); results do not depend on it")
         ->capture_default_str();
     cmd->footer(
@@ -70,6 +93,7 @@ void addEvalCommand(CLI::App& app) {
         "  spacing_mean      mean distance from a refined point to its nearest other refined point\n"
         "  uniformity_cv     std / mean of those nearest-neighbour distances (0 = perfectly even)\n"
         "  holes             share of reference points with no refined point within 2 x spacing_mean\n"
+        "  holes_tangential  the same, distances measured in the reference point's tangent plane\n"
         "  input_preserved   every --input point's position and normal in the output bit for bit (+ input_missing)\n"
         "True surface: sphere/torus exact (holes use 200k samples); a mesh PLY exact (true normal = vertex\n"
         "normals interpolated at the closest point; holes use its vertices); a points-only PLY approximate\n"

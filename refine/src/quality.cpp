@@ -594,6 +594,12 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     std::size_t holes = 0, holesTangential = 0;
     for (std::size_t j = 0; j < m; ++j) holes += uncovered[j], holesTangential += uncoveredTangential[j];
     report.holeReferencePoints = holes;
+    for (std::size_t j = 0; j < m; ++j) {
+        if (!uncovered[j]) continue;
+        report.holePoints.position.push_back(samples[j]);
+        report.holePoints.normal.push_back(sampleNormals[j]);
+        report.holePoints.colour.push_back(uncoveredTangential[j] ? kGapColour : kOffSurfaceColour);
+    }
     report.holes = m > 0 ? static_cast<double>(holes) / static_cast<double>(m) : 0.0;
     report.holesTangential = m > 0 ? static_cast<double>(holesTangential) / static_cast<double>(m) : 0.0;
 

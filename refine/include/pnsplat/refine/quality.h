@@ -108,6 +108,9 @@ private:
     std::vector<std::uint32_t> order_;  // triangle index of each slot
 };
 
+inline constexpr glm::u8vec3 kGapColour{255, 0, 0};
+inline constexpr glm::u8vec3 kOffSurfaceColour{255, 170, 0};
+
 struct EvalOptions {
     unsigned threads = 0;                      // worker threads; 0 = std::thread::hardware_concurrency
     std::size_t analyticSamples = 200'000;     // dense reference samples of an analytic surface
@@ -130,6 +133,10 @@ struct QualityReport {
     double holes = 0.0;         // share in [0, 1] of reference points not covered
     double holesTangential = 0.0; // the same, distances measured in the sample's tangent plane
     std::size_t holeReferencePoints = 0;
+    // The holeReferencePoints samples themselves, coloured kGapColour where they are holes in the
+    // tangent plane too (a gap in the sampling) and kOffSurfaceColour where they are not (the
+    // refined surface passes there, off the true one): where the holes are, to look at.
+    PointSet holePoints;
 
     bool hasInput = false;       // the fields below are meaningful only with an input
     std::size_t inputPoints = 0;

@@ -115,11 +115,17 @@ struct NearbyPoint {
     glm::vec3 normal;
 };
 
+constexpr std::uint64_t kNoCell = ~std::uint64_t{0}; // cell keys use 63 bits
+
 struct alignas(64) WorkerScratch { // one cache line apart: workers write their counters
     std::vector<std::uint32_t> group; // the points of the cell being refined
     std::optional<std::uint64_t> groupCell; // the colour cell of the group (none: a large point)
     std::vector<NearbyPoint> nearby; // candidates for the Euclidean neighbourhoods of the group
     std::vector<NearbyPoint> wideNearby; // the same for one point searched again wider
+    // Where the 3×3 columns of cells around `columnsOf` start in the grid (gatherNearby): a cell
+    // with a larger key starts its search there, as the workers take cells in increasing key order.
+    std::array<std::size_t, 9> columnStart{};
+    std::uint64_t columnsOf = kNoCell;
     NeighbourSet fan;
     NeighbourhoodScratch neighbourhood;
     std::vector<PointHierarchy::StackEntry> stack;
@@ -430,13 +436,28 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
         const std::uint64_t cx = *cell >> 42, cy = (*cell >> 21) & kCellCoordinateMask;
         const std::uint64_t cz = *cell & kCellCoordinateMask;
         const std::uint64_t z0 = cz > 0 ? cz - 1 : 0, z1 = std::min(cz + 1, kCellCoordinateMask);
+        // Each column's start only moves forward from one cell to the next of larger key (with the
+        // same offsets, a larger key gives larger column keys): search forward from the last one,
+        // in steps that double, then by halves.
+        if (s.columnsOf == kNoCell || *cell < s.columnsOf) s.columnStart.fill(0);
+        s.columnsOf = *cell;
+        const auto seek = [&](std::size_t from, std::uint64_t key) {
+            std::size_t below = from, above = from; // gridKey[k] < key for every k < below
+            for (std::size_t step = 1; above < gridKey.size() && gridKey[above] < key; step *= 2) {
+                below = above + 1;
+                above += step;
+            }
+            const auto end = gridKey.begin() + static_cast<std::ptrdiff_t>(std::min(above, gridKey.size()));
+            return static_cast<std::size_t>(
+                std::lower_bound(gridKey.begin() + static_cast<std::ptrdiff_t>(below), end, key) - gridKey.begin());
+        };
         for (std::uint64_t x = cx > 0 ? cx - 1 : 0; x <= std::min(cx + 1, kCellCoordinateMask); ++x) {
             for (std::uint64_t y = cy > 0 ? cy - 1 : 0; y <= std::min(cy + 1, kCellCoordinateMask); ++y) {
                 // The cells (x, y, z0..z1) are consecutive in key order.
                 const std::uint64_t last = packCell(x, y, z1);
-                const auto first = std::lower_bound(gridKey.begin(), gridKey.end(), packCell(x, y, z0));
-                for (auto k = static_cast<std::size_t>(first - gridKey.begin()); k < gridKey.size() && gridKey[k] <= last;
-                     ++k) {
+                std::size_t& start = s.columnStart[3 * (x + 1 - cx) + (y + 1 - cy)];
+                start = seek(start, packCell(x, y, z0));
+                for (std::size_t k = start; k < gridKey.size() && gridKey[k] <= last; ++k) {
                     // The distance to the box as the hierarchy measures it.
                     const std::uint32_t i = gridPoint[k];
                     if (k + kPrefetchAhead < gridPoint.size()) {
@@ -1086,6 +1107,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         s.arena.clear();
         s.times = {};
         s.inserted = s.discarded = s.retried = s.boundaryInserted = s.capped = 0;
+        s.columnsOf = kNoCell;
     }
     // A cell's points find their surroundings together, from the grid; a large point alone,
     // through the hierarchy (its reach may pass the 3×3×3 cells of the grid).

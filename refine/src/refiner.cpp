@@ -90,6 +90,7 @@ struct RingMember {
     float gapToNext = 0;   // gapValue to the next member, valid when neither stale nor exhausted
     bool gapStale = true;
     bool gapExhausted = false; // no candidate left inside this gap
+    float discardRadius = 0;   // Y_p: λ2 times its radius, which stays while p is refined
 };
 
 // Storage order of new points: deterministic whatever the order in which they were found.
@@ -563,6 +564,7 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
                 m.angle = frame.angleOf(d);
                 s.ring.push_back(m);
             } else if (distance2 > inner2) { // Y_p (eq. 10); its angle is needed only if it joins N'_p
+                m.discardRadius = kLambda2 * children[k].radius;
                 s.outer.push_back(m);
             }
         }
@@ -872,7 +874,6 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         return a.angle != b.angle ? a.angle < b.angle : storedBefore(a, b);
     });
 
-    const float lambda2 = kLambda2;
     std::vector<RingMember>& ring = s.ring;
     std::vector<Candidate>& candidates = s.candidates;
     const std::uint32_t firstChild = cellCount[cell];
@@ -947,7 +948,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         bool discarded = false;
         for (std::size_t h = 0; h < s.outer.size(); ++h) {
             const float distance = glm::length(c.position - s.outer[h].position);
-            if (distance < lambda2 * newPoint(s.outer[h]).radius) discarded = true;
+            if (distance < s.outer[h].discardRadius) discarded = true;
             const bool tie = distance == closestDistance && closest < s.outer.size() &&
                              storedBefore(s.outer[h], s.outer[closest]);
             if (distance < closestDistance || tie) {

@@ -3,20 +3,27 @@
 // Parallel scheme (SPEC 5). The result of a level depends on the order in which its points are
 // refined, so the order is fixed independently of the thread count:
 //  - Space is cut into cubic cells of side s = kCellFactor · r_lim, r_lim the 99th percentile of
-//    the radii of P(l). Cells are coloured by the parity of their integer coordinates (2×2×2 = 8
-//    colours); two cells of one colour are at least s apart.
+//    the radii of P(l), and the cells into tiles, cubes of 2^t cells a side (t at most
+//    kMaxTileShift: the largest that leaves at least kMinTiles tiles, a choice of the data alone).
+//    Tiles are coloured by the parity of their integer coordinates (2×2×2 = 8 colours): two
+//    adjacent tiles (the 26 around one) differ in colour, and two of one colour are at least a
+//    tile, so at least s, apart.
 //  - Refining p reads the points of P(l) closer than its reach (r_p, or kRetryReach·r_p for an
 //    open fan) with their `refined` flags and children, and the radii of new points closer than
 //    r_p; it writes its own flag and children (stored with its cell) and the radii of new points
-//    closer than r_p. With every reach at most 1.5·r_lim and every point of a cell at least s
-//    from the points of another cell of its colour: no flag or child range read by one is being
-//    written by the other (1.5·r_lim < s), no radius either (2·r_lim < s), and the children it
-//    reads belong to its own cell or to cells of other colours, never to storage that another
-//    worker is appending to. So cells of one colour are refined concurrently, each by one
-//    worker, its points in increasing index order; the colours follow each other in order 0..7.
-//  - Points with r > r_lim (about 1 %) are refined first, in a colouring of their own made the
-//    same way with s_L = kCellFactor · r_max (r_max their largest radius), and the same reasoning.
-//    One huge radius makes s_L huge and the large points few cells: slower, never wrong.
+//    closer than r_p. Every reach is at most 1.5·r_lim < s and every radius written within
+//    r_lim < s, so refining the points of a tile reads and writes the tile and its adjacent tiles
+//    only, and never storage that another worker is appending to.
+//  - So one worker refines a tile, its cells in key order and each cell's points in increasing
+//    index order, once every adjacent tile of a lower colour is done (runGraph); tiles that are
+//    not adjacent run concurrently. This is the order "colour 0, then 1, ..., 7, the tiles of a
+//    colour in any order", without waiting for the whole colour: tiles of one colour never touch
+//    each other's points, and a tile waits only for the lower-colour tiles it touches.
+//  - Large tiles keep the surroundings of a tile in cache while all its cells are refined (with
+//    colour phases over single cells, each phase swept the whole level through memory).
+//  - Points with r > r_lim (about 1 %) are refined first, in tiles of one cell of their own made
+//    the same way with s_L = kCellFactor · r_max (r_max their largest radius), and the same
+//    reasoning. One huge radius makes s_L huge and the large points few cells: slower, never wrong.
 // Every point sees exactly the points that the same sequential order would show it, whatever the
 // number of threads, so the output is identical for any thread count.
 #include "pnsplat/refine/refiner.h"
@@ -53,7 +60,8 @@ constexpr float kRetryReach = 1.5f;
 constexpr float kCBetaMax = 0.956172f; // rounded down
 constexpr float kLargeQuantile = 0.99f;
 constexpr std::size_t kPrefetchAhead = 8; // grid entries between a point's prefetch and its read
-constexpr std::size_t kCellsPerTask = 16;  // cells of one colour handed to a worker at a time
+constexpr unsigned kMaxTileShift = 4;      // tiles of at most 16³ cells
+constexpr std::size_t kMinTiles = 64;      // tiles of a level, at least (where the cells allow)
 constexpr float kMinCreaseCos = -0.98480775f; // cos 170°
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
@@ -314,6 +322,62 @@ void sortCellKeys(CellKeys& keyed) {
             keyed.swap(buffer);
         }
     }
+}
+
+// The cells of a level in tiles (see the top of this file): cubes of 2^tileShift cells a side,
+// coloured by the parity of their integer coordinates, tiles in key order and a tile's cells in
+// key order. Tile k of the task graph waits for its adjacent tiles of lower colours.
+struct Cell {
+    std::uint32_t begin, end; // into the level's sorted (cell key, point) pairs
+};
+struct Tiles {
+    std::vector<std::uint32_t> cells;     // cell indices, tile after tile
+    std::vector<std::uint32_t> cellBegin; // per tile, into cells; tiles + 1 entries
+    TaskGraph graph;
+};
+inline unsigned colourOf(std::uint64_t key) {
+    return unsigned((key >> 42) & 1u) << 2 | unsigned((key >> 21) & 1u) << 1 | unsigned(key & 1u);
+}
+Tiles makeTiles(const CellKeys& keyed, std::span<const Cell> cells, std::uint32_t firstCell, std::uint32_t endCell,
+                unsigned tileShift) {
+    const auto tileOf = [&](std::uint64_t key) {
+        return packCell((key >> 42) >> tileShift, ((key >> 21) & kCellCoordinateMask) >> tileShift,
+                        (key & kCellCoordinateMask) >> tileShift);
+    };
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> tiled; // (tile key, cell), cells in key order
+    tiled.reserve(endCell - firstCell);
+    for (std::uint32_t c = firstCell; c < endCell; ++c) tiled.emplace_back(tileOf(keyed[cells[c].begin].first), c);
+    std::sort(tiled.begin(), tiled.end());
+    Tiles tiles;
+    std::vector<std::uint64_t> tileKey;
+    for (std::size_t k = 0; k < tiled.size(); ++k) {
+        if (k == 0 || tiled[k].first != tiled[k - 1].first) {
+            tiles.cellBegin.push_back(static_cast<std::uint32_t>(k));
+            tileKey.push_back(tiled[k].first);
+        }
+        tiles.cells.push_back(tiled[k].second);
+    }
+    tiles.cellBegin.push_back(static_cast<std::uint32_t>(tiled.size()));
+    // Adjacent tiles (the 26 around) differ in colour: the lower colour runs first.
+    TaskGraph& graph = tiles.graph;
+    graph.waitCount.assign(tileKey.size(), 0);
+    graph.successorBegin.push_back(0);
+    const std::uint64_t last = kCellCoordinateMask >> tileShift;
+    for (std::size_t t = 0; t < tileKey.size(); ++t) {
+        const std::uint64_t x = tileKey[t] >> 42, y = (tileKey[t] >> 21) & kCellCoordinateMask;
+        const std::uint64_t z = tileKey[t] & kCellCoordinateMask;
+        for (std::uint64_t nx = x > 0 ? x - 1 : 0; nx <= std::min(x + 1, last); ++nx)
+            for (std::uint64_t ny = y > 0 ? y - 1 : 0; ny <= std::min(y + 1, last); ++ny)
+                for (std::uint64_t nz = z > 0 ? z - 1 : 0; nz <= std::min(z + 1, last); ++nz) {
+                    const std::uint64_t key = packCell(nx, ny, nz);
+                    const auto found = std::lower_bound(tileKey.begin(), tileKey.end(), key);
+                    if (found == tileKey.end() || *found != key || colourOf(key) <= colourOf(tileKey[t])) continue;
+                    graph.successors.push_back(static_cast<std::uint32_t>(found - tileKey.begin()));
+                    ++graph.waitCount[graph.successors.back()];
+                }
+        graph.successorBegin.push_back(static_cast<std::uint32_t>(graph.successors.size()));
+    }
+    return tiles;
 }
 
 } // namespace
@@ -1084,22 +1148,24 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         sortCellKeys(keyedLarge);
         keyed.insert(keyed.end(), keyedLarge.begin(), keyedLarge.end());
     }
-    struct Cell {
-        std::uint32_t begin, end; // into keyed
-    };
     HugePageVector<Cell> cells;
     cells.reserve(keyed.size()); // at most one cell per point: no growth, no copy
-    using Colouring = std::array<std::vector<std::uint32_t>, 8>; // cells by colour
-    Colouring smallByColour, largeByColour;
+    std::uint32_t smallCells = 0;
     for (std::uint32_t k = 0; k < keyed.size();) {
         std::uint32_t e = k + 1;
         while (e < keyed.size() && e != smallEnd && keyed[e].first == keyed[k].first) ++e;
-        const std::uint64_t key = keyed[k].first;
-        const unsigned colour = unsigned(key & 1u) | unsigned((key >> 21) & 1u) << 1 | unsigned((key >> 42) & 1u) << 2;
-        (k < smallEnd ? smallByColour : largeByColour)[colour].push_back(static_cast<std::uint32_t>(cells.size()));
+        if (k < smallEnd) ++smallCells;
         cells.push_back(Cell{k, e});
         k = e;
     }
+    // The largest tiles that leave the workers at least kMinTiles to share (a choice of the data
+    // alone, never of the thread count).
+    Tiles smallTiles;
+    for (unsigned shift = kMaxTileShift + 1; shift-- > 0;) {
+        smallTiles = makeTiles(keyed, cells, 0, smallCells, shift);
+        if (smallTiles.graph.size() >= kMinTiles) break;
+    }
+    const Tiles largeTiles = makeTiles(keyed, cells, smallCells, static_cast<std::uint32_t>(cells.size()), 0);
     cellBase.assign(cells.size(), nullptr);
     cellCount.assign(cells.size(), 0);
     stats.largePoints = large.size();
@@ -1131,21 +1197,18 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, c, s);
     };
     std::atomic<std::size_t> processed{0};
-    // The large points first, colour after colour, then the others.
+    // The large points first, then the others; a tile's cells one after the other by one worker.
     for (const bool largeCells : {true, false}) {
-        for (const std::vector<std::uint32_t>& group : largeCells ? largeByColour : smallByColour) {
-            // Runs of consecutive cells per task: cells next to each other in the list are
-            // neighbours in space, with points close in memory (and counters in one cache line);
-            // two workers refining them at once would write the same cache lines.
-            parallelForRanges(pool, group.size(), kCellsPerTask, [&](std::size_t begin, std::size_t end, unsigned worker) {
-                for (std::size_t item = begin; item < end; ++item) {
-                    refineCell(group[item], largeCells, scratch[worker]);
-                    const Cell cell = cells[group[item]];
-                    const std::size_t total = processed.fetch_add(cell.end - cell.begin, std::memory_order_relaxed);
-                    if (worker == 0 && progress && (item & 63u) == 0) progress(total, stats.refinedPoints);
-                }
-            });
-        }
+        const Tiles& tiles = largeCells ? largeTiles : smallTiles;
+        runGraph(pool, tiles.graph, [&](std::uint32_t tile, unsigned worker) {
+            std::size_t done = 0;
+            for (std::uint32_t k = tiles.cellBegin[tile]; k < tiles.cellBegin[tile + 1]; ++k) {
+                refineCell(tiles.cells[k], largeCells, scratch[worker]);
+                done += cells[tiles.cells[k]].end - cells[tiles.cells[k]].begin;
+            }
+            const std::size_t total = processed.fetch_add(done, std::memory_order_relaxed) + done;
+            if (worker == 0 && progress) progress(total, stats.refinedPoints);
+        });
     }
     if (progress) progress(processed.load(), stats.refinedPoints);
 

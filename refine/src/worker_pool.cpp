@@ -1,6 +1,8 @@
 // Worker threads with a generation counter: each parallelFor wakes all workers once.
 #include "pnsplat/refine/worker_pool.h"
 
+#include <memory>
+
 namespace pnsplat {
 
 WorkerPool::WorkerPool(unsigned threads) {
@@ -62,6 +64,35 @@ void WorkerPool::parallelFor(std::size_t count, const std::function<void(std::si
     std::unique_lock lock(mutex_);
     done_.wait(lock, [&] { return busy_ == 0; });
     task_ = nullptr;
+}
+
+// Node k of the ready list is run by item k of a parallelFor: items are taken in increasing order,
+// so when item k is taken every earlier item has been taken, and it waits only while the nodes
+// run so far have not yet released a k-th ready node; an acyclic graph always has one more.
+void runGraph(WorkerPool& pool, const TaskGraph& graph, const std::function<void(std::uint32_t, unsigned)>& task) {
+    const std::size_t count = graph.size();
+    constexpr std::uint32_t kNotYet = UINT32_MAX;
+    const auto waiting = std::make_unique<std::atomic<std::uint32_t>[]>(count);
+    const auto ready = std::make_unique<std::atomic<std::uint32_t>[]>(count);
+    std::atomic<std::size_t> readyEnd{0};
+    const auto release = [&](std::uint32_t node) {
+        ready[readyEnd.fetch_add(1, std::memory_order_relaxed)].store(node, std::memory_order_release);
+    };
+    for (std::size_t k = 0; k < count; ++k) {
+        waiting[k].store(graph.waitCount[k], std::memory_order_relaxed);
+        ready[k].store(kNotYet, std::memory_order_relaxed);
+    }
+    for (std::uint32_t k = 0; k < count; ++k)
+        if (graph.waitCount[k] == 0) release(k);
+    pool.parallelFor(count, [&](std::size_t item, unsigned worker) {
+        std::uint32_t node;
+        while ((node = ready[item].load(std::memory_order_acquire)) == kNotYet) std::this_thread::yield();
+        task(node, worker);
+        for (std::uint32_t k = graph.successorBegin[node]; k < graph.successorBegin[node + 1]; ++k) {
+            const std::uint32_t next = graph.successors[k];
+            if (waiting[next].fetch_sub(1, std::memory_order_acq_rel) == 1) release(next);
+        }
+    });
 }
 
 } // namespace pnsplat

@@ -49,6 +49,23 @@ private:
     bool stopping_ = false;
 };
 
+// A dependency graph of tasks for runGraph: node k waits for waitCount[k] predecessors, and its
+// successors are successors[successorBegin[k], successorBegin[k + 1]). It must be acyclic, and
+// waitCount[k] must be the number of times k is listed as a successor.
+struct TaskGraph {
+    std::vector<std::uint32_t> waitCount;
+    std::vector<std::uint32_t> successorBegin; // nodes + 1 entries
+    std::vector<std::uint32_t> successors;
+    std::size_t size() const { return waitCount.size(); }
+};
+
+// Runs task(node, worker) once for every node of `graph` on the pool's workers, each node after all
+// of its predecessors have returned (their writes are visible to it), and returns when all are
+// done. Nodes that do not depend on each other run in any order, concurrently: they must not write
+// what the other reads or writes. A worker with no node ready waits (yielding) for one. Same
+// calling rules as parallelFor.
+void runGraph(WorkerPool& pool, const TaskGraph& graph, const std::function<void(std::uint32_t node, unsigned worker)>& task);
+
 // pool.parallelFor over consecutive ranges of `chunk` items: body(begin, end, worker) for every
 // range [begin, end) of [0, n) (the last may be shorter), under parallelFor's contract.
 template <typename Body>

@@ -455,8 +455,16 @@ private:
     bool fanIsOpen(const NeighbourSet& fan) const;
     glm::vec3 creaseOf(std::uint32_t i) const { return points.hasCrease() ? points.crease[i] : glm::vec3(0.0f); }
     glm::vec3 planeNormal(std::uint32_t p) const;
+    // The corner normals of the fan triangle (p, fan[a], fan[b]) (creases: creaseTriangleNormals).
     bool triangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
-                         glm::vec3 (&normals)[3]) const;
+                         glm::vec3 (&normals)[3]) const {
+        normals[0] = points.normal[p];
+        normals[1] = fan.normal[a];
+        normals[2] = fan.normal[b];
+        return !points.hasCrease() || creaseTriangleNormals(p, fan, a, b, normals);
+    }
+    bool creaseTriangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
+                               glm::vec3 (&normals)[3]) const;
     std::array<std::uint32_t, 2> creaseNeighbours(std::uint32_t p, const NeighbourSet& fan) const;
     void makeCandidates(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s) const;
     float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
@@ -646,12 +654,8 @@ glm::vec3 Refiner::State::planeNormal(std::uint32_t p) const {
 // it faces, or on the crease when it is a crease point of the same crease; a triangle takes the
 // side of its corners, must not have two, and needs a corner off the crease. For an ordinary p,
 // a triangle with a crease corner must have its other ordinary corner on p's side of it.
-bool Refiner::State::triangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
-                                     glm::vec3 (&normals)[3]) const {
-    normals[0] = points.normal[p];
-    normals[1] = fan.normal[a];
-    normals[2] = fan.normal[b];
-    if (!points.hasCrease()) return true;
+bool Refiner::State::creaseTriangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
+                                           glm::vec3 (&normals)[3]) const {
     const std::uint32_t corner[2] = {fan.index[a], fan.index[b]};
     if (points.isCrease(p)) {
         const glm::vec3 n1 = points.normal[p], n2 = points.crease[p];

@@ -33,6 +33,16 @@ namespace {
 
 constexpr std::size_t kLanes = 8; // the filter's pair loop runs over arrays padded to this
 
+// The pair loop is built twice on x86-64 with GCC, for the baseline and for AVX2 (eight lanes at
+// once), and the processor picks one when the program loads. Both compute the same bits: IEEE
+// division and square root, selects, and no fused multiply-adds (-ffp-contract=off, and AVX2
+// alone has none).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define PNSPLAT_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
+#else
+#define PNSPLAT_AVX2_CLONE
+#endif
+
 // Scratch arrays only grow: every call writes entries [0, count) before reading them, and a
 // resize down then up again would refill the tail at almost every point.
 float* scratchArray(std::vector<float>& v, std::size_t count) {
@@ -123,7 +133,7 @@ struct FilterArrays {
 // the paper's open intervals a point straight behind another (w_ij = 1.5) would be in neither set
 // and survive. Branch-free so that the loop runs in SIMD lanes: coincident points (j = i
 // included) give a zero vector and w = 0, which changes no maximum.
-void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t padded, float sinThetaF, float* __restrict succW,
+PNSPLAT_AVX2_CLONE void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t padded, float sinThetaF, float* __restrict succW,
                     float* __restrict predW) {
     const float* __restrict px = a.px;
     const float* __restrict py = a.py;

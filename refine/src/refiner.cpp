@@ -629,16 +629,17 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
         for (std::uint32_t k = 0; k < range.count; ++k) {
             const glm::vec3 d = children[k].position - x;
             const float distance2 = glm::dot(d, d);
-            if (!(distance2 < r2)) continue;
-            RingMember m{range.cell, range.begin + k, children[k].position,
-                         facing(children[k].normal, children[k].crease, n), 0.0f};
-            if (distance2 < inner2) { // N'_p (section 5)
-                m.angle = frame.angleOf(d);
-                s.ring.push_back(m);
-            } else if (distance2 > inner2) { // Y_p (eq. 10); its angle is needed only if it joins N'_p
-                m.discardRadius = kLambda2 * children[k].radius;
-                s.outer.push_back(m);
-            }
+            // N'_p (section 5) within λ1·r, Y_p (eq. 10) beyond; neither at exactly λ1·r. The member
+            // is written where it is stored (a copy from the stack stalled on store forwarding).
+            if (!(distance2 < r2) || distance2 == inner2) continue;
+            const bool inner = distance2 < inner2;
+            RingMember& m = inner ? s.ring.emplace_back() : s.outer.emplace_back();
+            m.cell = range.cell;
+            m.local = range.begin + k;
+            m.position = children[k].position;
+            m.normal = facing(children[k].normal, children[k].crease, n);
+            m.angle = inner ? frame.angleOf(d) : 0.0f; // Y_p's is needed only if it joins N'_p
+            m.discardRadius = inner ? 0.0f : kLambda2 * children[k].radius;
         }
     }
 }

@@ -338,15 +338,28 @@ struct Tiles {
 inline unsigned colourOf(std::uint64_t key) {
     return unsigned((key >> 42) & 1u) << 2 | unsigned((key >> 21) & 1u) << 1 | unsigned(key & 1u);
 }
+inline std::uint64_t tileKeyOf(std::uint64_t cellKey, unsigned tileShift) {
+    return packCell((cellKey >> 42) >> tileShift, ((cellKey >> 21) & kCellCoordinateMask) >> tileShift,
+                    (cellKey & kCellCoordinateMask) >> tileShift);
+}
+// The largest tile shift, at most kMaxTileShift, that leaves at least kMinTiles tiles (0 when
+// none does): counted before the task graph is built, once.
+unsigned chooseTileShift(const CellKeys& keyed, std::span<const Cell> cells) {
+    std::vector<std::uint64_t> tileKeys(cells.size());
+    for (unsigned shift = kMaxTileShift; shift > 0; --shift) {
+        for (std::size_t c = 0; c < cells.size(); ++c) tileKeys[c] = tileKeyOf(keyed[cells[c].begin].first, shift);
+        std::sort(tileKeys.begin(), tileKeys.end());
+        if (static_cast<std::size_t>(std::unique(tileKeys.begin(), tileKeys.end()) - tileKeys.begin()) >= kMinTiles)
+            return shift;
+    }
+    return 0;
+}
 Tiles makeTiles(const CellKeys& keyed, std::span<const Cell> cells, std::uint32_t firstCell, std::uint32_t endCell,
                 unsigned tileShift) {
-    const auto tileOf = [&](std::uint64_t key) {
-        return packCell((key >> 42) >> tileShift, ((key >> 21) & kCellCoordinateMask) >> tileShift,
-                        (key & kCellCoordinateMask) >> tileShift);
-    };
     std::vector<std::pair<std::uint64_t, std::uint32_t>> tiled; // (tile key, cell), cells in key order
     tiled.reserve(endCell - firstCell);
-    for (std::uint32_t c = firstCell; c < endCell; ++c) tiled.emplace_back(tileOf(keyed[cells[c].begin].first), c);
+    for (std::uint32_t c = firstCell; c < endCell; ++c)
+        tiled.emplace_back(tileKeyOf(keyed[cells[c].begin].first, tileShift), c);
     std::sort(tiled.begin(), tiled.end());
     Tiles tiles;
     std::vector<std::uint64_t> tileKey;
@@ -1165,11 +1178,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
     // The largest tiles that leave the workers at least kMinTiles to share (a choice of the data
     // alone, never of the thread count).
-    Tiles smallTiles;
-    for (unsigned shift = kMaxTileShift + 1; shift-- > 0;) {
-        smallTiles = makeTiles(keyed, cells, 0, smallCells, shift);
-        if (smallTiles.graph.size() >= kMinTiles) break;
-    }
+    const unsigned tileShift = chooseTileShift(keyed, std::span(cells.data(), smallCells));
+    const Tiles smallTiles = makeTiles(keyed, cells, 0, smallCells, tileShift);
     const Tiles largeTiles = makeTiles(keyed, cells, smallCells, static_cast<std::uint32_t>(cells.size()), 0);
     cellBase.assign(cells.size(), nullptr);
     cellCount.assign(cells.size(), 0);

@@ -134,8 +134,8 @@ struct FilterArrays {
 // the paper's open intervals a point straight behind another (w_ij = 1.5) would be in neither set
 // and survive. Branch-free so that the loop runs in SIMD lanes: coincident points (j = i
 // included) give a zero vector and w = 0, which changes no maximum.
-PNSPLAT_AVX2_CLONE void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t padded, float sinThetaF, float* __restrict succW,
-                    float* __restrict predW) {
+PNSPLAT_AVX2_CLONE void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t begin, std::size_t end, float sinThetaF,
+                                       float* __restrict succW, float* __restrict predW) {
     const float* __restrict px = a.px;
     const float* __restrict py = a.py;
     const float* __restrict pz = a.pz;
@@ -146,7 +146,7 @@ PNSPLAT_AVX2_CLONE void badnessOfPairs(const FilterArrays& a, std::size_t i, std
     const float* __restrict sv = a.sv;
     const float inverseSin = 1.0f / sinThetaF;
     const float pix = px[i], piy = py[i], piz = pz[i], sui = su[i], svi = sv[i];
-    for (std::size_t j = 0; j < padded; ++j) {
+    for (std::size_t j = begin; j < end; ++j) {
         const float bx = pix - px[j], by = piy - py[j], bz = piz - pz[j];
         const float length2 = bx * bx + by * by + bz * bz;
         const float length = std::sqrt(length2 > 1e-30f ? length2 : 1e-30f);
@@ -160,6 +160,57 @@ PNSPLAT_AVX2_CLONE void badnessOfPairs(const FilterArrays& a, std::size_t i, std
         const float sameDirection = ahead > 0.0f ? w : 0.0f;
         succW[j] = cross == 0.0f ? sameDirection : successor;
         predW[j] = cross < 0.0f ? w : 0.0f;
+    }
+}
+
+// Sets larger than a block (kBlock entries): the filter's arrays in order of Euclidean distance
+// from p (ties by index), and the badness of each entry measured against blocks of kBlock
+// entries, nearest first, its test ended as soon as it has failed. The maxima only grow, so each
+// decision is that of the whole set, whatever the order; the order only decides how soon a test
+// ends. A far entry is usually behind one of the nearest few: about O(k) blocks instead of O(k²)
+// pairs for wide neighbourhoods (radii much larger than the sampling, up to kMaxNeighbours
+// entries). The kept entries go to scratch.order.
+constexpr std::size_t kBlock = 8 * kLanes;
+void filterByDistance(glm::vec3 p, const FilterArrays& arrays, std::size_t count, float sinThetaF, const NeighbourSet& set,
+                      NeighbourhoodScratch& scratch) {
+    std::vector<std::uint32_t>& byDistance = scratch.byDistance;
+    std::vector<float>& distance2 = scratch.distance2;
+    byDistance.resize(count);
+    distance2.resize(count);
+    for (std::uint32_t k = 0; k < count; ++k) {
+        byDistance[k] = k;
+        const glm::vec3 d = set.position[k] - p;
+        distance2[k] = glm::dot(d, d);
+    }
+    std::sort(byDistance.begin(), byDistance.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return distance2[a] != distance2[b] ? distance2[a] < distance2[b] : set.index[a] < set.index[b];
+    });
+    // The arrays permuted into that order (padded to kLanes like the originals).
+    const std::size_t padded = (count + kLanes - 1) / kLanes * kLanes;
+    std::vector<float>& sorted = scratch.byDistanceArrays;
+    if (sorted.size() < 8 * padded) sorted.resize(8 * padded);
+    const float* from[8] = {arrays.px, arrays.py, arrays.pz, arrays.dx, arrays.dy, arrays.dz, arrays.su, arrays.sv};
+    for (std::size_t a = 0; a < 8; ++a) {
+        float* to = sorted.data() + a * padded;
+        for (std::size_t k = 0; k < count; ++k) to[k] = from[a][byDistance[k]];
+        for (std::size_t k = count; k < padded; ++k) to[k] = 0.0f;
+    }
+    const float* base = sorted.data();
+    const FilterArrays near{base, base + padded, base + 2 * padded, base + 3 * padded,
+                            base + 4 * padded, base + 5 * padded, base + 6 * padded, base + 7 * padded};
+    float* succW = scratch.succW.data();
+    float* predW = scratch.predW.data();
+    for (std::size_t i = 0; i < count; ++i) {
+        float worstSucc = 0.0f, worstPred = 0.0f;
+        for (std::size_t begin = 0; begin < count && worstSucc + worstPred <= 1.0f; begin += kBlock) {
+            const std::size_t end = std::min(begin + kBlock, count);
+            badnessOfPairs(near, i, begin, (end + kLanes - 1) / kLanes * kLanes, sinThetaF, succW, predW);
+            for (std::size_t j = begin; j < end; ++j) {
+                worstSucc = std::max(worstSucc, succW[j]);
+                worstPred = std::max(worstPred, predW[j]);
+            }
+        }
+        if (worstSucc + worstPred <= 1.0f) scratch.order.push_back(byDistance[i]);
     }
 }
 
@@ -212,14 +263,18 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     float* succW = scratchArray(scratch.succW, paddedCount);
     float* predW = scratchArray(scratch.predW, paddedCount);
     scratch.order.clear();
-    for (std::size_t i = 0; i < count; ++i) {
-        badnessOfPairs(FilterArrays{px, py, pz, dx, dy, dz, su, sv}, i, paddedCount, sinThetaF, succW, predW);
-        float worstSucc = 0.0f, worstPred = 0.0f;
-        for (std::size_t j = 0; j < count; ++j) {
-            worstSucc = std::max(worstSucc, succW[j]);
-            worstPred = std::max(worstPred, predW[j]);
+    if (count > kBlock) {
+        filterByDistance(p, FilterArrays{px, py, pz, dx, dy, dz, su, sv}, count, sinThetaF, set, scratch);
+    } else {
+        for (std::size_t i = 0; i < count; ++i) {
+            badnessOfPairs(FilterArrays{px, py, pz, dx, dy, dz, su, sv}, i, 0, paddedCount, sinThetaF, succW, predW);
+            float worstSucc = 0.0f, worstPred = 0.0f;
+            for (std::size_t j = 0; j < count; ++j) {
+                worstSucc = std::max(worstSucc, succW[j]);
+                worstPred = std::max(worstPred, predW[j]);
+            }
+            if (worstSucc + worstPred <= 1.0f) scratch.order.push_back(static_cast<std::uint32_t>(i));
         }
-        if (worstSucc + worstPred <= 1.0f) scratch.order.push_back(static_cast<std::uint32_t>(i));
     }
     sortOrderByAngle(set, scratch);
     gather(set, scratch.order, scratch);

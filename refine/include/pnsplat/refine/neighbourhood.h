@@ -87,6 +87,11 @@ struct NeighbourhoodScratch {
     std::vector<float> succW, predW;   // w_ij of one i against each j, by the side of j
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
+    // Sets larger than the filter's block (filterByDistance): the entries by distance from p, and
+    // the filter's arrays in that order.
+    std::vector<std::uint32_t> byDistance;
+    std::vector<float> distance2;
+    std::vector<float> byDistanceArrays;
 };
 
 // Filters `set` (the Euclidean neighbourhood of (p, n), validity already checked) into Nf_p or

@@ -163,16 +163,34 @@ PNSPLAT_AVX2_CLONE void badnessOfPairs(const FilterArrays& a, std::size_t i, std
     }
 }
 
-// Sets larger than a block (kBlock entries): the filter's arrays in order of Euclidean distance
-// from p (ties by index), and the badness of each entry measured against blocks of kBlock
-// entries, nearest first, its test ended as soon as it has failed. The maxima only grow, so each
-// decision is that of the whole set, whatever the order; the order only decides how soon a test
-// ends. A far entry is usually behind one of the nearest few: about O(k) blocks instead of O(k²)
-// pairs for wide neighbourhoods (radii much larger than the sampling, up to kMaxNeighbours
-// entries). The kept entries go to scratch.order.
+// n rounded up to whole SIMD lanes: the length of the filter's arrays.
+std::size_t paddedToLanes(std::size_t n) { return (n + kLanes - 1) / kLanes * kLanes; }
+
+// Whether entry i survives (w_i <= 1): its badness against the `count` entries, a block of kBlock
+// at a time, the test ended as soon as it has failed. The maxima only grow, so the decision is that
+// of the whole set; a set of at most kBlock entries is one block.
 constexpr std::size_t kBlock = 8 * kLanes;
-void filterByDistance(glm::vec3 p, const FilterArrays& arrays, std::size_t count, float sinThetaF, const NeighbourSet& set,
-                      NeighbourhoodScratch& scratch) {
+bool survives(const FilterArrays& arrays, std::size_t i, std::size_t count, float sinThetaF, float* succW, float* predW) {
+    float worstSucc = 0.0f, worstPred = 0.0f;
+    for (std::size_t begin = 0; begin < count && worstSucc + worstPred <= 1.0f; begin += kBlock) {
+        const std::size_t end = std::min(begin + kBlock, count);
+        badnessOfPairs(arrays, i, begin, paddedToLanes(end), sinThetaF, succW, predW);
+        for (std::size_t j = begin; j < end; ++j) {
+            worstSucc = std::max(worstSucc, succW[j]);
+            worstPred = std::max(worstPred, predW[j]);
+        }
+    }
+    return worstSucc + worstPred <= 1.0f;
+}
+
+// Sets larger than a block: the filter's arrays copied in order of Euclidean distance from p
+// (ties by index) into scratch.byDistanceArrays, the order into scratch.byDistance. A far entry
+// is usually behind one of the nearest few, so survives() ends after a block or two: about O(k)
+// instead of O(k²) pairs for wide neighbourhoods (radii much larger than the sampling, up to
+// kMaxNeighbours entries). Entries past the set's size hold leftovers, as in the originals.
+FilterArrays sortedByDistance(glm::vec3 p, const FilterArrays& arrays, const NeighbourSet& set,
+                              NeighbourhoodScratch& scratch) {
+    const std::size_t count = set.size();
     std::vector<std::uint32_t>& byDistance = scratch.byDistance;
     std::vector<float>& distance2 = scratch.distance2;
     byDistance.resize(count);
@@ -185,33 +203,15 @@ void filterByDistance(glm::vec3 p, const FilterArrays& arrays, std::size_t count
     std::sort(byDistance.begin(), byDistance.end(), [&](std::uint32_t a, std::uint32_t b) {
         return distance2[a] != distance2[b] ? distance2[a] < distance2[b] : set.index[a] < set.index[b];
     });
-    // The arrays permuted into that order (padded to kLanes like the originals).
-    const std::size_t padded = (count + kLanes - 1) / kLanes * kLanes;
+    const std::size_t padded = paddedToLanes(count);
     std::vector<float>& sorted = scratch.byDistanceArrays;
     if (sorted.size() < 8 * padded) sorted.resize(8 * padded);
     const float* from[8] = {arrays.px, arrays.py, arrays.pz, arrays.dx, arrays.dy, arrays.dz, arrays.su, arrays.sv};
-    for (std::size_t a = 0; a < 8; ++a) {
-        float* to = sorted.data() + a * padded;
-        for (std::size_t k = 0; k < count; ++k) to[k] = from[a][byDistance[k]];
-        for (std::size_t k = count; k < padded; ++k) to[k] = 0.0f;
-    }
+    for (std::size_t a = 0; a < 8; ++a)
+        for (std::size_t k = 0; k < count; ++k) sorted[a * padded + k] = from[a][byDistance[k]];
     const float* base = sorted.data();
-    const FilterArrays near{base, base + padded, base + 2 * padded, base + 3 * padded,
-                            base + 4 * padded, base + 5 * padded, base + 6 * padded, base + 7 * padded};
-    float* succW = scratch.succW.data();
-    float* predW = scratch.predW.data();
-    for (std::size_t i = 0; i < count; ++i) {
-        float worstSucc = 0.0f, worstPred = 0.0f;
-        for (std::size_t begin = 0; begin < count && worstSucc + worstPred <= 1.0f; begin += kBlock) {
-            const std::size_t end = std::min(begin + kBlock, count);
-            badnessOfPairs(near, i, begin, (end + kLanes - 1) / kLanes * kLanes, sinThetaF, succW, predW);
-            for (std::size_t j = begin; j < end; ++j) {
-                worstSucc = std::max(worstSucc, succW[j]);
-                worstPred = std::max(worstPred, predW[j]);
-            }
-        }
-        if (worstSucc + worstPred <= 1.0f) scratch.order.push_back(byDistance[i]);
-    }
+    return FilterArrays{base, base + padded, base + 2 * padded, base + 3 * padded,
+                        base + 4 * padded, base + 5 * padded, base + 6 * padded, base + 7 * padded};
 }
 
 } // namespace
@@ -231,7 +231,7 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     measure(p, n, set, geodesic || params.edgeControls, scratch);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
     // (x, y, z apart) for the O(k²) loop (badnessOfPairs).
-    const std::size_t paddedCount = (count + kLanes - 1) / kLanes * kLanes;
+    const std::size_t paddedCount = paddedToLanes(count);
     float* px = scratchArray(scratch.px, paddedCount);
     float* py = scratchArray(scratch.py, paddedCount);
     float* pz = scratchArray(scratch.pz, paddedCount);
@@ -263,19 +263,12 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     float* succW = scratchArray(scratch.succW, paddedCount);
     float* predW = scratchArray(scratch.predW, paddedCount);
     scratch.order.clear();
-    if (count > kBlock) {
-        filterByDistance(p, FilterArrays{px, py, pz, dx, dy, dz, su, sv}, count, sinThetaF, set, scratch);
-    } else {
-        for (std::size_t i = 0; i < count; ++i) {
-            badnessOfPairs(FilterArrays{px, py, pz, dx, dy, dz, su, sv}, i, 0, paddedCount, sinThetaF, succW, predW);
-            float worstSucc = 0.0f, worstPred = 0.0f;
-            for (std::size_t j = 0; j < count; ++j) {
-                worstSucc = std::max(worstSucc, succW[j]);
-                worstPred = std::max(worstPred, predW[j]);
-            }
-            if (worstSucc + worstPred <= 1.0f) scratch.order.push_back(static_cast<std::uint32_t>(i));
-        }
-    }
+    const bool byDistance = count > kBlock;
+    const FilterArrays arrays{px, py, pz, dx, dy, dz, su, sv};
+    const FilterArrays measured = byDistance ? sortedByDistance(p, arrays, set, scratch) : arrays;
+    for (std::size_t i = 0; i < count; ++i)
+        if (survives(measured, i, count, sinThetaF, succW, predW))
+            scratch.order.push_back(byDistance ? scratch.byDistance[i] : static_cast<std::uint32_t>(i));
     sortOrderByAngle(set, scratch);
     gather(set, scratch.order, scratch);
 }

@@ -87,7 +87,7 @@ struct NeighbourhoodScratch {
     std::vector<float> succW, predW;   // w_ij of one i against each j, by the side of j
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
-    // Sets larger than the filter's block (filterByDistance): the entries by distance from p, and
+    // Sets larger than the filter's block (sortedByDistance): the entries by distance from p, and
     // the filter's arrays in that order.
     std::vector<std::uint32_t> byDistance;
     std::vector<float> distance2;

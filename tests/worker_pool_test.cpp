@@ -1,5 +1,6 @@
 // The worker threads (worker_pool.h): every item and every graph node runs exactly once, and a
 // node only after all of its predecessors have finished.
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -9,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/worker_pool.h"
+#include "test_random.h"
 
 namespace pnsplat {
 namespace {
@@ -25,6 +27,21 @@ TEST(WorkerPool, ParallelForRunsEveryItemOnce) {
     }
 }
 
+// The TaskGraph of successor lists (waitCount counted from them).
+TaskGraph graphOf(const std::vector<std::vector<std::uint32_t>>& successors) {
+    TaskGraph graph;
+    graph.waitCount.assign(successors.size(), 0);
+    graph.successorBegin.push_back(0);
+    for (const std::vector<std::uint32_t>& list : successors) {
+        for (const std::uint32_t s : list) {
+            graph.successors.push_back(s);
+            ++graph.waitCount[s];
+        }
+        graph.successorBegin.push_back(static_cast<std::uint32_t>(graph.successors.size()));
+    }
+    return graph;
+}
+
 // A random acyclic graph (edges from lower to higher node numbers, listed in a shuffled order of
 // nodes so that ready nodes are not simply the first ones), with a fixed seed.
 TaskGraph randomGraph(std::uint32_t nodes, double edgeChance, std::uint64_t seed) {
@@ -32,22 +49,11 @@ TaskGraph randomGraph(std::uint32_t nodes, double edgeChance, std::uint64_t seed
     std::vector<std::uint32_t> rank(nodes);
     for (std::uint32_t k = 0; k < nodes; ++k) rank[k] = k;
     std::shuffle(rank.begin(), rank.end(), rng);
-    std::bernoulli_distribution edge(edgeChance);
     std::vector<std::vector<std::uint32_t>> successors(nodes);
     for (std::uint32_t a = 0; a < nodes; ++a)
         for (std::uint32_t b = a + 1; b < nodes; ++b)
-            if (edge(rng)) successors[rank[a]].push_back(rank[b]);
-    TaskGraph graph;
-    graph.waitCount.assign(nodes, 0);
-    graph.successorBegin.push_back(0);
-    for (std::uint32_t k = 0; k < nodes; ++k) {
-        for (const std::uint32_t s : successors[k]) {
-            graph.successors.push_back(s);
-            ++graph.waitCount[s];
-        }
-        graph.successorBegin.push_back(static_cast<std::uint32_t>(graph.successors.size()));
-    }
-    return graph;
+            if (test::uniform01(rng) < edgeChance) successors[rank[a]].push_back(rank[b]);
+    return graphOf(successors);
 }
 
 // Each node takes a stamp from one counter when it starts and when it ends: a successor must
@@ -81,15 +87,10 @@ TEST(WorkerPool, RunGraphRunsNodesOnceAfterTheirPredecessors) {
 }
 
 TEST(WorkerPool, RunGraphOfAChainIsSequential) {
-    TaskGraph chain;
     const std::uint32_t nodes = 100;
-    chain.waitCount.assign(nodes, 1);
-    chain.waitCount[0] = 0;
-    for (std::uint32_t k = 0; k < nodes; ++k) {
-        chain.successorBegin.push_back(static_cast<std::uint32_t>(chain.successors.size()));
-        if (k + 1 < nodes) chain.successors.push_back(k + 1);
-    }
-    chain.successorBegin.push_back(static_cast<std::uint32_t>(chain.successors.size()));
+    std::vector<std::vector<std::uint32_t>> successors(nodes);
+    for (std::uint32_t k = 0; k + 1 < nodes; ++k) successors[k].push_back(k + 1);
+    const TaskGraph chain = graphOf(successors);
     WorkerPool pool(2);
     std::vector<std::uint32_t> order;
     runGraph(pool, chain, [&](std::uint32_t node, unsigned) { order.push_back(node); }); // never concurrent

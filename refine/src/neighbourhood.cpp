@@ -120,22 +120,28 @@ void sortOrderByAngle(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
 
 // The filter's arrays, allocated to a multiple of kLanes entries: the positions the badness is
 // measured on (px, py, pz), their unit directions from p (dx, dy, dz) and tangent-plane
-// coordinates (su, sv). The entries past the set's size hold leftovers of earlier sets (zeros
-// when the arrays grew); lanes are independent, so their results, computed and never read,
-// affect nothing else.
+// coordinates (su, sv). Past the set's size (padding lanes) su = sv = 0, which puts an entry in
+// neither Succ_i nor Pred_i (below); the other arrays hold leftovers of earlier sets there (zeros
+// when they grew), computed on and never counted.
 struct FilterArrays {
     const float *px, *py, *pz, *dx, *dy, *dz, *su, *sv;
 };
 
-// w_ij of entry i against every j (fuzzyBadness), written to succW[j] when j is a successor of i
-// and to predW[j] when it is a predecessor, 0 in the other. Succ_i: the j whose signed angle
-// ∠(q_i, p, q_j) lies in (0, π), Pred_i: those in (-π, 0), by the sign of the tangent-plane cross
-// product q_i × q_j. Choice: a j in exactly the same direction as i counts as a successor; with
-// the paper's open intervals a point straight behind another (w_ij = 1.5) would be in neither set
-// and survive. Branch-free so that the loop runs in SIMD lanes: coincident points (j = i
-// included) give a zero vector and w = 0, which changes no maximum.
-PNSPLAT_AVX2_CLONE void badnessOfPairs(const FilterArrays& a, std::size_t i, std::size_t begin, std::size_t end, float sinThetaF,
-                                       float* __restrict succW, float* __restrict predW) {
+// n rounded up to whole SIMD lanes: the length of the filter's arrays.
+std::size_t paddedToLanes(std::size_t n) { return (n + kLanes - 1) / kLanes * kLanes; }
+void zeroPadding(float* array, std::size_t count) { std::fill(array + count, array + paddedToLanes(count), 0.0f); }
+
+// Whether entry i survives: w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij <= 1, w_ij from
+// fuzzyBadness. Succ_i: the j whose signed angle ∠(q_i, p, q_j) lies in (0, π), Pred_i: those in
+// (-π, 0), by the sign of the tangent-plane cross product q_i × q_j. Choice: a j in exactly the
+// same direction as i counts as a successor; with the paper's open intervals a point straight
+// behind another (w_ij = 1.5) would be in neither set and survive.
+// Branch-free, kLanes entries at a time into per-lane maxima, so that the loop runs in SIMD lanes:
+// coincident points (j = i included) give a zero vector and w = 0, which changes no maximum. The
+// entries are taken a block of kBlock at a time and the test ends as soon as it has failed: the
+// maxima only grow, so the decision is that of the whole set (one block for at most kBlock).
+constexpr std::size_t kBlock = 8 * kLanes;
+inline bool survives(const FilterArrays& a, std::size_t i, std::size_t count, float sinThetaF) {
     const float* __restrict px = a.px;
     const float* __restrict py = a.py;
     const float* __restrict pz = a.pz;
@@ -146,48 +152,55 @@ PNSPLAT_AVX2_CLONE void badnessOfPairs(const FilterArrays& a, std::size_t i, std
     const float* __restrict sv = a.sv;
     const float inverseSin = 1.0f / sinThetaF;
     const float pix = px[i], piy = py[i], piz = pz[i], sui = su[i], svi = sv[i];
-    for (std::size_t j = begin; j < end; ++j) {
-        const float bx = pix - px[j], by = piy - py[j], bz = piz - pz[j];
-        const float length2 = bx * bx + by * by + bz * bz;
-        const float length = std::sqrt(length2 > 1e-30f ? length2 : 1e-30f);
-        const float sinIJ = (dx[j] * bx + dy[j] * by + dz[j] * bz) / length; // p_i behind p_j
-        float w = 0.5f * (sinIJ * inverseSin + 1.0f);
-        w = sinIJ >= -sinThetaF ? w : 0.0f;
-        w = length2 > 0.0f ? w : 0.0f;
-        const float cross = sui * sv[j] - svi * su[j]; // q_i × q_j
-        const float ahead = sui * su[j] + svi * sv[j];
-        const float successor = cross > 0.0f ? w : 0.0f;
-        const float sameDirection = ahead > 0.0f ? w : 0.0f;
-        succW[j] = cross == 0.0f ? sameDirection : successor;
-        predW[j] = cross < 0.0f ? w : 0.0f;
+    float worstSucc[kLanes] = {}, worstPred[kLanes] = {};
+    for (std::size_t begin = 0; begin < count; begin += kBlock) {
+        const std::size_t end = paddedToLanes(std::min(begin + kBlock, count));
+        for (std::size_t lanes = begin; lanes < end; lanes += kLanes) {
+            for (std::size_t l = 0; l < kLanes; ++l) {
+                const std::size_t j = lanes + l;
+                const float bx = pix - px[j], by = piy - py[j], bz = piz - pz[j];
+                const float length2 = bx * bx + by * by + bz * bz;
+                const float length = std::sqrt(length2 > 1e-30f ? length2 : 1e-30f);
+                const float sinIJ = (dx[j] * bx + dy[j] * by + dz[j] * bz) / length; // p_i behind p_j
+                float w = 0.5f * (sinIJ * inverseSin + 1.0f);
+                w = sinIJ >= -sinThetaF ? w : 0.0f;
+                w = length2 > 0.0f ? w : 0.0f;
+                const float cross = sui * sv[j] - svi * su[j]; // q_i × q_j
+                const float ahead = sui * su[j] + svi * sv[j];
+                const float successor = cross > 0.0f ? w : 0.0f;
+                const float sameDirection = ahead > 0.0f ? w : 0.0f;
+                const float succ = cross == 0.0f ? sameDirection : successor;
+                const float pred = cross < 0.0f ? w : 0.0f;
+                worstSucc[l] = succ > worstSucc[l] ? succ : worstSucc[l];
+                worstPred[l] = pred > worstPred[l] ? pred : worstPred[l];
+            }
+        }
+        float succ = 0.0f, pred = 0.0f;
+        for (std::size_t l = 0; l < kLanes; ++l) {
+            succ = std::max(succ, worstSucc[l]);
+            pred = std::max(pred, worstPred[l]);
+        }
+        if (succ + pred > 1.0f) return false;
     }
+    return true;
 }
 
-// n rounded up to whole SIMD lanes: the length of the filter's arrays.
-std::size_t paddedToLanes(std::size_t n) { return (n + kLanes - 1) / kLanes * kLanes; }
-
-// Whether entry i survives (w_i <= 1): its badness against the `count` entries, a block of kBlock
-// at a time, the test ended as soon as it has failed. The maxima only grow, so the decision is that
-// of the whole set; a set of at most kBlock entries is one block.
-constexpr std::size_t kBlock = 8 * kLanes;
-bool survives(const FilterArrays& arrays, std::size_t i, std::size_t count, float sinThetaF, float* succW, float* predW) {
-    float worstSucc = 0.0f, worstPred = 0.0f;
-    for (std::size_t begin = 0; begin < count && worstSucc + worstPred <= 1.0f; begin += kBlock) {
-        const std::size_t end = std::min(begin + kBlock, count);
-        badnessOfPairs(arrays, i, begin, paddedToLanes(end), sinThetaF, succW, predW);
-        for (std::size_t j = begin; j < end; ++j) {
-            worstSucc = std::max(worstSucc, succW[j]);
-            worstPred = std::max(worstPred, predW[j]);
-        }
+// The entries of [0, count) that survive, in increasing order, into `kept`; returns how many.
+PNSPLAT_AVX2_CLONE std::size_t survivors(const FilterArrays& arrays, std::size_t count, float sinThetaF,
+                                         std::uint32_t* kept) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+        kept[n] = static_cast<std::uint32_t>(i);
+        n += survives(arrays, i, count, sinThetaF) ? 1 : 0;
     }
-    return worstSucc + worstPred <= 1.0f;
+    return n;
 }
 
 // Sets larger than a block: the filter's arrays copied in order of Euclidean distance from p
 // (ties by index) into scratch.byDistanceArrays, the order into scratch.byDistance. A far entry
 // is usually behind one of the nearest few, so survives() ends after a block or two: about O(k)
 // instead of O(k²) pairs for wide neighbourhoods (radii much larger than the sampling, up to
-// kMaxNeighbours entries). Entries past the set's size hold leftovers, as in the originals.
+// kMaxNeighbours entries). Padding lanes as in the originals.
 FilterArrays sortedByDistance(glm::vec3 p, const FilterArrays& arrays, const NeighbourSet& set,
                               NeighbourhoodScratch& scratch) {
     const std::size_t count = set.size();
@@ -209,7 +222,9 @@ FilterArrays sortedByDistance(glm::vec3 p, const FilterArrays& arrays, const Nei
     const float* from[8] = {arrays.px, arrays.py, arrays.pz, arrays.dx, arrays.dy, arrays.dz, arrays.su, arrays.sv};
     for (std::size_t a = 0; a < 8; ++a)
         for (std::size_t k = 0; k < count; ++k) sorted[a * padded + k] = from[a][byDistance[k]];
-    const float* base = sorted.data();
+    float* base = sorted.data();
+    zeroPadding(base + 6 * padded, count); // su
+    zeroPadding(base + 7 * padded, count); // sv
     return FilterArrays{base, base + padded, base + 2 * padded, base + 3 * padded,
                         base + 4 * padded, base + 5 * padded, base + 6 * padded, base + 7 * padded};
 }
@@ -230,7 +245,7 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     const bool geodesic = params.geodesicProjection && !params.euclideanGeodesic;
     measure(p, n, set, geodesic || params.edgeControls, scratch);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
-    // (x, y, z apart) for the O(k²) loop (badnessOfPairs).
+    // (x, y, z apart) for the O(k²) loop (survives).
     const std::size_t paddedCount = paddedToLanes(count);
     float* px = scratchArray(scratch.px, paddedCount);
     float* py = scratchArray(scratch.py, paddedCount);
@@ -256,19 +271,18 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
         dx[k] = direction.x, dy[k] = direction.y, dz[k] = direction.z;
     }
 
-    // w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij (badnessOfPairs).
-    const float sinThetaF = std::sin(params.thetaF);
     float* su = scratchArray(scratch.su, paddedCount);
     float* sv = scratchArray(scratch.sv, paddedCount);
-    float* succW = scratchArray(scratch.succW, paddedCount);
-    float* predW = scratchArray(scratch.predW, paddedCount);
-    scratch.order.clear();
+    zeroPadding(su, count);
+    zeroPadding(sv, count);
     const bool byDistance = count > kBlock;
     const FilterArrays arrays{px, py, pz, dx, dy, dz, su, sv};
     const FilterArrays measured = byDistance ? sortedByDistance(p, arrays, set, scratch) : arrays;
-    for (std::size_t i = 0; i < count; ++i)
-        if (survives(measured, i, count, sinThetaF, succW, predW))
-            scratch.order.push_back(byDistance ? scratch.byDistance[i] : static_cast<std::uint32_t>(i));
+    std::vector<std::uint32_t>& order = scratch.order;
+    order.resize(count);
+    order.resize(survivors(measured, count, std::sin(params.thetaF), order.data()));
+    if (byDistance)
+        for (std::uint32_t& k : order) k = scratch.byDistance[k];
     sortOrderByAngle(set, scratch);
     gather(set, scratch.order, scratch);
 }

@@ -84,7 +84,6 @@ struct NeighbourhoodScratch {
     std::vector<float> px, py, pz;     // the positions the badness is measured on
     std::vector<float> dx, dy, dz;     // their unit directions from p
     std::vector<float> su, sv;         // tangent-plane coordinates of the neighbours
-    std::vector<float> succW, predW;   // w_ij of one i against each j, by the side of j
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
     // Sets larger than the filter's block (sortedByDistance): the entries by distance from p, and

@@ -395,6 +395,132 @@ INSTANTIATE_TEST_SUITE_P(RefinerData, RefinerRealModel,
                          });
 
 // ---------------------------------------------------------------------------------------------
+// Hole filling (paper figure 9, SPEC 9): the rim radii are enlarged to span the hole
+// (enlargeAroundHole), the neighbourhoods may hold kHoleFillingMaxNeighbours points, and the
+// refinement evens out until the hole is sampled like its surroundings.
+
+TEST(HoleFilling, EnlargesExactlyThePointsWhoseBallReachesTheHole) {
+    PointSet points = withRadii(sampleSphereRandom(2000, 1.0f, 17));
+    const PointSet before = points;
+    const Hole hole{glm::vec3(0.3f, -0.2f, 0.93f), 0.35f};
+    const std::size_t enlarged = enlargeAroundHole(points, hole);
+    std::size_t expected = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const float d = glm::length(before.position[i] - hole.centre);
+        const bool rim = d < hole.radius + before.radius[i];
+        expected += rim;
+        EXPECT_EQ(points.radius[i], rim ? std::max(before.radius[i], d + hole.radius) : before.radius[i]) << i;
+        // An enlarged ball reaches the far side of the hole.
+        if (rim) {
+            EXPECT_GE(points.radius[i], d + hole.radius) << i;
+        }
+    }
+    std::cout << "    " << enlarged << " of " << points.size() << " radii enlarged\n";
+    EXPECT_EQ(enlarged, expected);
+    EXPECT_GT(enlarged, 20u);
+    EXPECT_EQ(points.position, before.position);
+}
+
+// A unit sphere with a hole: 1,500 uniform points minus those within 0.5 of the north pole (a
+// cap of 6 % of the area, some 5 spacings across). Oracle: the sphere itself. Filled, the hole is
+// sampled and the new points lie on the PN surface across it, close to the sphere; without the
+// enlarged radii the hole stays open (its rim is a boundary).
+struct HoleFill {
+    std::size_t inside = 0;   // points within 0.8 R of the hole's centre
+    std::size_t points = 0;
+    double maxDistance = 0.0; // of the points inside, to the unit sphere
+    double holes = 0.0;       // share of the sphere's samples not covered (evaluateQuality)
+};
+
+HoleFill fillSphereHole(bool enlarge) {
+    const Hole hole{glm::vec3(0.0f, 0.0f, 1.0f), 0.5f};
+    const PointSet sphere = sampleSphereUniform(1500, 1.0f);
+    PointSet input;
+    for (std::size_t i = 0; i < sphere.size(); ++i)
+        if (glm::length(sphere.position[i] - hole.centre) >= hole.radius) input.appendFrom(sphere, i);
+    estimateRadii(input, kThreads);
+    if (enlarge) enlargeAroundHole(input, hole);
+    RefineOptions o = options();
+    o.maxNeighbours = kHoleFillingMaxNeighbours;
+    Refiner refiner(input, o);
+    refineLevels(refiner, 2);
+    evenOut(refiner, kEvenOutFactor, 12);
+    HoleFill f;
+    f.points = refiner.points().size();
+    for (const glm::vec3& x : refiner.points().position) {
+        if (glm::length(x - hole.centre) >= 0.8f * hole.radius) continue;
+        ++f.inside;
+        f.maxDistance = std::max(f.maxDistance, std::abs(static_cast<double>(glm::length(x)) - 1.0));
+    }
+    f.holes = evaluateQuality(refiner.points(), *parseReference("sphere:1"), &input).holes;
+    return f;
+}
+
+TEST(HoleFilling, SphereHoleIsFilledOnTheSphere) {
+    const HoleFill filled = fillSphereHole(true);
+    const HoleFill open = fillSphereHole(false);
+    const auto print = [](const char* name, const HoleFill& f) {
+        std::cout << "    " << name << ": " << f.points << " points, " << f.inside << " inside the hole (max distance to the sphere "
+                  << f.maxDistance << "), holes " << 100.0 * f.holes << " %\n";
+    };
+    print("filled", filled);
+    print("radii not enlarged", open);
+    // Measured: 438 points within 0.8 R (4 % of the area, 1.6 % of the points: sparser than the
+    // rest, but covered), at most 0.012 off the sphere, 0.08 % holes; open: 5.4 % holes.
+    EXPECT_GT(filled.inside, 300u);
+    EXPECT_LT(filled.maxDistance, 0.02);
+    EXPECT_LT(filled.holes, 0.002);
+    EXPECT_EQ(open.inside, 0u);
+    EXPECT_GT(open.holes, 0.03);
+}
+
+// The data's igea with a ball of 15 % of its diagonal removed at the back of the head (paper
+// figure 9; about 10 spacings across) and the bunny with one of 10 % removed on its flank. The
+// igea's rim points hold more than kMaxNeighbours points within their enlarged radii, and with
+// that bound they see only their own side of the hole: it stays empty.
+TEST(HoleFilling, DataHolesAreFilled) {
+    struct Case {
+        const char* file;
+        const char* mesh;
+        Hole hole;
+        bool emptyWithDefaultBound;
+    };
+    for (const Case& c : {Case{"igea-4000-uniform-hole.ply", "igea-mesh.ply", {{0.002176f, 0.012023f, -0.04599f}, 0.02346f}, true},
+                          Case{"bunny-3500-random-hole.ply", "bunny-mesh.ply", {{0.019996f, 0.120682f, 0.03262f}, 0.02502f}, false}}) {
+        PNSPLAT_REQUIRE_DATA(c.file);
+        PNSPLAT_REQUIRE_DATA(c.mesh);
+        auto data = readPly(test::dataDir() / c.file);
+        ASSERT_TRUE(data.ok()) << data.error().message;
+        const PointSet input = withRadii(std::move(data).value().points);
+        const Reference reference = *parseReference((test::dataDir() / c.mesh).string());
+        // Runs: not enlarged, enlarged with the default bound (igea only), enlarged and filled.
+        double tangentialHoles[3] = {0, 0, 0};
+        std::size_t inside[3] = {0, 0, 0};
+        for (const int run : {0, 1, 2}) {
+            if (run == 1 && !c.emptyWithDefaultBound) continue;
+            PointSet start = input;
+            RefineOptions o = options();
+            if (run > 0) enlargeAroundHole(start, c.hole);
+            if (run == 2) o.maxNeighbours = kHoleFillingMaxNeighbours;
+            Refiner refiner(start, o);
+            refineLevels(refiner, 3);
+            evenOut(refiner, kEvenOutFactor, 12);
+            for (const glm::vec3& x : refiner.points().position) inside[run] += glm::length(x - c.hole.centre) < 0.8f * c.hole.radius;
+            if (run != 1) tangentialHoles[run] = evaluateQuality(refiner.points(), reference, &input).holesTangential;
+        }
+        std::cout << "    " << c.file << ": inside the hole " << inside[0] << " -> " << inside[2] << " points"
+                  << (c.emptyWithDefaultBound ? " (" + std::to_string(inside[1]) + " with the default bound)" : std::string())
+                  << ", holes (tangential) " << 100.0 * tangentialHoles[0] << " % -> " << 100.0 * tangentialHoles[2] << " %\n";
+        EXPECT_EQ(inside[0], 0u) << c.file;
+        EXPECT_EQ(inside[1], 0u) << c.file;
+        EXPECT_GT(inside[2], 500u) << c.file;
+        // Measured 7.8 % -> 3.7 % (igea: the fill is smooth where the true surface has a knot of
+        // hair) and 3.7 % -> 0.4 % (bunny).
+        EXPECT_LT(tangentialHoles[2], 0.6 * tangentialHoles[0]) << c.file;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Acceptance 4: convergence. Per level, every point of P(l) ends with r_new <= c_β,max · r_old.
 
 void expectRadiiShrink(const PointSet& input, unsigned levels, const std::string& name,

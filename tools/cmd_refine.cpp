@@ -34,6 +34,7 @@ struct RefineArgs {
     double thetaFDegrees = 30.0;
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
+    std::vector<float> holes; // x, y, z, radius for each --fill-hole
 };
 
 constexpr unsigned kDefaultLevels = 4;
@@ -49,7 +50,9 @@ void runRefine(const RefineArgs& args) {
         points = unwrap(readPly(args.input)).points;
     }
 
-    RefineOptions options = args.fast ? RefineOptions::fast() : RefineOptions{};
+    RefineJob job;
+    RefineOptions& options = job.options;
+    options = args.fast ? RefineOptions::fast() : RefineOptions{};
     if (!args.fast) options.neighbourhood = args.neighbourhood == "fuzzy" ? NeighbourhoodKind::Fuzzy : NeighbourhoodKind::Accurate;
     options.euclideanGeodesic |= args.euclideanGeodesic;
     options.plainAngle |= args.plainAngle;
@@ -61,9 +64,17 @@ void runRefine(const RefineArgs& args) {
 
     const auto start = Clock::now();
     const std::size_t inputCount = points.size();
-    const unsigned levels = args.levels != 0 ? args.levels : (args.targetPoints != 0 ? 64u : kDefaultLevels);
-    const RefineRun run = refineWithProgress(std::move(points), options, levels, args.targetPoints, args.evenOut, args.estimateRadii,
-                                             inputName);
+    job.levels = args.levels != 0 ? args.levels : (args.targetPoints != 0 ? 64u : kDefaultLevels);
+    job.targetPoints = args.targetPoints;
+    job.evenOutFactor = args.evenOut;
+    job.estimateRadii = args.estimateRadii;
+    if (args.holes.size() % 4 != 0)
+        throw CommandError(fmt::format("--fill-hole takes four numbers per hole, X,Y,Z,R; {} given", args.holes.size()));
+    for (std::size_t k = 0; k < args.holes.size(); k += 4) {
+        if (!(args.holes[k + 3] > 0.0f)) throw CommandError(fmt::format("--fill-hole: the radius {} is not positive", args.holes[k + 3]));
+        job.holes.push_back(Hole{glm::vec3(args.holes[k], args.holes[k + 1], args.holes[k + 2]), args.holes[k + 3]});
+    }
+    const RefineRun run = refineWithProgress(std::move(points), job, inputName);
     const double refineSeconds = run.seconds;
     const unsigned done = run.levels;
     const std::size_t outputCount = run.points.size();
@@ -74,14 +85,15 @@ void runRefine(const RefineArgs& args) {
     unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - inputCount) / refineSeconds : 0.0;
-    const std::string evened = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
+    std::string evened = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
+    if (!job.holes.empty()) evened += fmt::format(", {} hole(s) filled from {} rim points", job.holes.size(), run.enlargedRadii);
     fmt::print("{}: {} points in, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
                inputName, inputCount, outputCount, done, evened, refineSeconds, rate, total, output);
     if (run.cappedNeighbourhoods > 0)
         fmt::print(stderr,
                    "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and used the {} "
                    "nearest; the radii look too large for the sampling (--estimate-radii replaces them)\n",
-                   run.cappedNeighbourhoods, kMaxNeighbours, kMaxNeighbours);
+                   run.cappedNeighbourhoods, run.maxNeighbours, run.maxNeighbours);
 }
 
 } // namespace
@@ -126,6 +138,22 @@ void addRefineCommand(CLI::App& app) {
             },
             "0 or [1, 100]"))
         ->capture_default_str();
+    cmd->add_option("--fill-hole", args->holes,
+                    "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable): the radii of the points "
+                    "around it are enlarged to span it, and the refinement evens out (--even-out, default " +
+                        fmt::format("{}", kEvenOutFactor) + ") until the hole is sampled like its surroundings (paper figure 9)")
+        ->delimiter(',')
+        ->type_name("X,Y,Z,R")
+        ->expected(4, 4 * 64)
+        ->check(CLI::Validator(
+            [](const std::string& value) {
+                float f = 0.0f;
+                const auto [end, error] = std::from_chars(value.data(), value.data() + value.size(), f);
+                return error == std::errc() && end == value.data() + value.size() && std::isfinite(f)
+                           ? std::string()
+                           : "must be a finite number";
+            },
+            "finite"));
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
     cmd->callback([args] { runRefine(*args); });

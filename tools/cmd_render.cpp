@@ -67,7 +67,9 @@ void runRender(const RenderArgs& args) {
     PointSet points = loadForRendering(args.input, name);
     const std::size_t inputCount = points.size();
     if (args.refineLevels > 0) {
-        RefineRun run = refineWithProgress(std::move(points), RefineOptions{}, args.refineLevels, 0, 0.0f, false, name);
+        RefineJob job;
+        job.levels = args.refineLevels;
+        RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
         fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount, points.size(), run.levels,
                    run.seconds);

@@ -20,17 +20,31 @@ void estimateRadiiOrFail(PointSet& points, unsigned threads, const std::string& 
                                            inputName, i));
 }
 
-RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsigned levels, std::size_t targetPoints,
-                             float evenOutFactor, bool estimate, const std::string& inputName) {
+RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
     if (points.size() < 3)
         throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
-    if (!points.hasRadius() || estimate) estimateRadiiOrFail(points, options.threads, inputName);
+    if (!points.hasRadius() || job.estimateRadii) estimateRadiiOrFail(points, job.options.threads, inputName);
     if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
-
-    Refiner refiner(std::move(points), options);
-    ProgressBar bar("refining");
     RefineRun run;
-    while (run.levels < levels && (targetPoints == 0 || refiner.points().size() < targetPoints)) {
+    unsigned evenOutLevels = kEvenOutMaxLevels;
+    if (!job.holes.empty()) {
+        for (const Hole& hole : job.holes) {
+            const std::size_t enlarged = enlargeAroundHole(points, hole);
+            if (enlarged == 0)
+                throw CommandError(fmt::format("{}: the hole at ({}, {}, {}) of radius {} reaches no point's radius: nothing "
+                                               "around it to fill it from",
+                                               inputName, hole.centre.x, hole.centre.y, hole.centre.z, hole.radius));
+            run.enlargedRadii += enlarged;
+        }
+        job.options.maxNeighbours = kHoleFillingMaxNeighbours;
+        if (job.evenOutFactor == 0.0f) job.evenOutFactor = kEvenOutFactor;
+        evenOutLevels = kHoleFillingEvenOutLevels;
+    }
+
+    run.maxNeighbours = job.options.maxNeighbours;
+    Refiner refiner(std::move(points), job.options);
+    ProgressBar bar("refining");
+    while (run.levels < job.levels && (job.targetPoints == 0 || refiner.points().size() < job.targetPoints)) {
         bar.setLabel(fmt::format("level {}", run.levels + 1));
         const LevelStats stats = refiner.refineLevel([&](std::size_t d, std::size_t t) { bar.update(d, t); });
         run.seconds += stats.seconds;
@@ -38,9 +52,9 @@ RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsi
         ++run.levels;
         if (stats.inserted == 0) break; // converged: nothing more to insert
     }
-    if (evenOutFactor > 0.0f) {
+    if (job.evenOutFactor > 0.0f) {
         bar.setLabel("evening out");
-        for (const LevelStats& stats : evenOut(refiner, evenOutFactor, kEvenOutMaxLevels,
+        for (const LevelStats& stats : evenOut(refiner, job.evenOutFactor, evenOutLevels,
                                                [&](std::size_t d, std::size_t t) { bar.update(d, t); })) {
             run.seconds += stats.seconds;
             run.cappedNeighbourhoods += stats.cappedNeighbourhoods;

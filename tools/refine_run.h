@@ -3,8 +3,10 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "pnsplat/refine/point_set.h"
+#include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 
 namespace pnsplat::tools {
@@ -15,18 +17,32 @@ struct RefineRun {
     unsigned evenOutLevels = 0; // adaptive levels of evenOut after them (part of `levels`)
     double seconds = 0.0;      // time spent refining (not estimating radii)
     std::size_t cappedNeighbourhoods = 0; // over all levels (LevelStats), a sign of radii too large
+    std::size_t enlargedRadii = 0;        // rim points of the holes to fill (enlargeAroundHole)
+    std::size_t maxNeighbours = 0;        // the bound the neighbourhoods were cut to (RefineOptions)
 };
+
+// What to refine and how far: `levels` levels, stopping early once `targetPoints` (0: no target)
+// is reached or a level inserts nothing; then the points above `evenOutFactor` times the median
+// radius are evened out (evenOut; 0: not at all). `holes` are filled (paper figure 9): their rim
+// radii are enlarged first, neighbourhoods may hold kHoleFillingMaxNeighbours points, and the
+// evening out (kEvenOutFactor unless given) may take kHoleFillingEvenOutLevels levels.
+struct RefineJob {
+    RefineOptions options;
+    unsigned levels = 0;
+    std::size_t targetPoints = 0;
+    float evenOutFactor = 0.0f;
+    std::vector<Hole> holes;
+    bool estimateRadii = false; // replace the input's radii by estimated ones
+};
+inline constexpr unsigned kHoleFillingEvenOutLevels = 12;
 
 // Replaces the radii of `points` by estimated ones (SPEC 9); a point without any (no neighbour but
 // coincident points or points along its normal, or distances beyond single precision) is a
 // CommandError naming `inputName`.
 void estimateRadiiOrFail(PointSet& points, unsigned threads, const std::string& inputName);
 
-// Estimates radii when `points` has none (or when `estimateRadii`), checks the input
-// (CommandError naming `inputName`), then refines up to `levels` levels, stopping early once
-// `targetPoints` (0: no target) is reached or a level inserts nothing; then evens out (evenOut)
-// the points above `evenOutFactor` times the median radius (0: not at all).
-RefineRun refineWithProgress(PointSet points, const RefineOptions& options, unsigned levels, std::size_t targetPoints,
-                             float evenOutFactor, bool estimateRadii, const std::string& inputName);
+// Estimates radii when `points` has none (or when job.estimateRadii), checks the input
+// (CommandError naming `inputName`), then runs the job.
+RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName);
 
 } // namespace pnsplat::tools

@@ -143,7 +143,7 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     std::vector<Candidate> candidates;
     PhaseTimes times;
     std::vector<std::uint32_t> inReach; // the candidates within reach of the point being refined
-    std::vector<NearbyPoint> nearest; // the kMaxNeighbours nearest, for an oversized neighbourhood
+    std::vector<NearbyPoint> nearest; // the maxNeighbours nearest, for an oversized neighbourhood
     BlockArena<NewPoint> arena;       // the points this worker inserts, cell after cell
     std::size_t inserted = 0, discarded = 0, retried = 0, boundaryInserted = 0, capped = 0;
 };
@@ -568,22 +568,23 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
 }
 
-// Nε_p, N'_p and Y_p of p within `reach`. When more than kMaxNeighbours points pass, only the
-// kMaxNeighbours nearest points within reach (ties by index) are kept and then checked against
+// Nε_p, N'_p and Y_p of p within `reach`. When more than options.maxNeighbours points pass, only
+// the maxNeighbours nearest points within reach (ties by index) are kept and then checked against
 // the validity cone, so N'_p and Y_p hold the children of those only. Returns whether it cut: a
 // wider reach would keep the same points.
 bool Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
                                          std::span<const NearbyPoint> candidates, WorkerScratch& s) {
     collectNeighbourhood(p, frame, reach, candidates, s);
-    if (s.fan.size() <= kMaxNeighbours) return false;
+    const std::size_t cap = options.maxNeighbours;
+    if (s.fan.size() <= cap) return false;
     const glm::vec3 x = points.position[p];
     const auto distance2 = [&](const NearbyPoint& c) { return glm::dot(c.position - x, c.position - x); };
     s.nearest.clear();
     for (const NearbyPoint& c : candidates)
         if (c.index != p && distance2(c) < reach * reach) s.nearest.push_back(c);
-    if (s.nearest.size() <= kMaxNeighbours) return false; // the same points (rounding aside)
+    if (s.nearest.size() <= cap) return false; // the same points (rounding aside)
     ++s.capped;
-    const auto middle = s.nearest.begin() + static_cast<std::ptrdiff_t>(kMaxNeighbours);
+    const auto middle = s.nearest.begin() + static_cast<std::ptrdiff_t>(cap);
     std::nth_element(s.nearest.begin(), middle, s.nearest.end(), [&](const NearbyPoint& a, const NearbyPoint& b) {
         const float da = distance2(a), db = distance2(b);
         return da != db ? da < db : a.index < b.index;

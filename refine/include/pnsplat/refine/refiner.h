@@ -30,14 +30,18 @@ inline constexpr float kLambda1 = 0.57735026918962576f;
 inline constexpr float kLambda2 = 0.5f;
 inline constexpr float kThetaC = std::numbers::pi_v<float> / 2.0f;
 
-// Choice (not in the paper): when more than this many points within a point's radius pass the
-// validity cone, only this many nearest points within the radius are kept (and then checked
-// against the cone). The natural first ring has about 6 members and a radius that reaches it holds
-// some 6 to 30 points (up to about 200 at the largest radii of the irregular inputs in
-// ../shared/data, none of which reaches this bound); only radii far too large for the sampling (a
-// whole model within one radius) give more, and then the O(k²) filter would make a level take
-// hours. LevelStats::cappedNeighbourhoods counts the points cut so.
+// Choice (not in the paper): when more than RefineOptions::maxNeighbours points within a point's
+// radius pass the validity cone, only that many nearest points within the radius are kept (and
+// then checked against the cone). The natural first ring has about 6 members and a radius that
+// reaches it holds some 6 to 30 points (up to about 200 at the largest radii of the irregular
+// inputs in ../shared/data, none of which reaches the default bound); only radii far too large for
+// the sampling (a whole model within one radius) give more, and then the filter would make a level
+// take hours. LevelStats::cappedNeighbourhoods counts the points cut so.
 inline constexpr std::size_t kMaxNeighbours = 256;
+// Hole filling (enlargeAroundHole): a rim point's radius spans the hole, and its neighbourhood
+// holds the whole ring of rim points around it, a thousand points and more. The nearest 256 all
+// lie on its own side, so the bound must be well above that for the far rim to be seen.
+inline constexpr std::size_t kHoleFillingMaxNeighbours = 4096;
 
 struct RefineOptions {
     NeighbourhoodKind neighbourhood = NeighbourhoodKind::Accurate;
@@ -66,6 +70,7 @@ struct RefineOptions {
     // the paper's real-time renderer does with a screen-space size threshold (section 7).
     float targetRadius = 0.0f;
 
+    std::size_t maxNeighbours = kMaxNeighbours; // see kMaxNeighbours
     unsigned threads = 1;  // 0 = all hardware threads; the output does not depend on it
     bool profile = false;  // measure the time per phase (costs a few percent)
 
@@ -85,7 +90,7 @@ struct LevelStats {
     std::size_t inserted = 0;
     std::size_t discarded = 0;       // candidates that fell in the discard space
     std::size_t retried = 0;         // points whose fan was open and was searched again wider
-    std::size_t cappedNeighbourhoods = 0; // neighbourhoods cut to the kMaxNeighbours nearest
+    std::size_t cappedNeighbourhoods = 0; // neighbourhoods cut to the maxNeighbours nearest
     std::size_t boundaryInserted = 0; // points inserted on boundary and crease segments (section 6)
     std::size_t boundarySegments = 0; // boundary and crease segments after this level
     double seconds = 0;              // wall clock

@@ -503,7 +503,7 @@ TEST(HoleFilling, DataHolesAreFilled) {
             if (run > 0) enlargeAroundHole(start, c.hole);
             if (run == 2) o.maxNeighbours = kHoleFillingMaxNeighbours;
             Refiner refiner(start, o);
-            refineLevels(refiner, 3);
+            refineLevels(refiner, 1); // then evening out does the work (12 levels at most)
             evenOut(refiner, kEvenOutFactor, 12);
             for (const glm::vec3& x : refiner.points().position) inside[run] += glm::length(x - c.hole.centre) < 0.8f * c.hole.radius;
             if (run != 1) tangentialHoles[run] = evaluateQuality(refiner.points(), reference, &input).holesTangential;
@@ -513,10 +513,10 @@ TEST(HoleFilling, DataHolesAreFilled) {
                   << ", holes (tangential) " << 100.0 * tangentialHoles[0] << " % -> " << 100.0 * tangentialHoles[2] << " %\n";
         EXPECT_EQ(inside[0], 0u) << c.file;
         EXPECT_EQ(inside[1], 0u) << c.file;
-        EXPECT_GT(inside[2], 500u) << c.file;
-        // Measured 7.8 % -> 3.7 % (igea: the fill is smooth where the true surface has a knot of
-        // hair) and 3.7 % -> 0.4 % (bunny).
-        EXPECT_LT(tangentialHoles[2], 0.6 * tangentialHoles[0]) << c.file;
+        // Measured: 541 and 91 points inside; holes 6.9 % -> 1.6 % (igea: the fill is smooth where
+        // the true surface has a knot of hair) and 3.3 % -> 0.75 % (bunny).
+        EXPECT_GT(inside[2], 50u) << c.file;
+        EXPECT_LT(tangentialHoles[2], 0.4 * tangentialHoles[0]) << c.file;
     }
 }
 

@@ -86,7 +86,9 @@ void runRefine(const RefineArgs& args) {
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - inputCount) / refineSeconds : 0.0;
     std::string evened = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
-    if (!job.holes.empty()) evened += fmt::format(", {} hole(s) filled from {} rim points", job.holes.size(), run.enlargedRadii);
+    if (!job.holes.empty())
+        evened += fmt::format(", {} hole(s) filled from {} rim points in {} of them", job.holes.size(), run.enlargedRadii,
+                              run.holeFillingLevels);
     fmt::print("{}: {} points in, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
                inputName, inputCount, outputCount, done, evened, refineSeconds, rate, total, output);
     if (run.cappedNeighbourhoods > 0)
@@ -139,9 +141,9 @@ void addRefineCommand(CLI::App& app) {
             "0 or [1, 100]"))
         ->capture_default_str();
     cmd->add_option("--fill-hole", args->holes,
-                    "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable): the radii of the points "
-                    "around it are enlarged to span it, and the refinement evens out (--even-out, default " +
-                        fmt::format("{}", kEvenOutFactor) + ") until the hole is sampled like its surroundings (paper figure 9)")
+                    "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: the "
+                    "radii of the points around it are enlarged to span it, and they and the points they insert are "
+                    "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 spacings)")
         ->delimiter(',')
         ->type_name("X,Y,Z,R")
         ->expected(4, 4 * 64)

@@ -26,7 +26,6 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     if (!points.hasRadius() || job.estimateRadii) estimateRadiiOrFail(points, job.options.threads, inputName);
     if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
     RefineRun run;
-    unsigned evenOutLevels = kEvenOutMaxLevels;
     if (!job.holes.empty()) {
         for (const Hole& hole : job.holes) {
             const std::size_t enlarged = enlargeAroundHole(points, hole);
@@ -37,28 +36,38 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
             run.enlargedRadii += enlarged;
         }
         job.options.maxNeighbours = kHoleFillingMaxNeighbours;
-        if (job.evenOutFactor == 0.0f) job.evenOutFactor = kEvenOutFactor;
-        evenOutLevels = kHoleFillingEvenOutLevels;
     }
 
     run.maxNeighbours = job.options.maxNeighbours;
     Refiner refiner(std::move(points), job.options);
     ProgressBar bar("refining");
-    while (run.levels < job.levels && (job.targetPoints == 0 || refiner.points().size() < job.targetPoints)) {
-        bar.setLabel(fmt::format("level {}", run.levels + 1));
-        const LevelStats stats = refiner.refineLevel([&](std::size_t d, std::size_t t) { bar.update(d, t); });
+    const auto progress = [&](std::size_t done, std::size_t total) { bar.update(done, total); };
+    const auto count = [&](const LevelStats& stats) {
         run.seconds += stats.seconds;
         run.cappedNeighbourhoods += stats.cappedNeighbourhoods;
         ++run.levels;
+    };
+    if (!job.holes.empty()) {
+        // The holes first, while only the enlarged points and what they insert are above the
+        // target: refined in uniform levels together with everything else, a rim point finds its
+        // new one-ring complete with the children of its many neighbours, and inserts little.
+        bar.setLabel("filling holes");
+        for (const LevelStats& stats : evenOut(refiner, kEvenOutFactor, kHoleFillingLevels, progress)) {
+            count(stats);
+            ++run.holeFillingLevels;
+        }
+    }
+    while (run.levels - run.holeFillingLevels < job.levels &&
+           (job.targetPoints == 0 || refiner.points().size() < job.targetPoints)) {
+        bar.setLabel(fmt::format("level {}", run.levels - run.holeFillingLevels + 1));
+        const LevelStats stats = refiner.refineLevel(progress);
+        count(stats);
         if (stats.inserted == 0) break; // converged: nothing more to insert
     }
     if (job.evenOutFactor > 0.0f) {
         bar.setLabel("evening out");
-        for (const LevelStats& stats : evenOut(refiner, job.evenOutFactor, evenOutLevels,
-                                               [&](std::size_t d, std::size_t t) { bar.update(d, t); })) {
-            run.seconds += stats.seconds;
-            run.cappedNeighbourhoods += stats.cappedNeighbourhoods;
-            ++run.levels;
+        for (const LevelStats& stats : evenOut(refiner, job.evenOutFactor, kEvenOutMaxLevels, progress)) {
+            count(stats);
             ++run.evenOutLevels;
         }
     }

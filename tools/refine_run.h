@@ -15,6 +15,7 @@ struct RefineRun {
     PointSet points;
     unsigned levels = 0;       // levels run (fewer than asked when nothing more was inserted)
     unsigned evenOutLevels = 0; // adaptive levels of evenOut after them (part of `levels`)
+    unsigned holeFillingLevels = 0; // adaptive levels filling the holes before them (part of `levels`)
     double seconds = 0.0;      // time spent refining (not estimating radii)
     std::size_t cappedNeighbourhoods = 0; // over all levels (LevelStats), a sign of radii too large
     std::size_t enlargedRadii = 0;        // rim points of the holes to fill (enlargeAroundHole)
@@ -23,9 +24,10 @@ struct RefineRun {
 
 // What to refine and how far: `levels` levels, stopping early once `targetPoints` (0: no target)
 // is reached or a level inserts nothing; then the points above `evenOutFactor` times the median
-// radius are evened out (evenOut; 0: not at all). `holes` are filled (paper figure 9): their rim
-// radii are enlarged first, neighbourhoods may hold kHoleFillingMaxNeighbours points, and the
-// evening out (kEvenOutFactor unless given) may take kHoleFillingEvenOutLevels levels.
+// radius are evened out (evenOut; 0: not at all). `holes` are filled first (paper figure 9):
+// their rim radii are enlarged (enlargeAroundHole), neighbourhoods may hold
+// kHoleFillingMaxNeighbours points, and up to kHoleFillingLevels adaptive levels (evenOut,
+// kEvenOutFactor) refine the rim and what it inserts until they match their surroundings.
 struct RefineJob {
     RefineOptions options;
     unsigned levels = 0;
@@ -34,7 +36,7 @@ struct RefineJob {
     std::vector<Hole> holes;
     bool estimateRadii = false; // replace the input's radii by estimated ones
 };
-inline constexpr unsigned kHoleFillingEvenOutLevels = 12;
+inline constexpr unsigned kHoleFillingLevels = 12;
 
 // Replaces the radii of `points` by estimated ones (SPEC 9); a point without any (no neighbour but
 // coincident points or points along its normal, or distances beyond single precision) is a

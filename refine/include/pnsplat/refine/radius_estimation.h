@@ -30,9 +30,10 @@ void estimateRadii(PointSet& points, unsigned threads = 0);
 // as a ball that holds no input point. Choice: the boundary points are those whose ball reaches
 // the hole's (|p - c| < R + r_p), and each gets r_p = max(r_p, |p - c| + R), which reaches across
 // the hole to its far rim, so that its neighbourhood spans it and its fan triangles cross it. Then
-// refine with RefineOptions::maxNeighbours = kHoleFillingMaxNeighbours (refiner.h) and even out
-// (evenOut): the points inserted into the hole keep radii far above their surroundings' and are
-// refined level after level until they match them. Returns how many radii were enlarged.
+// refine with RefineOptions::maxNeighbours = kHoleFillingMaxNeighbours (refiner.h), evening out
+// first (evenOut): only the rim and the points it inserts into the hole, whose radii stay far above
+// their surroundings', are refined, level after level until they match them; uniform levels
+// after that. Returns how many radii were enlarged.
 struct Hole {
     glm::vec3 centre{0.0f};
     float radius = 0.0f;

@@ -262,9 +262,10 @@ TEST(CliRefine, OversizedRadiiRefineWithAWarning) {
 
 // --fill-hole on a sphere with a hole (3,000 uniform points minus those within 0.7 of the north
 // pole, a radius of some 11 spacings; it stays nearly empty when the uniform levels come first): the
-// summary names the hole and its rim points, and the output samples the hole. Bad
-// holes are one-line errors that leave no output: not four numbers, a radius that is not
-// positive, a ball that reaches no point.
+// summary names the hole and its rim points, and the output samples the hole (the option given
+// before the input file). Bad holes are one-line errors that leave no output: not four numbers
+// (also when split over two options), a radius that is not positive, a number that is not one, a
+// ball that reaches no point, a ball that holds points (as the second of two holes).
 TEST(CliRefine, FillHoleSamplesTheHole) {
     const TempDir dir;
     const PointSet sphere = sampleSphereUniform(3000, 1.0f);
@@ -273,7 +274,7 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
         if (glm::length(sphere.position[i] - glm::vec3(0.0f, 0.0f, 1.0f)) >= 0.7f) holed.appendFrom(sphere, i);
     const fs::path in = dir / "holed.ply", out = dir / "filled.ply";
     ASSERT_TRUE(writePly(in, holed).ok());
-    const RunResult r = run("refine " + quote(in) + " -l 2 --fill-hole 0,0,1,0.7 -o " + quote(out));
+    const RunResult r = run("refine --fill-hole 0,0,1,0.7 " + quote(in) + " -l 2 -o " + quote(out));
     std::cout << "[refine --fill-hole] " << r.out;
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     EXPECT_NE(r.out.find("1 hole(s) filled from"), std::string::npos) << r.out;
@@ -283,10 +284,11 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
     for (const glm::vec3& x : filled->points.position) inside += glm::length(x - glm::vec3(0.0f, 0.0f, 1.0f)) < 0.56f;
     EXPECT_GT(inside, 1000u); // measured 2,325; 12 with the uniform levels first
 
-    for (const std::string hole : {"0,0,1", "0,0,1,0.7,2", "0,0,1,0", "0,0,1,-1", "0,0,9,0.7", "0,0,1,nan"}) {
-        SCOPED_TRACE(hole);
-        const RunResult bad = run("refine " + quote(in) + " -l 1 --fill-hole " + hole + " -o " + quote(dir / "bad.ply"));
-        std::cout << "[refine --fill-hole " << hole << "] exit " << bad.exitCode << ": " << bad.err;
+    for (const std::string holes : {"0,0,1", "0,0,1 --fill-hole 0.7", "0,0,1,0.7,2", "0,0,1,0", "0,0,1,-1", "0,0,1,nan",
+                                    "0,0,1,x", "0,,1,0.7", "0,0,9,0.7", "0,0,1,0.7 --fill-hole 0,0,-1,0.3"}) {
+        SCOPED_TRACE(holes);
+        const RunResult bad = run("refine " + quote(in) + " -l 1 --fill-hole " + holes + " -o " + quote(dir / "bad.ply"));
+        std::cout << "[refine --fill-hole " << holes << "] exit " << bad.exitCode << ": " << bad.err;
         EXPECT_TRUE(failsCleanly(bad, Usage::Allowed));
         EXPECT_FALSE(fs::exists(dir / "bad.ply"));
     }

@@ -34,10 +34,31 @@ struct RefineArgs {
     double thetaFDegrees = 30.0;
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
-    std::vector<float> holes; // x, y, z, radius for each --fill-hole
+    std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
 };
 
 constexpr unsigned kDefaultLevels = 4;
+
+// "X,Y,Z,R": four finite numbers, R > 0; a CommandError naming the option and the bad part.
+Hole parseHole(const std::string& text) {
+    float values[4];
+    std::size_t count = 0, begin = 0;
+    for (;;) {
+        const std::size_t end = std::min(text.find(',', begin), text.size());
+        std::string_view part(text.data() + begin, end - begin);
+        if (!part.empty() && part.front() == '+') part.remove_prefix(1); // from_chars takes no '+'
+        float value = 0.0f;
+        const auto [stop, error] = std::from_chars(part.data(), part.data() + part.size(), value);
+        if (count == 4 || part.empty() || error != std::errc() || stop != part.data() + part.size() || !std::isfinite(value))
+            throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
+        values[count++] = value;
+        if (end == text.size()) break;
+        begin = end + 1;
+    }
+    if (count != 4) throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
+    if (!(values[3] > 0.0f)) throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text));
+    return Hole{glm::vec3(values[0], values[1], values[2]), values[3]};
+}
 
 void runRefine(const RefineArgs& args) {
     using Clock = std::chrono::steady_clock;
@@ -68,12 +89,7 @@ void runRefine(const RefineArgs& args) {
     job.targetPoints = args.targetPoints;
     job.evenOutFactor = args.evenOut;
     job.estimateRadii = args.estimateRadii;
-    if (args.holes.size() % 4 != 0)
-        throw CommandError(fmt::format("--fill-hole takes four numbers per hole, X,Y,Z,R; {} given", args.holes.size()));
-    for (std::size_t k = 0; k < args.holes.size(); k += 4) {
-        if (!(args.holes[k + 3] > 0.0f)) throw CommandError(fmt::format("--fill-hole: the radius {} is not positive", args.holes[k + 3]));
-        job.holes.push_back(Hole{glm::vec3(args.holes[k], args.holes[k + 1], args.holes[k + 2]), args.holes[k + 3]});
-    }
+    for (const std::string& hole : args.holes) job.holes.push_back(parseHole(hole));
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
     const double refineSeconds = run.seconds;
     const unsigned done = run.levels;
@@ -94,8 +110,10 @@ void runRefine(const RefineArgs& args) {
     if (run.cappedNeighbourhoods > 0)
         fmt::print(stderr,
                    "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and used the {} "
-                   "nearest; the radii look too large for the sampling (--estimate-radii replaces them)\n",
-                   run.cappedNeighbourhoods, run.maxNeighbours, run.maxNeighbours);
+                   "nearest; {}\n",
+                   run.cappedNeighbourhoods, run.maxNeighbours, run.maxNeighbours,
+                   job.holes.empty() ? "the radii look too large for the sampling (--estimate-radii replaces them)"
+                                     : "a hole looks too wide for its sampling, and may stay open");
 }
 
 } // namespace
@@ -144,18 +162,10 @@ void addRefineCommand(CLI::App& app) {
                     "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: the "
                     "radii of the points around it are enlarged to span it, and they and the points they insert are "
                     "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 spacings)")
-        ->delimiter(',')
         ->type_name("X,Y,Z,R")
-        ->expected(4, 4 * 64)
-        ->check(CLI::Validator(
-            [](const std::string& value) {
-                float f = 0.0f;
-                const auto [end, error] = std::from_chars(value.data(), value.data() + value.size(), f);
-                return error == std::errc() && end == value.data() + value.size() && std::isfinite(f)
-                           ? std::string()
-                           : "must be a finite number";
-            },
-            "finite"));
+        ->expected(1)
+        ->allow_extra_args(false)
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
     cmd->callback([args] { runRefine(*args); });

@@ -26,15 +26,12 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     if (!points.hasRadius() || job.estimateRadii) estimateRadiiOrFail(points, job.options.threads, inputName);
     if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
     RefineRun run;
+    HoleRims rims;
     if (!job.holes.empty()) {
-        for (const Hole& hole : job.holes) {
-            const std::size_t enlarged = enlargeAroundHole(points, hole);
-            if (enlarged == 0)
-                throw CommandError(fmt::format("{}: the hole at ({}, {}, {}) of radius {} reaches no point's radius: nothing "
-                                               "around it to fill it from",
-                                               inputName, hole.centre.x, hole.centre.y, hole.centre.z, hole.radius));
-            run.enlargedRadii += enlarged;
-        }
+        auto enlarged = enlargeAroundHoles(points, job.holes);
+        if (!enlarged) throw CommandError(inputName + ": " + enlarged.error().message);
+        rims = *enlarged;
+        run.enlargedRadii = rims.enlarged;
         job.options.maxNeighbours = kHoleFillingMaxNeighbours;
     }
 
@@ -48,11 +45,8 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
         ++run.levels;
     };
     if (!job.holes.empty()) {
-        // The holes first, while only the enlarged points and what they insert are above the
-        // target: refined in uniform levels together with everything else, a rim point finds its
-        // new one-ring complete with the children of its many neighbours, and inserts little.
         bar.setLabel("filling holes");
-        for (const LevelStats& stats : evenOut(refiner, kEvenOutFactor, kHoleFillingLevels, progress)) {
+        for (const LevelStats& stats : fillHoles(refiner, rims, progress)) {
             count(stats);
             ++run.holeFillingLevels;
         }

@@ -6,14 +6,13 @@
 #include <vector>
 
 #include "pnsplat/refine/point_set.h"
-#include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 
 namespace pnsplat::tools {
 
 struct RefineRun {
     PointSet points;
-    unsigned levels = 0;       // levels run (fewer than asked when nothing more was inserted)
+    unsigned levels = 0;       // levels run, the hole filling's and evening out's included
     unsigned evenOutLevels = 0; // adaptive levels of evenOut after them (part of `levels`)
     unsigned holeFillingLevels = 0; // adaptive levels filling the holes before them (part of `levels`)
     double seconds = 0.0;      // time spent refining (not estimating radii)
@@ -22,12 +21,10 @@ struct RefineRun {
     std::size_t maxNeighbours = 0;        // the bound the neighbourhoods were cut to (RefineOptions)
 };
 
-// What to refine and how far: `levels` levels, stopping early once `targetPoints` (0: no target)
-// is reached or a level inserts nothing; then the points above `evenOutFactor` times the median
-// radius are evened out (evenOut; 0: not at all). `holes` are filled first (paper figure 9):
-// their rim radii are enlarged (enlargeAroundHole), neighbourhoods may hold
-// kHoleFillingMaxNeighbours points, and up to kHoleFillingLevels adaptive levels (evenOut,
-// kEvenOutFactor) refine the rim and what it inserts until they match their surroundings.
+// What to refine and how far: `holes` are filled first (enlargeAroundHoles, fillHoles; paper
+// figure 9); then `levels` uniform levels, stopping early once `targetPoints` (0: no target) is
+// reached or a level inserts nothing; then the points above `evenOutFactor` times the median
+// radius are evened out (evenOut; 0: not at all).
 struct RefineJob {
     RefineOptions options;
     unsigned levels = 0;
@@ -36,7 +33,6 @@ struct RefineJob {
     std::vector<Hole> holes;
     bool estimateRadii = false; // replace the input's radii by estimated ones
 };
-inline constexpr unsigned kHoleFillingLevels = 12;
 
 // Replaces the radii of `points` by estimated ones (SPEC 9); a point without any (no neighbour but
 // coincident points or points along its normal, or distances beyond single precision) is a

@@ -200,7 +200,7 @@ PNSPLAT_AVX2_CLONE std::size_t survivors(const FilterArrays& arrays, std::size_t
 // (ties by index) into scratch.byDistanceArrays, the order into scratch.byDistance. A far entry
 // is usually behind one of the nearest few, so survives() ends after a block or two: about O(k)
 // instead of O(k²) pairs for wide neighbourhoods (radii much larger than the sampling, up to
-// kMaxNeighbours entries). Padding lanes as in the originals.
+// RefineOptions::maxNeighbours entries). Padding lanes as in the originals.
 FilterArrays sortedByDistance(glm::vec3 p, const FilterArrays& arrays, const NeighbourSet& set,
                               NeighbourhoodScratch& scratch) {
     const std::size_t count = set.size();

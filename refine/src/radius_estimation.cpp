@@ -91,15 +91,4 @@ void estimateRadii(PointSet& points, unsigned threads) {
     }
 }
 
-std::size_t enlargeAroundHole(PointSet& points, const Hole& hole) {
-    std::size_t enlarged = 0;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const float distance = glm::length(points.position[i] - hole.centre);
-        if (!(distance < hole.radius + points.radius[i])) continue;
-        points.radius[i] = std::max(points.radius[i], distance + hole.radius);
-        ++enlarged;
-    }
-    return enlarged;
-}
-
 } // namespace pnsplat

@@ -38,7 +38,9 @@
 #include <limits>
 #include <optional>
 #include <span>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include <glm/geometric.hpp>
 
@@ -1317,22 +1319,72 @@ float Refiner::longestSegment() const {
     return longest;
 }
 
-std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress) {
-    if (!(factor > 0.0f)) return {};
-    HugePageVector<float> radii = refiner.points().radius;
+namespace {
+
+// The upper median of `radii`.
+float medianRadius(HugePageVector<float> radii) {
     const auto middle = radii.begin() + static_cast<std::ptrdiff_t>(radii.size() / 2);
     std::nth_element(radii.begin(), middle, radii.end());
-    const float target = factor * *middle;
+    return *middle;
+}
+
+} // namespace
+
+std::vector<LevelStats> refineDownTo(Refiner& refiner, float targetRadius, unsigned maxLevels, const ProgressFn& progress) {
     const float previous = refiner.targetRadius();
-    refiner.setTargetRadius(target);
+    refiner.setTargetRadius(targetRadius);
     std::vector<LevelStats> levels;
     while (levels.size() < maxLevels &&
-           (std::ranges::max(refiner.points().radius) > target || refiner.longestSegment() > target)) {
+           (std::ranges::max(refiner.points().radius) > targetRadius || refiner.longestSegment() > targetRadius)) {
         levels.push_back(refiner.refineLevel(progress));
         if (levels.back().inserted == 0) break;
     }
     refiner.setTargetRadius(previous);
     return levels;
+}
+
+std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress) {
+    if (!(factor > 0.0f)) return {};
+    return refineDownTo(refiner, factor * medianRadius(refiner.points().radius), maxLevels, progress);
+}
+
+Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> holes) {
+    assert(points.hasRadius());
+    for (std::size_t k = 0; k < holes.size(); ++k) {
+        const Hole& hole = holes[k];
+        if (!std::isfinite(hole.centre.x) || !std::isfinite(hole.centre.y) || !std::isfinite(hole.centre.z) ||
+            !std::isfinite(hole.radius) || !(hole.radius > 0.0f))
+            return Error{"hole " + std::to_string(k + 1) + " needs a finite centre and a finite positive radius"};
+    }
+    HugePageVector<float> radius = points.radius;
+    std::vector<bool> reached(holes.size(), false);
+    HoleRims rims;
+    float largestKept = 0.0f;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        for (std::size_t k = 0; k < holes.size(); ++k) {
+            const float distance = glm::length(points.position[i] - holes[k].centre);
+            if (distance < holes[k].radius)
+                return Error{"point " + std::to_string(i) + " lies inside hole " + std::to_string(k + 1) +
+                             ", whose ball must hold no input point"};
+            if (!(distance < holes[k].radius + points.radius[i])) continue;
+            reached[k] = true;
+            radius[i] = std::max(radius[i], distance + holes[k].radius);
+        }
+        if (radius[i] > points.radius[i]) {
+            ++rims.enlarged;
+        } else {
+            largestKept = std::max(largestKept, radius[i]);
+        }
+    }
+    for (std::size_t k = 0; k < holes.size(); ++k)
+        if (!reached[k]) return Error{"hole " + std::to_string(k + 1) + " reaches no point's ball: nothing around it to fill it from"};
+    rims.fillTarget = std::max(kEvenOutFactor * medianRadius(points.radius), largestKept);
+    points.radius = std::move(radius);
+    return rims;
+}
+
+std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress) {
+    return refineDownTo(refiner, rims.fillTarget, kHoleFillingLevels, progress);
 }
 
 Result<void> validateForRefinement(const PointSet& points) {

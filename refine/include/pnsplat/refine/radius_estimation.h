@@ -10,10 +10,6 @@
 // the thread count. Positions and normals must be finite, normals unit length.
 #pragma once
 
-#include <cstddef>
-
-#include <glm/vec3.hpp>
-
 #include "pnsplat/refine/point_set.h"
 
 namespace pnsplat {
@@ -24,20 +20,5 @@ inline constexpr unsigned kMaxCandidates = 48;
 // Fills points.radius (replacing any radii present). A single isolated point gets radius 0; the
 // refinement rejects such input (validateForRefinement) because it has no neighbourhood.
 void estimateRadii(PointSet& points, unsigned threads = 0);
-
-// Hole filling (paper figure 9, SPEC 9): "the radii of the boundary points are adjusted such that
-// they are greater than the hole", then the refinement is applied several times. The hole is given
-// as a ball that holds no input point. Choice: the boundary points are those whose ball reaches
-// the hole's (|p - c| < R + r_p), and each gets r_p = max(r_p, |p - c| + R), which reaches across
-// the hole to its far rim, so that its neighbourhood spans it and its fan triangles cross it. Then
-// refine with RefineOptions::maxNeighbours = kHoleFillingMaxNeighbours (refiner.h), evening out
-// first (evenOut): only the rim and the points it inserts into the hole, whose radii stay far above
-// their surroundings', are refined, level after level until they match them; uniform levels
-// after that. Returns how many radii were enlarged.
-struct Hole {
-    glm::vec3 centre{0.0f};
-    float radius = 0.0f;
-};
-std::size_t enlargeAroundHole(PointSet& points, const Hole& hole);
 
 } // namespace pnsplat

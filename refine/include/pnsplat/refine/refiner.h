@@ -150,8 +150,46 @@ private:
 // openings that the uniform levels bridged (undetected boundaries): the largest radii sit across
 // them, and evening out fills them further.
 std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress = {});
-inline constexpr float kEvenOutFactor = 2.0f;   // the suggested factor (tests, `--even-out` help)
+inline constexpr float kEvenOutFactor = 2.0f;   // the suggested factor (tests, `--even-out` help, hole filling)
 inline constexpr unsigned kEvenOutMaxLevels = 4; // the tools' level budget
+
+// The adaptive levels of evenOut for a given target radius: points whose radius is above it (or
+// that own a longer segment) are refined until none is left, a level inserts nothing, or
+// `maxLevels` levels were built.
+std::vector<LevelStats> refineDownTo(Refiner& refiner, float targetRadius, unsigned maxLevels,
+                                     const ProgressFn& progress = {});
+
+// Hole filling (paper figure 9, SPEC 9): "the radii of the boundary points are adjusted such that
+// they are greater than the hole", then the refinement is applied several times. A hole is given
+// as a ball that holds no input point.
+//  - Choice: the boundary points of a hole are those whose ball reaches the hole's
+//    (|p - c| < R + r_p), and each gets r_p = max(r_p, |p - c| + R), which reaches across the
+//    hole to its far rim, so that its neighbourhood spans it and its fan triangles cross it.
+//    Every hole is measured against the radii as given, so their order does not matter.
+//  - Refine with RefineOptions::maxNeighbours = kHoleFillingMaxNeighbours, and fill (fillHoles)
+//    before any uniform level: only the rim and the points it inserts into the hole are refined,
+//    level after level, until their radii are down to `fillTarget`. Refined within a uniform level
+//    instead, a rim point finds its new one-ring complete with its many neighbours' children and
+//    inserts almost nothing.
+//  - Choice: fillTarget = max(kEvenOutFactor times the median radius, the largest radius of the
+//    points not enlarged): no other point is refined on the way (the fill evens out nothing else),
+//    and on a uniform input the hole ends as dense as its surroundings.
+struct Hole {
+    glm::vec3 centre{0.0f};
+    float radius = 0.0f;
+};
+struct HoleRims {
+    std::size_t enlarged = 0; // radii that grew
+    float fillTarget = 0.0f;
+};
+// Errors, with `points` unchanged: a centre or radius that is not finite, a radius that is not
+// positive, an input point inside a hole, a hole that no point's ball reaches. (A point whose
+// distance to a centre is finite is within 2^64 of it, so an enlarged radius never overflows.)
+// Single-threaded, O(points × holes).
+Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> holes);
+// The filling levels (refineDownTo to rims.fillTarget, at most kHoleFillingLevels).
+std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress = {});
+inline constexpr unsigned kHoleFillingLevels = 12;
 
 // Checks that a point set can be refined: non-empty, finite, unit normals, positive radii.
 Result<void> validateForRefinement(const PointSet& points);

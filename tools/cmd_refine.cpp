@@ -3,7 +3,9 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include <fmt/core.h>
 
@@ -12,6 +14,7 @@
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/text.h"
 
 namespace pnsplat::tools {
 
@@ -39,20 +42,18 @@ struct RefineArgs {
 
 constexpr unsigned kDefaultLevels = 4;
 
-// "X,Y,Z,R": four finite numbers, R > 0; a CommandError naming the option and the bad part.
-Hole parseHole(const std::string& text) {
+// "X,Y,Z,R": four finite numbers (a leading '+' allowed), R > 0; a CommandError naming the option
+// and the text.
+Hole parseHole(std::string_view text) {
     float values[4];
-    std::size_t count = 0, begin = 0;
-    for (;;) {
+    std::size_t count = 0;
+    for (std::size_t begin = 0; begin <= text.size() && count <= 4;) {
         const std::size_t end = std::min(text.find(',', begin), text.size());
-        std::string_view part(text.data() + begin, end - begin);
-        if (!part.empty() && part.front() == '+') part.remove_prefix(1); // from_chars takes no '+'
-        float value = 0.0f;
-        const auto [stop, error] = std::from_chars(part.data(), part.data() + part.size(), value);
-        if (count == 4 || part.empty() || error != std::errc() || stop != part.data() + part.size() || !std::isfinite(value))
-            throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
-        values[count++] = value;
-        if (end == text.size()) break;
+        std::string_view part = text.substr(begin, end - begin);
+        if (part.starts_with('+')) part.remove_prefix(1);
+        const std::optional<float> value = parseFloat(part);
+        if (!value || count == 4) count = 5; // not a number, or a fifth one
+        else values[count++] = *value;
         begin = end + 1;
     }
     if (count != 4) throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
@@ -101,12 +102,12 @@ void runRefine(const RefineArgs& args) {
     unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - inputCount) / refineSeconds : 0.0;
-    std::string evened = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
+    std::string levelDetail = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
     if (!job.holes.empty())
-        evened += fmt::format(", {} hole(s) filled from {} rim points in {} of them", job.holes.size(), run.enlargedRadii,
-                              run.holeFillingLevels);
+        levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them", job.holes.size(),
+                                   run.enlargedRadii, run.holeFillingLevels);
     fmt::print("{}: {} points in, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
-               inputName, inputCount, outputCount, done, evened, refineSeconds, rate, total, output);
+               inputName, inputCount, outputCount, done, levelDetail, refineSeconds, rate, total, output);
     if (run.cappedNeighbourhoods > 0)
         fmt::print(stderr,
                    "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and used the {} "

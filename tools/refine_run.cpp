@@ -51,9 +51,9 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
             ++run.holeFillingLevels;
         }
     }
-    while (run.levels - run.holeFillingLevels < job.levels &&
-           (job.targetPoints == 0 || refiner.points().size() < job.targetPoints)) {
-        bar.setLabel(fmt::format("level {}", run.levels - run.holeFillingLevels + 1));
+    for (unsigned level = 1; level <= job.levels && (job.targetPoints == 0 || refiner.points().size() < job.targetPoints);
+         ++level) {
+        bar.setLabel(fmt::format("level {}", level));
         const LevelStats stats = refiner.refineLevel(progress);
         count(stats);
         if (stats.inserted == 0) break; // converged: nothing more to insert

@@ -12,7 +12,6 @@
 #include <array>
 #include <bit>
 #include <cassert>
-#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -20,13 +19,13 @@
 #include <numbers>
 #include <span>
 #include <string_view>
-#include <system_error>
 
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
 #include <nanoflann.hpp>
 
 #include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/text.h"
 #include "pnsplat/refine/worker_pool.h"
 
 namespace pnsplat {
@@ -163,17 +162,6 @@ std::string jsonString(std::string_view s) {
         }
     }
     return out + "\"";
-}
-
-// ---- Parsing ----
-
-// Parses a whole string as a finite float (no leading '+', no trailing characters).
-std::optional<float> parseFloat(std::string_view text) {
-    float value = 0.0f;
-    const char* end = text.data() + text.size();
-    const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-    if (ec != std::errc() || ptr != end || !std::isfinite(value)) return std::nullopt;
-    return value;
 }
 
 } // namespace

@@ -10,15 +10,19 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/ply.h"
@@ -294,6 +298,39 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
     }
 }
 
+// A scan of positions only: normals estimated (SPEC 9), said on stderr, and the refinement runs.
+TEST(CliRefine, EstimatesMissingNormals) {
+    const TempDir dir;
+    const PointSet sphere = sampleSphereUniform(600, 1.0f);
+    std::ostringstream text;
+    text << "ply\nformat ascii 1.0\nelement vertex 600\nproperty float x\nproperty float y\nproperty float z\n"
+         << "end_header\n"
+         << std::setprecision(9);
+    for (const glm::vec3& x : sphere.position) text << x.x << " " << x.y << " " << x.z << "\n";
+    const fs::path in = dir / "positions.ply", out = dir / "refined.ply";
+    writeText(in, text.str());
+    const RunResult r = run("refine " + quote(in) + " -l 2 -o " + quote(out));
+    std::cout << "[refine, positions only] exit " << r.exitCode << ": " << r.err;
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.err.find("has no normals: estimated"), std::string::npos) << r.err;
+    auto refined = readPly(out);
+    ASSERT_TRUE(refined.ok()) << refined.error().message;
+    const PointSet& points = refined->points;
+    EXPECT_GT(points.size(), 5000u);
+    // Every normal of the refined unit sphere faces outward and lies close to the true one.
+    std::size_t inward = 0;
+    double worst = 1.0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const double agreement = glm::dot(points.normal[i], glm::normalize(points.position[i]));
+        inward += agreement < 0.0 ? 1 : 0;
+        worst = std::min(worst, agreement);
+    }
+    std::cout << "    " << points.size() << " points, inward normals " << inward << ", worst cosine to the true normal "
+              << worst << "\n";
+    EXPECT_EQ(inward, 0u);
+    EXPECT_GT(worst, std::cos(5.0 * std::numbers::pi / 180.0));
+}
+
 TEST(CliRefine, ThreadCountDoesNotChangeTheFile) {
     const TempDir dir;
     const fs::path one = dir / "one.ply", two = dir / "two.ply";
@@ -343,9 +380,16 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
         {"unknown format",
          "ply\nformat binary_middle_endian 1.0\nelement vertex 1\nproperty float x\nend_header\n"},
         {"not a PLY", "solid cube\nfacet normal 0 0 1\n"},
-        {"no normals",
+        // Without normals they are estimated (CliRefine.EstimatesMissingNormals); not through points
+        // on one line, and not from some of nx ny nz alone.
+        {"no normals, points on a line",
+         "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+         "end_header\n0 0 0\n1 0 0\n2 0 0\n3 0 0\n",
+         Usage::NotAllowed, "no normal can be estimated"},
+        {"nx without ny nz",
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-         "end_header\n0 0 0\n1 0 0\n0 1 0\n"},
+         "property float nx\nend_header\n0 0 0 1\n1 0 0 1\n0 1 0 1\n",
+         Usage::NotAllowed, "no 'ny' property"},
         {"NaN coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\nnan 1 0 0 0 1\n1 1 0 0 0 1\n"},
         {"infinite coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 inf 0 0 0 1\n1 1 0 0 0 1\n"},
         {"zero normal", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 0\n0 1 0 0 0 1\n1 1 0 0 0 1\n"},

@@ -357,6 +357,30 @@ TEST_F(PlyTest, MeshWithoutNormalsNeedsReadFaces) {
     EXPECT_NE(pointsOnly.error().message.find("'nx'"), std::string::npos) << pointsOnly.error().message;
 }
 
+// Positions only (a scan for estimateNormals): accepted when normals are not required; some of
+// nx ny nz alone stay an error either way.
+TEST_F(PlyTest, NormalsMayBeAbsentWhenNotRequired) {
+    const fs::path path = writeFile("positions.ply", "ply\nformat ascii 1.0\nelement vertex 2\n"
+                                                     "property float x\nproperty float y\nproperty float z\n"
+                                                     "property float radius\nend_header\n0 0 0 1\n1 2 3 1\n");
+    const Result<PlyData> optional = readPly(path, {.requireNormals = false});
+    ASSERT_TRUE(optional.ok()) << optional.error().message;
+    EXPECT_EQ(optional->points.size(), 2u);
+    EXPECT_FALSE(optional->points.hasNormal());
+    EXPECT_EQ(optional->points.position[1], glm::vec3(1, 2, 3));
+    EXPECT_TRUE(optional->points.hasRadius());
+    const Result<PlyData> required = readPly(path);
+    ASSERT_FALSE(required.ok());
+    EXPECT_NE(required.error().message.find("'nx'"), std::string::npos) << required.error().message;
+
+    const fs::path partial = writeFile("nz-only.ply", "ply\nformat ascii 1.0\nelement vertex 1\n"
+                                                      "property float x\nproperty float y\nproperty float z\n"
+                                                      "property float nz\nend_header\n0 0 0 1\n");
+    const Result<PlyData> partialRead = readPly(partial, {.requireNormals = false});
+    ASSERT_FALSE(partialRead.ok());
+    EXPECT_NE(partialRead.error().message.find("'nx'"), std::string::npos) << partialRead.error().message;
+}
+
 TEST_F(PlyTest, NormalsAreNormalised) {
     const fs::path path = writeFile("normals.ply", asciiHeader(3) + "0 0 0 0 0 2\n0 0 0 3 4 0\n0 0 0 1e-9 0 0\n");
     const Result<PlyData> read = readPly(path);

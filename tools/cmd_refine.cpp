@@ -69,7 +69,7 @@ void runRefine(const RefineArgs& args) {
         points = makeDefaultModel();
         inputName = "the default model";
     } else {
-        points = unwrap(readPly(args.input)).points;
+        points = readInput(args.input);
     }
 
     RefineJob job;
@@ -122,7 +122,8 @@ void runRefine(const RefineArgs& args) {
 void addRefineCommand(CLI::App& app) {
     auto args = std::make_shared<RefineArgs>();
     CLI::App* cmd = app.add_subcommand("refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)");
-    cmd->add_option("input", args->input, "input PLY (x y z nx ny nz [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease points); "
+    cmd->add_option("input", args->input, "input PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease points; normals and radii "
+                                          "estimated when absent); "
                                           "omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PLY (default: <input>-refined.ply)");
     auto* levels = cmd->add_option("-l,--levels", args->levels, fmt::format("refinement levels (default {})", kDefaultLevels))

@@ -38,8 +38,8 @@ struct RenderArgs {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-// The points of `input` (a PLY file, or the embedded default model when empty) with radii
-// (estimated when the file has none); `name` receives a name for messages.
+// The points of `input` (a PLY file, or the embedded default model when empty) with normals and
+// radii (estimated when the file has none); `name` receives a name for messages.
 PointSet loadForRendering(const std::string& input, std::string& name) {
     PointSet points;
     if (input.empty()) {
@@ -47,9 +47,9 @@ PointSet loadForRendering(const std::string& input, std::string& name) {
         points = makeDefaultModel();
     } else {
         name = input;
-        points = unwrap(readPly(input)).points;
+        points = readInput(input);
     }
-    if (!points.hasRadius()) estimateRadiiOrFail(points, 0, name);
+    completeInput(points, 0, name);
     return points;
 }
 

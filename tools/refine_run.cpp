@@ -6,11 +6,28 @@
 
 #include "commands.h"
 #include "progress.h"
+#include "pnsplat/refine/normal_estimation.h"
+#include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 
 namespace pnsplat::tools {
 
-void estimateRadiiOrFail(PointSet& points, unsigned threads, const std::string& inputName) {
+PointSet readInput(const std::string& path) {
+    PlyReadOptions options;
+    options.requireNormals = false;
+    return unwrap(readPly(path, options)).points;
+}
+
+void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
+    if (!points.hasNormal()) {
+        auto estimate = estimateNormals(points, threads);
+        if (!estimate) throw CommandError(inputName + ": " + estimate.error().message);
+        fmt::print(stderr,
+                   "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented along a "
+                   "spanning tree ({} connected part(s), each facing +z at its top)\n",
+                   inputName, kNormalNearest, estimate->components);
+    }
+    if (points.hasRadius() && !replaceRadii) return;
     estimateRadii(points, threads);
     for (std::size_t i = 0; i < points.size(); ++i)
         if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
@@ -23,7 +40,7 @@ void estimateRadiiOrFail(PointSet& points, unsigned threads, const std::string& 
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
     if (points.size() < 3)
         throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
-    if (!points.hasRadius() || job.estimateRadii) estimateRadiiOrFail(points, job.options.threads, inputName);
+    completeInput(points, job.options.threads, inputName, job.estimateRadii);
     if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
     RefineRun run;
     HoleRims rims;

@@ -34,13 +34,18 @@ struct RefineJob {
     bool estimateRadii = false; // replace the input's radii by estimated ones
 };
 
-// Replaces the radii of `points` by estimated ones (SPEC 9); a point without any (no neighbour but
-// coincident points or points along its normal, or distances beyond single precision) is a
-// CommandError naming `inputName`.
-void estimateRadiiOrFail(PointSet& points, unsigned threads, const std::string& inputName);
+// The points of a PLY file for refinement or rendering: normals may be absent (completeInput
+// estimates them). A bad file is a CommandError.
+PointSet readInput(const std::string& path);
 
-// Estimates radii when `points` has none (or when job.estimateRadii), checks the input
-// (CommandError naming `inputName`), then runs the job.
+// Completes an input (SPEC 9): normals estimated when it has none (with a note on stderr), then
+// radii when it has none or `replaceRadii`. A point for which either cannot be estimated (no plane
+// through its nearest points; no neighbour but coincident points or points along its normal, or
+// distances beyond single precision) is a CommandError naming `inputName`.
+void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii = false);
+
+// Completes the input (completeInput, job.estimateRadii), checks it (CommandError naming
+// `inputName`), then runs the job.
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName);
 
 } // namespace pnsplat::tools

@@ -259,7 +259,8 @@ Result<VertexLayout> vertexLayout(const Element& vertex, const PlyReadOptions& o
     for (int s : {kX, kY, kZ})
         if (!has(s)) return fail(file, fmt::format("vertex element has no '{}' property", kSlotNames[s]));
     layout.hasNormal = has(kNx) && has(kNy) && has(kNz);
-    if (!layout.hasNormal && !(options.readFaces && !has(kNx) && !has(kNy) && !has(kNz))) {
+    const bool normalsOptional = options.readFaces || !options.requireNormals;
+    if (!layout.hasNormal && !(normalsOptional && !has(kNx) && !has(kNy) && !has(kNz))) {
         for (int s : {kNx, kNy, kNz})
             if (!has(s))
                 return fail(file, fmt::format("vertex element has no '{}' property", kSlotNames[s]));

@@ -8,34 +8,20 @@
 #include <span>
 
 #include <glm/geometric.hpp>
-#include <nanoflann.hpp>
 
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/worker_pool.h"
+#include "kd_tree.h"
 
 namespace pnsplat {
-
-namespace {
-
-struct Cloud {
-    std::span<const glm::vec3> points;
-    std::size_t kdtree_get_point_count() const { return points.size(); }
-    float kdtree_get_pt(std::size_t i, std::size_t dim) const { return points[i][static_cast<int>(dim)]; }
-    template <class Box>
-    bool kdtree_get_bbox(Box&) const { return false; }
-};
-
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>, Cloud, 3, std::uint32_t>;
-
-} // namespace
 
 void estimateRadii(PointSet& points, unsigned threads) {
     const std::size_t count = points.size();
     points.radius.assign(count, 0.0f);
     if (count < 2) return;
-    const Cloud cloud{points.position};
-    Tree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    const KdCloud cloud{points.position};
+    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     tree.buildIndex();
 
     // Survivors per point, for the symmetric pass: at most kMaxCandidates each.

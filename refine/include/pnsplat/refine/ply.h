@@ -1,9 +1,10 @@
 // PLY input and output of oriented point sets.
 //
 // Reads ascii and binary little-endian (and big-endian) PLY files with one `vertex` element whose
-// properties may come in any order and any scalar type: `x y z nx ny nz` are required, `red green
-// blue` (uchar, or float in [0,1]) and `radius` are optional; other properties and other
-// elements (faces, ...) are skipped. Any thread may call these functions.
+// properties may come in any order and any scalar type: `x y z nx ny nz` are required (`nx ny nz`
+// may be left out where PlyReadOptions allow), `red green blue` (uchar, or float in [0,1]) and
+// `radius` are optional; other properties and other elements (faces, ...) are skipped. Any thread
+// may call these functions.
 //
 // Details of reading: integer colours are clamped to 0..255, float colours scaled by 255 and
 // rounded; colour is kept only when all of red, green and blue are present. List properties of any
@@ -27,6 +28,9 @@ struct PlyReadOptions {
     // face element gives no triangles. When set, nx ny nz may be absent as a whole (a bare mesh
     // such as ../shared/data/*-mesh.ply): PointSet::normal is then left empty.
     bool readFaces = false;
+    // When cleared, nx ny nz may be absent as a whole (a scan of positions only): PointSet::normal
+    // is then left empty, for estimateNormals (normal_estimation.h). Some of them alone stay an error.
+    bool requireNormals = true;
 };
 
 struct PlyData {

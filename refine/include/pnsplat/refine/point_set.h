@@ -22,13 +22,14 @@ namespace pnsplat {
 
 struct PointSet {
     HugePageVector<glm::vec3> position;
-    HugePageVector<glm::vec3> normal;
+    HugePageVector<glm::vec3> normal;   // empty only when read without normals (see estimateNormals)
     HugePageVector<float> radius;       // empty when the source gave none (see estimateRadii)
     HugePageVector<glm::u8vec3> colour; // empty when the model has no colour
     HugePageVector<glm::vec3> crease;   // second normals; empty when no point is a crease point
 
     std::size_t size() const { return position.size(); }
     bool empty() const { return position.empty(); }
+    bool hasNormal() const { return !normal.empty(); }
     bool hasRadius() const { return !radius.empty(); }
     bool hasColour() const { return !colour.empty(); }
     bool hasCrease() const { return !crease.empty(); }

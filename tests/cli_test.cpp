@@ -163,12 +163,13 @@ TEST(CliHelp, ProgramAndSubcommandsPrintTheirOptions) {
     const std::vector<Case> cases = {
         {"--help", {"refine", "eval", "bench", "render", "diff"}},
         {"render --help",
-         {"--output", "--width", "--height", "--camera", "--orbit", "--fov", "--refine-levels", "--path", "--device"}},
+         {"--output", "--width", "--height", "--camera", "--orbit", "--fov", "--refine-levels", "--fill-hole", "--path",
+          "--device"}},
         {"diff --help", {"--heatmap", "--max-rmse"}},
         {"bench render --help", {"--sizes", "--splat-pixels", "--repeat", "--output"}},
         {"refine --help",
          {"--output", "--levels", "--target-points", "--threads", "--fast", "--neighbourhood",
-          "--no-smoothing", "--euclidean-geodesic", "--plain-angle", "--centroid-candidates"}},
+          "--no-smoothing", "--euclidean-geodesic", "--plain-angle", "--centroid-candidates", "--fill-hole"}},
         {"eval --help",
          {"--reference", "--input", "--output", "sphere:R", "torus:R,r", "uniformity_cv", "holes"}},
         {"bench --help", {"refine"}},
@@ -602,6 +603,10 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
          "-3e38 0 0 0 0 1 1\n3e38 0 0 0 0 1 1\n0 3e38 0 0 0 1 1\n",
          "", "bounding sphere overflows"},
         {"coincident points", headerAscii(3) + "1 2 3 0 0 1\n1 2 3 0 0 1\n1 2 3 0 0 1\n", "", "no radius can be estimated"},
+        {"three numbers for a hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
+         "--fill-hole 1,2,3", "expected X,Y,Z,R"},
+        {"a point inside the hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
+         "--fill-hole 0.1,0,0,0.5", "lies inside hole 1"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.name);

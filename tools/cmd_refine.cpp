@@ -3,9 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <optional>
 #include <string>
-#include <string_view>
 
 #include <fmt/core.h>
 
@@ -14,7 +12,6 @@
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
-#include "pnsplat/refine/text.h"
 
 namespace pnsplat::tools {
 
@@ -41,25 +38,6 @@ struct RefineArgs {
 };
 
 constexpr unsigned kDefaultLevels = 4;
-
-// "X,Y,Z,R": four finite numbers (a leading '+' allowed), R > 0; a CommandError naming the option
-// and the text.
-Hole parseHole(std::string_view text) {
-    float values[4];
-    std::size_t count = 0;
-    for (std::size_t begin = 0; begin <= text.size() && count <= 4;) {
-        const std::size_t end = std::min(text.find(',', begin), text.size());
-        std::string_view part = text.substr(begin, end - begin);
-        if (part.starts_with('+')) part.remove_prefix(1);
-        const std::optional<float> value = parseFloat(part);
-        if (!value || count == 4) count = 5; // not a number, or a fifth one
-        else values[count++] = *value;
-        begin = end + 1;
-    }
-    if (count != 4) throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
-    if (!(values[3] > 0.0f)) throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text));
-    return Hole{glm::vec3(values[0], values[1], values[2]), values[3]};
-}
 
 void runRefine(const RefineArgs& args) {
     using Clock = std::chrono::steady_clock;
@@ -90,7 +68,7 @@ void runRefine(const RefineArgs& args) {
     job.targetPoints = args.targetPoints;
     job.evenOutFactor = args.evenOut;
     job.estimateRadii = args.estimateRadii;
-    for (const std::string& hole : args.holes) job.holes.push_back(parseHole(hole));
+    job.holes = parseHoles(args.holes);
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
     const double refineSeconds = run.seconds;
     const unsigned done = run.levels;
@@ -160,14 +138,7 @@ void addRefineCommand(CLI::App& app) {
             },
             "0 or [1, 100]"))
         ->capture_default_str();
-    cmd->add_option("--fill-hole", args->holes,
-                    "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: the "
-                    "radii of the points around it are enlarged to span it, and they and the points they insert are "
-                    "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 spacings)")
-        ->type_name("X,Y,Z,R")
-        ->expected(1)
-        ->allow_extra_args(false)
-        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+    addFillHoleOption(*cmd, args->holes);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
     cmd->callback([args] { runRefine(*args); });

@@ -28,6 +28,7 @@ struct RenderArgs {
     double orbitDegrees = 0.0;
     double fovDegrees = 40.0;
     unsigned refineLevels = 0;
+    std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
     std::string path = "auto";
     std::string device;
     std::vector<float> background{1.0f, 1.0f, 1.0f};
@@ -66,9 +67,10 @@ void runRender(const RenderArgs& args) {
     std::string name;
     PointSet points = loadForRendering(args.input, name);
     const std::size_t inputCount = points.size();
-    if (args.refineLevels > 0) {
+    if (args.refineLevels > 0 || !args.holes.empty()) {
         RefineJob job;
         job.levels = args.refineLevels;
+        job.holes = parseHoles(args.holes);
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
         fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount, points.size(), run.levels,
@@ -138,6 +140,7 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--fov", args->fovDegrees, "vertical field of view, degrees")->check(CLI::Range(1.0, 179.0))->capture_default_str();
     cmd->add_option("--refine-levels", args->refineLevels, "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
+    addFillHoleOption(*cmd, args->holes);
     cmd->add_option("--path", args->path, "compute (atomics), graphics (raster pipeline), or auto: compute where the device can")
         ->check(CLI::IsMember({"auto", "compute", "graphics"}))
         ->capture_default_str();

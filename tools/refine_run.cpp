@@ -1,6 +1,8 @@
 #include "refine_run.h"
 
 #include <cmath>
+#include <optional>
+#include <string_view>
 
 #include <fmt/core.h>
 
@@ -9,8 +11,49 @@
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
+#include "pnsplat/refine/text.h"
 
 namespace pnsplat::tools {
+
+namespace {
+
+// "X,Y,Z,R": four finite numbers (a leading '+' allowed), R > 0; a CommandError naming the option
+// and the text.
+Hole parseHole(std::string_view text) {
+    float values[4];
+    std::size_t count = 0;
+    for (std::size_t begin = 0; begin <= text.size() && count <= 4;) {
+        const std::size_t end = std::min(text.find(',', begin), text.size());
+        std::string_view part = text.substr(begin, end - begin);
+        if (part.starts_with('+')) part.remove_prefix(1);
+        const std::optional<float> value = parseFloat(part);
+        if (!value || count == 4) count = 5; // not a number, or a fifth one
+        else values[count++] = *value;
+        begin = end + 1;
+    }
+    if (count != 4) throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
+    if (!(values[3] > 0.0f)) throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text));
+    return Hole{glm::vec3(values[0], values[1], values[2]), values[3]};
+}
+
+} // namespace
+
+std::vector<Hole> parseHoles(const std::vector<std::string>& texts) {
+    std::vector<Hole> holes;
+    for (const std::string& text : texts) holes.push_back(parseHole(text));
+    return holes;
+}
+
+void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes) {
+    cmd.add_option("--fill-hole", holes,
+                   "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: the "
+                   "radii of the points around it are enlarged to span it, and they and the points they insert are "
+                   "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 spacings)")
+        ->type_name("X,Y,Z,R")
+        ->expected(1)
+        ->allow_extra_args(false)
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+}
 
 PointSet readInput(const std::string& path) {
     PlyReadOptions options;

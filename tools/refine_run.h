@@ -1,4 +1,5 @@
-// Level-by-level refinement with a progress bar, shared by `refine` and `render --refine-levels`.
+// Level-by-level refinement with a progress bar, and its input and options, shared by `refine` and
+// `render --refine-levels`.
 #pragma once
 
 #include <cstddef>
@@ -7,6 +8,10 @@
 
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/refiner.h"
+
+namespace CLI {
+class App;
+}
 
 namespace pnsplat::tools {
 
@@ -33,6 +38,12 @@ struct RefineJob {
     std::vector<Hole> holes;
     bool estimateRadii = false; // replace the input's radii by estimated ones
 };
+
+// `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`.
+void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes);
+// The holes of the option's texts; a text that is not four finite numbers with R > 0 is a
+// CommandError naming the option and the text.
+std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
 
 // The points of a PLY file for refinement or rendering: normals may be absent (completeInput
 // estimates them). A bad file is a CommandError.

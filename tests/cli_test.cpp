@@ -387,6 +387,10 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
          "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
          "end_header\n0 0 0\n1 0 0\n2 0 0\n3 0 0\n",
          Usage::NotAllowed, "no normal can be estimated"},
+        {"no normals, extent beyond single precision",
+         "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+         "end_header\n0 0 0\n1e30 0 0\n0 1e30 0\n1e30 1e30 1e30\n",
+         Usage::NotAllowed, "beyond single precision"},
         {"nx without ny nz",
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nend_header\n0 0 0 1\n1 0 0 1\n0 1 0 1\n",

@@ -4,7 +4,9 @@
 #include <cmath>
 #include <cstddef>
 #include <iostream>
+#include <numbers>
 #include <random>
+#include <string>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
@@ -91,7 +93,7 @@ Agreement compare(const PointSet& points, const HugePageVector<glm::vec3>& truth
     for (std::size_t i = 0; i < points.size(); ++i) {
         const float d = glm::dot(points.normal[i], truth[i]);
         a.flipped += d < 0.0f ? 1 : 0;
-        a.meanDegrees += std::acos(std::min(1.0, static_cast<double>(std::abs(d)))) * 180.0 / M_PI;
+        a.meanDegrees += std::acos(std::min(1.0, static_cast<double>(std::abs(d)))) * 180.0 / std::numbers::pi;
     }
     a.meanDegrees /= static_cast<double>(points.size());
     return a;
@@ -134,6 +136,35 @@ TEST(NormalEstimation, SeparatePartsAreEachOriented) {
     EXPECT_EQ(compare(both, truth).flipped, 0u);
 }
 
+// Fewer points than kNormalNearest + 1: a square's four corners all face +z.
+TEST(NormalEstimation, FewPointsFitTheirPlane) {
+    PointSet square;
+    square.position = {glm::vec3(0, 0, 1), glm::vec3(1, 0, 1), glm::vec3(1, 1, 1), glm::vec3(0, 1, 1)};
+    const auto estimate = estimateNormals(square, 1);
+    ASSERT_TRUE(estimate.ok()) << estimate.error().message;
+    for (const glm::vec3& n : square.normal) EXPECT_EQ(n, glm::vec3(0, 0, 1));
+}
+
+// Every point six times over (more copies than one search returns): the copies are left out of
+// each other's neighbourhoods, and every copy gets the outward normal of its point.
+TEST(NormalEstimation, DuplicatedPointsAreLeftOutOfTheFit) {
+    const PointSet sphere = sampleSphereRandom(1000, 1.0f, 13);
+    PointSet copies;
+    HugePageVector<glm::vec3> truth;
+    for (int copy = 0; copy < 6; ++copy)
+        for (std::size_t i = 0; i < sphere.size(); ++i) {
+            copies.position.push_back(sphere.position[i]);
+            truth.push_back(sphere.normal[i]);
+        }
+    const auto estimate = estimateNormals(copies, 2);
+    ASSERT_TRUE(estimate.ok()) << estimate.error().message;
+    const Agreement a = compare(copies, truth);
+    std::cout << "[sphere 1000 random, 6 copies] flipped " << a.flipped << ", mean error " << a.meanDegrees << " deg\n";
+    EXPECT_EQ(a.flipped, 0u);
+    EXPECT_LT(a.meanDegrees, 2.0);
+    for (std::size_t i = 0; i < sphere.size(); ++i) ASSERT_EQ(copies.normal[i], copies.normal[5 * sphere.size() + i]);
+}
+
 TEST(NormalEstimation, ThreadCountDoesNotChangeTheNormals) {
     PointSet one = withoutNormals(sampleTorusRandom(3500, 1.0f, 0.4f, 7)), two = one;
     ASSERT_TRUE(estimateNormals(one, 1).ok());
@@ -172,34 +203,50 @@ TEST(NormalEstimation, DataModelsAgreeWithTheirNormals) {
     }
 }
 
-// No plane to fit, too few points, a non-finite position: an error, and nothing changes.
+// No plane to fit, too few points, a non-finite position, an extent beyond single precision: an
+// error, and nothing changes (positions, normals given before, radii).
 TEST(NormalEstimation, BadInputIsAnErrorAndChangesNothing) {
-    PointSet line, coincident, few, notFinite;
+    const auto withAttributes = [](PointSet points) {
+        points.normal.assign(points.size(), glm::vec3(0, 0, 1));
+        points.radius.assign(points.size(), 0.25f);
+        return points;
+    };
+    PointSet line, diagonal, coincident, few;
     for (int k = 0; k < 20; ++k) line.position.push_back(glm::vec3(0.1f * static_cast<float>(k), 1, 2));
+    // Along (1, 1, 1.3) away from the origin: off the line by the rounding of the coordinates only.
+    for (int k = 0; k < 50; ++k) {
+        const float t = 0.37f * static_cast<float>(k);
+        diagonal.position.push_back(glm::vec3(10.0f + t, 10.0f + t, 10.0f + 1.3f * t));
+    }
     for (int k = 0; k < 20; ++k) coincident.position.push_back(glm::vec3(1, 2, 3));
     few.position = {glm::vec3(0), glm::vec3(1, 0, 0)};
-    notFinite = withoutNormals(sampleSphereUniform(100, 1.0f));
+    PointSet notFinite = sampleSphereUniform(100, 1.0f), huge = notFinite, tiny = notFinite;
     notFinite.position[37].y = std::nanf("");
+    for (glm::vec3& x : huge.position) x *= 1e20f;
+    for (glm::vec3& x : tiny.position) x *= 1e-23f;
     const struct {
         const char* name;
-        PointSet* points;
+        PointSet points;
         const char* says;
     } cases[] = {
-        {"points on a line", &line, "no normal can be estimated for 20 point(s)"},
-        {"coincident points", &coincident, "no normal can be estimated"},
-        {"two points", &few, "at least 3 points"},
-        {"NaN position", &notFinite, "point 37 has a non-finite position"},
+        {"points on a line", withAttributes(line), "no normal can be estimated for 20 point(s)"},
+        {"a diagonal line off the origin", withAttributes(diagonal), "no normal can be estimated for 50 point(s)"},
+        {"coincident points", withAttributes(coincident), "all 20 points coincide"},
+        {"two points", withAttributes(few), "at least 3 points"},
+        {"NaN position", withAttributes(notFinite), "point 37 has a non-finite position"},
+        {"extent 2e20", withAttributes(huge), "beyond single precision"},
+        {"extent 2e-23", withAttributes(tiny), "beyond single precision"},
     };
     for (const auto& c : cases) {
-        const PointSet before = *c.points;
-        const auto estimate = estimateNormals(*c.points, 2);
+        PointSet points = c.points;
+        const auto estimate = estimateNormals(points, 2);
         ASSERT_FALSE(estimate.ok()) << c.name;
         std::cout << "[" << c.name << "] " << estimate.error().message << "\n";
         EXPECT_NE(estimate.error().message.find(c.says), std::string::npos) << estimate.error().message;
-        EXPECT_TRUE(c.points->normal.empty()) << c.name;
-        EXPECT_TRUE(std::equal(before.position.begin(), before.position.end(), c.points->position.begin(),
-                               [](glm::vec3 a, glm::vec3 b) { return a == b || (a != a && b != b); }))
-            << c.name;
+        const auto same = [](glm::vec3 a, glm::vec3 b) { return a == b || (a != a && b != b); }; // NaN too
+        EXPECT_TRUE(std::equal(points.position.begin(), points.position.end(), c.points.position.begin(), same)) << c.name;
+        EXPECT_TRUE(points.normal == c.points.normal) << c.name;
+        EXPECT_TRUE(points.radius == c.points.radius) << c.name;
     }
 }
 

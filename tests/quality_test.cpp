@@ -360,6 +360,15 @@ TEST(InputPreservation, BitExactComparison) {
     EXPECT_FALSE(bent.inputPreserved);
     EXPECT_EQ(bent.inputMissing, 1u);
 
+    // An input of positions only (normals estimated when it was refined): by position alone, so
+    // the turned normal is no loss, the nudged position still is.
+    PointSet positions = input;
+    positions.normal.clear();
+    EXPECT_TRUE(evaluateQuality(turned, ref, &positions, options).inputPreserved);
+    const QualityReport movedPosition = evaluateQuality(nudged, ref, &positions, options);
+    EXPECT_FALSE(movedPosition.inputPreserved);
+    EXPECT_EQ(movedPosition.inputMissing, 1u);
+
     // Without an input the fields are null in JSON.
     const QualityReport none = evaluateQuality(refined, ref, nullptr, options);
     EXPECT_FALSE(none.hasInput);

@@ -9,6 +9,7 @@
 #include <fmt/core.h>
 
 #include "commands.h"
+#include "refine_run.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/quality.h"
 
@@ -56,7 +57,7 @@ void runEval(const EvalArgs& args) {
         throw CommandError(fmt::format("{}: needs at least 2 points to measure spacing", args.refined));
 
     PointSet input;
-    if (!args.input.empty()) input = unwrap(readPly(args.input)).points;
+    if (!args.input.empty()) input = readInput(args.input); // positions only: compared by position
 
     EvalOptions options;
     options.threads = args.threads;
@@ -94,7 +95,8 @@ void addEvalCommand(CLI::App& app) {
         "  uniformity_cv     std / mean of those nearest-neighbour distances (0 = perfectly even)\n"
         "  holes             share of reference points with no refined point within 2 x spacing_mean\n"
         "  holes_tangential  the same, distances measured in the reference point's tangent plane\n"
-        "  input_preserved   every --input point's position and normal in the output bit for bit (+ input_missing)\n"
+        "  input_preserved   every --input point's position and normal (position alone for an input without normals)\n"
+        "                    in the output bit for bit (+ input_missing)\n"
         "True surface: sphere/torus exact (holes use 200k samples); a mesh PLY exact (true normal = vertex\n"
         "normals interpolated at the closest point; holes use its vertices); a points-only PLY approximate\n"
         "(nearest reference point's tangent plane and normal).");

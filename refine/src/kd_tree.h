@@ -2,6 +2,7 @@
 // radii or normals (SPEC 9). Private to refine/src. Build once, then query from any thread.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 

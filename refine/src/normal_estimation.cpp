@@ -2,9 +2,10 @@
 #include "pnsplat/refine/normal_estimation.h"
 
 #include <algorithm>
-#include <cassert>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <numeric>
 #include <queue>
 #include <vector>
@@ -61,6 +62,9 @@ SmallestEigen smallestEigenvector(const double (&m)[3][3]) {
 
 namespace {
 
+// The most neighbours one search asks for while coincident points crowd out distinct ones.
+constexpr std::size_t kMaxSearch = 16 * (kNormalNearest + 1);
+
 // Whether a's component starts before b's: larger z, then y, then x, then the smaller index.
 bool startsBefore(const PointSet& points, std::uint32_t a, std::uint32_t b) {
     const glm::vec3 pa = points.position[a], pb = points.position[b];
@@ -106,33 +110,65 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
         if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
             return Error{fmt::format("point {} has a non-finite position: no normal can be estimated", i)};
     }
+    glm::vec3 lo = points.position[0], hi = lo;
+    for (const glm::vec3& x : points.position) {
+        lo = glm::min(lo, x);
+        hi = glm::max(hi, x);
+    }
+    const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+    if (extent == 0.0f) return Error{fmt::format("all {} points coincide: no normal can be estimated", count)};
+    // The k-d tree measures squared distances in single precision.
+    if (!(extent * extent <= std::numeric_limits<float>::max()) ||
+        !(extent * extent >= std::numeric_limits<float>::min()))
+        return Error{fmt::format("the points' extent {} is beyond single precision (its square over- or underflows): "
+                                 "no normal can be estimated",
+                                 extent)};
     const KdCloud cloud{points.position};
     KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     tree.buildIndex();
 
-    // The k nearest of each point (itself left out; coincident points stay), for the graph.
-    const unsigned k = static_cast<unsigned>(std::min<std::size_t>(kNormalNearest, count - 1));
+    // The k nearest distinct points of each: the point itself, points coincident with it and
+    // copies of a neighbour already taken are left out (a copy stands for its position once).
+    // Where fewer than k are found within kMaxSearch, the rest of the row repeats the point.
+    const std::size_t k = std::min<std::size_t>(kNormalNearest, count - 1);
     std::vector<std::uint32_t> nearest(count * k);
     HugePageVector<glm::vec3> normal(count);
     std::vector<std::uint8_t> degenerate(count, 0);
     WorkerPool pool(threads);
+    struct Scratch {
+        std::vector<std::uint32_t> index;
+        std::vector<float> distance2;
+    };
+    std::vector<Scratch> scratch(pool.size());
     constexpr std::size_t kBatch = 256;
-    parallelForRanges(pool, count, kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
-        std::array<std::uint32_t, kNormalNearest + 1> index;
-        std::array<float, kNormalNearest + 1> distance2;
+    parallelForRanges(pool, count, kBatch, [&](std::size_t begin, std::size_t end, unsigned worker) {
+        Scratch& s = scratch[worker];
         for (std::size_t i = begin; i < end; ++i) {
             const glm::vec3 x = points.position[i];
-            const std::size_t found = tree.knnSearch(&x.x, k + 1, index.data(), distance2.data());
-            // k others among the k + 1 found (the point itself may be left out by coincident ties).
             std::uint32_t* mine = &nearest[i * k];
             std::size_t stored = 0;
-            for (std::size_t m = 0; m < found && stored < k; ++m)
-                if (index[m] != i) mine[stored++] = index[m];
-            assert(stored == k);
+            // Ask for more while coincident points crowd out distinct ones.
+            for (std::size_t want = k + 1;; want = std::min(2 * want, kMaxSearch)) {
+                s.index.resize(want);
+                s.distance2.resize(want);
+                const std::size_t found = tree.knnSearch(&x.x, want, s.index.data(), s.distance2.data());
+                stored = 0;
+                for (std::size_t m = 0; m < found && stored < k; ++m) {
+                    const glm::vec3 y = points.position[s.index[m]];
+                    const bool seen = std::any_of(mine, mine + stored, [&](std::uint32_t j) { return points.position[j] == y; });
+                    if (s.distance2[m] > 0.0f && !seen) mine[stored++] = s.index[m];
+                }
+                if (stored == k || found < want || want == kMaxSearch) break;
+            }
             // The covariance of the point and its neighbours about their centroid, in double.
             glm::dvec3 centroid(x);
-            for (std::size_t m = 0; m < k; ++m) centroid += glm::dvec3(points.position[mine[m]]);
-            centroid /= static_cast<double>(k + 1);
+            float largest = std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+            for (std::size_t m = 0; m < stored; ++m) {
+                const glm::vec3 y = points.position[mine[m]];
+                centroid += glm::dvec3(y);
+                largest = std::max({largest, std::abs(y.x), std::abs(y.y), std::abs(y.z)});
+            }
+            centroid /= static_cast<double>(stored + 1);
             double covariance[3][3] = {};
             const auto add = [&](glm::vec3 y) {
                 const glm::dvec3 d = glm::dvec3(y) - centroid;
@@ -140,10 +176,13 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
                     for (int c = r; c < 3; ++c) covariance[r][c] += d[r] * d[c];
             };
             add(x);
-            for (std::size_t m = 0; m < k; ++m) add(points.position[mine[m]]);
+            for (std::size_t m = 0; m < stored; ++m) add(points.position[mine[m]]);
+            for (std::size_t m = stored; m < k; ++m) mine[m] = static_cast<std::uint32_t>(i);
             const SmallestEigen e = smallestEigenvector(covariance);
-            // No plane: every neighbour on one line through the centroid, or on the point itself.
-            degenerate[i] = !(e.values[1] > 1e-12 * e.values[2]);
+            // No plane: the neighbours spread across a line by no more than the rounding of their
+            // single-precision coordinates (about (ε·|x|)² per point), or no neighbour at all.
+            const double rounding = static_cast<double>(std::numeric_limits<float>::epsilon()) * static_cast<double>(largest);
+            degenerate[i] = !(e.values[1] > static_cast<double>(stored + 1) * rounding * rounding);
             normal[i] = glm::vec3(e.vector);
         }
     });
@@ -151,16 +190,17 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
     if (bad > 0) {
         const auto first = static_cast<std::size_t>(std::find(degenerate.begin(), degenerate.end(), 1) - degenerate.begin());
         return Error{fmt::format("no normal can be estimated for {} point(s) (the first: point {}): their {} "
-                                 "nearest points are coincident or on one line",
+                                 "nearest distinct points are too few or lie on one line",
                                  bad, first, k)};
     }
 
     // The symmetric graph: i's own nearest, then the points that have i among theirs.
-    std::vector<std::uint32_t> reverseBegin(count + 1, 0), reverse(count * k);
+    std::vector<std::size_t> reverseBegin(count + 1, 0);
+    std::vector<std::uint32_t> reverse(count * k);
     for (std::size_t e = 0; e < nearest.size(); ++e) ++reverseBegin[nearest[e] + 1];
     std::partial_sum(reverseBegin.begin(), reverseBegin.end(), reverseBegin.begin());
     {
-        std::vector<std::uint32_t> fill(reverseBegin.begin(), reverseBegin.end() - 1);
+        std::vector<std::size_t> fill(reverseBegin.begin(), reverseBegin.end() - 1);
         for (std::size_t e = 0; e < nearest.size(); ++e) reverse[fill[nearest[e]]++] = static_cast<std::uint32_t>(e / k);
     }
 
@@ -175,8 +215,8 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
             frontier.push(FrontierEdge{orientationWeight(points.position[from], normal[from], points.position[to], normal[to]),
                                        to, from});
         };
-        for (unsigned m = 0; m < k; ++m) push(nearest[from * k + m]);
-        for (std::uint32_t e = reverseBegin[from]; e < reverseBegin[from + 1]; ++e) push(reverse[e]);
+        for (std::size_t m = 0; m < k; ++m) push(nearest[std::size_t{from} * k + m]);
+        for (std::size_t e = reverseBegin[from]; e < reverseBegin[from + 1]; ++e) push(reverse[e]);
     };
     NormalEstimate estimate;
     for (const std::uint32_t start : starts) {

@@ -594,8 +594,9 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     // 4. Input preservation: each input point's 6 floats, bit for bit, among the output's.
     if (input) {
         using Key = std::array<std::uint32_t, 6>;
-        auto keyOf = [](const PointSet& set, std::size_t i) {
-            const glm::vec3 p = set.position[i], q = set.normal[i];
+        const bool byNormal = input->hasNormal(); // an input of positions only: by position alone
+        auto keyOf = [&](const PointSet& set, std::size_t i) {
+            const glm::vec3 p = set.position[i], q = byNormal ? set.normal[i] : glm::vec3(0.0f);
             return Key{std::bit_cast<std::uint32_t>(p.x), std::bit_cast<std::uint32_t>(p.y),
                        std::bit_cast<std::uint32_t>(p.z), std::bit_cast<std::uint32_t>(q.x),
                        std::bit_cast<std::uint32_t>(q.y), std::bit_cast<std::uint32_t>(q.z)};

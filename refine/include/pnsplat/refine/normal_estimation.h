@@ -28,11 +28,13 @@
 
 namespace pnsplat {
 
+// The neighbours of each point's plane fit (distinct points: the point itself and points
+// coincident with it are left out), and of its edges in the orientation's graph.
 inline constexpr unsigned kNormalNearest = 10;
 
 // The unit eigenvector of the smallest eigenvalue of the symmetric 3×3 matrix m (m[r][c]; only
 // the upper triangle is read), by cyclic Jacobi rotations in double precision, and the three
-// eigenvalues in increasing order. The vector's sign is unspecified.
+// eigenvalues in increasing order. The vector's sign is unspecified. A pure function; any thread.
 struct SmallestEigen {
     glm::dvec3 vector;
     double values[3];
@@ -44,9 +46,11 @@ struct NormalEstimate {
 };
 
 // Fills points.normal (replacing any normals present) and clears points.crease. Fails with a
-// one-line message, changing nothing, for fewer than 3 points, non-finite positions, or points
-// whose nearest points are all coincident or on one line (no plane to fit), naming how many and
-// the first.
+// one-line message, changing nothing, for: fewer than 3 points; a non-finite position; all points
+// coincident; an extent whose square leaves single precision (the k-d tree's squared distances);
+// points whose nearest distinct points lie on one line within the rounding of their coordinates,
+// or are too few (no plane to fit), naming how many and the first. Any thread may call it (it
+// runs its own workers).
 Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads = 0);
 
 } // namespace pnsplat

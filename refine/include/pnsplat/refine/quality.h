@@ -15,7 +15,8 @@
 //   points), which tells a gap in the sampling from a refined surface that lies slightly off the
 //   true one (for a sparse input, the approximation error can exceed twice the refined spacing);
 // - input preservation: whether every input point appears in the output with bit-identical
-//   position and normal (the method is interpolatory, SPEC 1), and how many do not.
+//   position and normal (the method is interpolatory, SPEC 1), and how many do not; for an input
+//   of positions only (its normals were estimated when it was refined), position alone.
 //
 // The true surface is one of:
 // - analytic (`sphere:R`, `torus:R,r`, centred at the origin, torus axis z): exact distances and
@@ -145,7 +146,7 @@ struct QualityReport {
 };
 
 // Evaluates `refined` against `reference`, and its interpolation of `input` when given.
-// Preconditions: refined has at least 2 points with normals; input (when given) has normals;
+// Preconditions: refined has at least 2 points with normals; input (when given) may lack them;
 // reference comes from parseReference / meshReference. Per-point work runs on options.threads
 // threads; the report is identical for every thread count (per-point results go to arrays
 // reduced sequentially in point order). Any thread may call it; it starts its own WorkerPool

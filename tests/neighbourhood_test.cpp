@@ -278,7 +278,11 @@ TEST(FilterFuzzy, SetsMatchBruteForce) {
     const auto onPatch = [](float x, float y) { return glm::vec3(x, y, 0.3f * (x * x + y * y)); };
     const auto normalAt = [](float x, float y) { return glm::normalize(glm::vec3(-0.6f * x, -0.6f * y, 1.0f)); };
     NeighbourhoodScratch scratch; // shared: the small sets' padding lanes hold the large sets' leftovers
-    for (const std::size_t count : {65u, 100u, 256u, 700u, 82u, 13u, 5u, 30u}) {
+    // Large sets (survivors by distance), then small ones (survivorsOfSmallSet), many of the size
+    // of a first ring.
+    std::vector<std::size_t> counts = {65u, 100u, 256u, 700u, 82u, 13u, 5u, 30u};
+    for (std::size_t k = 0; k < 200; ++k) counts.push_back(3 + k % 62);
+    for (const std::size_t count : counts) {
         const bool farPair = count == 82u;
         NeighbourSet set;
         for (std::uint32_t k = 0; k < count; ++k) {

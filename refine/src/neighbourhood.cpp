@@ -61,11 +61,10 @@ void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls, Nei
     float* sv = scratchArray(scratch.sv, count);
     for (std::size_t k = 0; k < count; ++k) {
         const glm::vec3 d = set.position[k] - p;
-        const float u = glm::dot(d, frame.u), v = glm::dot(d, frame.v);
-        su[k] = u;
-        sv[k] = v;
-        set.angle[k] = fastAtan2(v, u);
+        su[k] = glm::dot(d, frame.u);
+        sv[k] = glm::dot(d, frame.v);
     }
+    fastAtan2s(sv, su, set.angle.data(), count);
     set.nearControl.resize(withControls ? count : 0);
     set.farControl.resize(withControls ? count : 0);
     if (!withControls) return;
@@ -196,6 +195,51 @@ PNSPLAT_AVX2_CLONE std::size_t survivors(const FilterArrays& arrays, std::size_t
     return n;
 }
 
+// survivors() for sets of at most kBlock entries, the same decisions bit for bit: kLanes entries i
+// at a time in the lanes and every j in turn, so that each lane ends with the maxima of its own
+// entry (no reduction across lanes, no test per entry). The pair terms are those of survives();
+// lanes past the set are computed on and not kept.
+PNSPLAT_AVX2_CLONE std::size_t survivorsOfSmallSet(const FilterArrays& a, std::size_t count, float sinThetaF,
+                                                   std::uint32_t* kept) {
+    const float* __restrict px = a.px;
+    const float* __restrict py = a.py;
+    const float* __restrict pz = a.pz;
+    const float* __restrict su = a.su;
+    const float* __restrict sv = a.sv;
+    const float inverseSin = 1.0f / sinThetaF;
+    std::size_t n = 0;
+    for (std::size_t lanes = 0; lanes < count; lanes += kLanes) {
+        float worstSucc[kLanes] = {}, worstPred[kLanes] = {};
+        for (std::size_t j = 0; j < count; ++j) {
+            const float pjx = px[j], pjy = py[j], pjz = pz[j], djx = a.dx[j], djy = a.dy[j], djz = a.dz[j];
+            const float suj = su[j], svj = sv[j];
+            for (std::size_t l = 0; l < kLanes; ++l) {
+                const std::size_t i = lanes + l;
+                const float bx = px[i] - pjx, by = py[i] - pjy, bz = pz[i] - pjz;
+                const float length2 = bx * bx + by * by + bz * bz;
+                const float length = std::sqrt(length2 > 1e-30f ? length2 : 1e-30f);
+                const float sinIJ = (djx * bx + djy * by + djz * bz) / length;
+                float w = 0.5f * (sinIJ * inverseSin + 1.0f);
+                w = sinIJ >= -sinThetaF ? w : 0.0f;
+                w = length2 > 0.0f ? w : 0.0f;
+                const float cross = su[i] * svj - sv[i] * suj;
+                const float ahead = su[i] * suj + sv[i] * svj;
+                const float successor = cross > 0.0f ? w : 0.0f;
+                const float sameDirection = ahead > 0.0f ? w : 0.0f;
+                const float succ = cross == 0.0f ? sameDirection : successor;
+                const float pred = cross < 0.0f ? w : 0.0f;
+                worstSucc[l] = succ > worstSucc[l] ? succ : worstSucc[l];
+                worstPred[l] = pred > worstPred[l] ? pred : worstPred[l];
+            }
+        }
+        for (std::size_t l = 0; l < kLanes && lanes + l < count; ++l) {
+            kept[n] = static_cast<std::uint32_t>(lanes + l);
+            n += worstSucc[l] + worstPred[l] > 1.0f ? 0 : 1;
+        }
+    }
+    return n;
+}
+
 // Sets larger than a block: the filter's arrays copied in order of Euclidean distance from p
 // (ties by index) into scratch.byDistanceArrays, the order into scratch.byDistance. A far entry
 // is usually behind one of the nearest few, so survives() ends after a block or two: about O(k)
@@ -280,7 +324,9 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     const FilterArrays measured = byDistance ? sortedByDistance(p, arrays, set, scratch) : arrays;
     std::vector<std::uint32_t>& order = scratch.order;
     order.resize(count);
-    order.resize(survivors(measured, count, std::sin(params.thetaF), order.data()));
+    const float sinThetaF = std::sin(params.thetaF);
+    order.resize(byDistance ? survivors(measured, count, sinThetaF, order.data())
+                            : survivorsOfSmallSet(measured, count, sinThetaF, order.data()));
     if (byDistance)
         for (std::uint32_t& k : order) k = scratch.byDistance[k];
     sortOrderByAngle(set, scratch);

@@ -1071,14 +1071,16 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     if (!ring.empty()) {
         float newRadius = 0.0f;
         const std::size_t m = ring.size();
+        // Each side of the ring measured once: |p_j - p_j+1| reaches both of its members.
+        float before = glm::length(ring[0].position - ring[m - 1].position);
         for (std::size_t j = 0; j < m; ++j) {
             const glm::vec3 pj = ring[j].position;
             const float toP = glm::length(pj - x);
             newRadius = std::max(newRadius, toP);
+            const float after = glm::length(pj - ring[nextIndex(j, m)].position);
             float& rj = newPoint(ring[j]).radius;
-            const float reach = std::max({toP, glm::length(pj - ring[previousIndex(j, m)].position),
-                                          glm::length(pj - ring[nextIndex(j, m)].position)});
-            rj = std::max(rj, kRadiusMargin * reach);
+            rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
+            before = after;
         }
         points.radius[p] = kRadiusMargin * newRadius;
     }

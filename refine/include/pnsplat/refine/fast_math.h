@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <numbers>
 
 #include <glm/geometric.hpp>
@@ -18,8 +19,7 @@ inline float fastAtan2Upper(float y, float x) {
     constexpr float kPi = std::numbers::pi_v<float>;
     const float ax = std::abs(x);
     const float hi = std::max(ax, y), lo = std::min(ax, y);
-    if (hi == 0.0f) return 0.0f;
-    const float a = lo / hi;
+    const float a = hi > 0.0f ? lo / hi : 0.0f; // a select, so that loops of it vectorise; (0, 0) gives 0
     const float s = a * a;
     float r = ((((0.0208351f * s - 0.0851330f) * s + 0.1801410f) * s - 0.3302995f) * s + 0.9998660f) * a;
     if (y > ax) r = 0.5f * kPi - r;
@@ -33,6 +33,12 @@ inline float fastAtan2Upper(float y, float x) {
 inline float fastAtan2(float y, float x) {
     const float r = detail::fastAtan2Upper(std::abs(y), x);
     return std::signbit(y) ? -r : r;
+}
+
+// out[k] = fastAtan2(y[k], x[k]) for k in [0, n), bit for bit: a loop the compiler runs in SIMD
+// lanes (fastAtan2 is all selects), for the angles of a whole neighbourhood at once.
+inline void fastAtan2s(const float* __restrict y, const float* __restrict x, float* __restrict out, std::size_t n) {
+    for (std::size_t k = 0; k < n; ++k) out[k] = fastAtan2(y[k], x[k]);
 }
 
 // The unsigned angle between u and v in [0, π]; 0 when either is zero. The length of u × v is

@@ -145,8 +145,9 @@ TEST(NormalEstimation, FewPointsFitTheirPlane) {
     for (const glm::vec3& n : square.normal) EXPECT_EQ(n, glm::vec3(0, 0, 1));
 }
 
-// Every point six times over (more copies than one search returns): the copies are left out of
-// each other's neighbourhoods, and every copy gets the outward normal of its point.
+// Every point six times over, and one point 20,000 times: coincident points count as one in the
+// fit and the orientation (20,000 copies once crowded a search for distinct neighbours into
+// quadratic time), and every copy gets the outward normal of its point.
 TEST(NormalEstimation, DuplicatedPointsAreLeftOutOfTheFit) {
     const PointSet sphere = sampleSphereRandom(1000, 1.0f, 13);
     PointSet copies;
@@ -156,13 +157,18 @@ TEST(NormalEstimation, DuplicatedPointsAreLeftOutOfTheFit) {
             copies.position.push_back(sphere.position[i]);
             truth.push_back(sphere.normal[i]);
         }
+    for (int copy = 0; copy < 20000; ++copy) {
+        copies.position.push_back(sphere.position[17]);
+        truth.push_back(sphere.normal[17]);
+    }
     const auto estimate = estimateNormals(copies, 2);
     ASSERT_TRUE(estimate.ok()) << estimate.error().message;
     const Agreement a = compare(copies, truth);
-    std::cout << "[sphere 1000 random, 6 copies] flipped " << a.flipped << ", mean error " << a.meanDegrees << " deg\n";
+    std::cout << "[sphere 1000 random, 6 copies, one point 20,000 times] flipped " << a.flipped << ", mean error " << a.meanDegrees << " deg\n";
     EXPECT_EQ(a.flipped, 0u);
     EXPECT_LT(a.meanDegrees, 2.0);
     for (std::size_t i = 0; i < sphere.size(); ++i) ASSERT_EQ(copies.normal[i], copies.normal[5 * sphere.size() + i]);
+    EXPECT_EQ(copies.normal.back(), copies.normal[17]);
 }
 
 TEST(NormalEstimation, ThreadCountDoesNotChangeTheNormals) {

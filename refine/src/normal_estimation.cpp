@@ -62,16 +62,11 @@ SmallestEigen smallestEigenvector(const double (&m)[3][3]) {
 
 namespace {
 
-// The most neighbours one search asks for while coincident points crowd out distinct ones.
-constexpr std::size_t kMaxSearch = 16 * (kNormalNearest + 1);
-
-// Whether a's component starts before b's: larger z, then y, then x, then the smaller index.
-bool startsBefore(const PointSet& points, std::uint32_t a, std::uint32_t b) {
-    const glm::vec3 pa = points.position[a], pb = points.position[b];
-    if (pa.z != pb.z) return pa.z > pb.z;
-    if (pa.y != pb.y) return pa.y > pb.y;
-    if (pa.x != pb.x) return pa.x > pb.x;
-    return a < b;
+// Whether a's component starts before b's: larger z, then y, then x (distinct positions).
+bool startsBefore(glm::vec3 a, glm::vec3 b) {
+    if (a.z != b.z) return a.z > b.z;
+    if (a.y != b.y) return a.y > b.y;
+    return a.x > b.x;
 }
 
 // The weight of the graph edge (a, b) for the orientation's spanning tree: Hoppe's 1 - |n_a · n_b|
@@ -110,61 +105,63 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
         if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
             return Error{fmt::format("point {} has a non-finite position: no normal can be estimated", i)};
     }
-    glm::vec3 lo = points.position[0], hi = lo;
-    for (const glm::vec3& x : points.position) {
+    // Coincident points are one point of the fit and of the graph (they share its normal): the
+    // distinct positions in lexicographic order, and each point's place among them.
+    std::vector<std::uint32_t> byPosition(count);
+    std::iota(byPosition.begin(), byPosition.end(), 0u);
+    const auto lexicographic = [&](std::uint32_t a, std::uint32_t b) {
+        const glm::vec3 pa = points.position[a], pb = points.position[b];
+        return pa.x != pb.x ? pa.x < pb.x : (pa.y != pb.y ? pa.y < pb.y : pa.z < pb.z);
+    };
+    std::sort(byPosition.begin(), byPosition.end(), lexicographic);
+    std::vector<glm::vec3> distinct;
+    std::vector<std::uint32_t> distinctOf(count);
+    for (const std::uint32_t i : byPosition) {
+        if (distinct.empty() || distinct.back() != points.position[i]) distinct.push_back(points.position[i]);
+        distinctOf[i] = static_cast<std::uint32_t>(distinct.size() - 1);
+    }
+    const std::size_t m = distinct.size();
+    if (m == 1) return Error{fmt::format("all {} points coincide: no normal can be estimated", count)};
+    if (m < 3)
+        return Error{fmt::format("{} distinct positions among {} points: normals need at least 3 to fit a plane", m, count)};
+    glm::vec3 lo = distinct[0], hi = lo;
+    for (const glm::vec3& x : distinct) {
         lo = glm::min(lo, x);
         hi = glm::max(hi, x);
     }
     const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-    if (extent == 0.0f) return Error{fmt::format("all {} points coincide: no normal can be estimated", count)};
-    // The k-d tree measures squared distances in single precision.
-    if (!(extent * extent <= std::numeric_limits<float>::max()) ||
+    // The k-d tree measures squared distances in single precision: up to 3·extent² must fit.
+    if (!(extent * extent <= 0.25f * std::numeric_limits<float>::max()) ||
         !(extent * extent >= std::numeric_limits<float>::min()))
         return Error{fmt::format("the points' extent {} is beyond single precision (its square over- or underflows): "
                                  "no normal can be estimated",
                                  extent)};
-    const KdCloud cloud{points.position};
+    const KdCloud cloud{distinct};
     KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     tree.buildIndex();
 
-    // The k nearest distinct points of each: the point itself, points coincident with it and
-    // copies of a neighbour already taken are left out (a copy stands for its position once).
-    // Where fewer than k are found within kMaxSearch, the rest of the row repeats the point.
-    const std::size_t k = std::min<std::size_t>(kNormalNearest, count - 1);
-    std::vector<std::uint32_t> nearest(count * k);
-    HugePageVector<glm::vec3> normal(count);
-    std::vector<std::uint8_t> degenerate(count, 0);
+    // The k nearest of each distinct position (itself left out: the only one at distance 0).
+    const std::size_t k = std::min<std::size_t>(kNormalNearest, m - 1);
+    std::vector<std::uint32_t> nearest(m * k);
+    std::vector<glm::vec3> normal(m);
+    std::vector<std::uint8_t> degenerate(m, 0);
     WorkerPool pool(threads);
-    struct Scratch {
-        std::vector<std::uint32_t> index;
-        std::vector<float> distance2;
-    };
-    std::vector<Scratch> scratch(pool.size());
     constexpr std::size_t kBatch = 256;
-    parallelForRanges(pool, count, kBatch, [&](std::size_t begin, std::size_t end, unsigned worker) {
-        Scratch& s = scratch[worker];
+    parallelForRanges(pool, m, kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
+        std::array<std::uint32_t, kNormalNearest + 1> index;
+        std::array<float, kNormalNearest + 1> distance2;
         for (std::size_t i = begin; i < end; ++i) {
-            const glm::vec3 x = points.position[i];
+            const glm::vec3 x = distinct[i];
+            const std::size_t found = tree.knnSearch(&x.x, k + 1, index.data(), distance2.data());
             std::uint32_t* mine = &nearest[i * k];
             std::size_t stored = 0;
-            // Ask for more while coincident points crowd out distinct ones.
-            for (std::size_t want = k + 1;; want = std::min(2 * want, kMaxSearch)) {
-                s.index.resize(want);
-                s.distance2.resize(want);
-                const std::size_t found = tree.knnSearch(&x.x, want, s.index.data(), s.distance2.data());
-                stored = 0;
-                for (std::size_t m = 0; m < found && stored < k; ++m) {
-                    const glm::vec3 y = points.position[s.index[m]];
-                    const bool seen = std::any_of(mine, mine + stored, [&](std::uint32_t j) { return points.position[j] == y; });
-                    if (s.distance2[m] > 0.0f && !seen) mine[stored++] = s.index[m];
-                }
-                if (stored == k || found < want || want == kMaxSearch) break;
-            }
+            for (std::size_t r = 0; r < found && stored < k; ++r)
+                if (index[r] != i) mine[stored++] = index[r];
             // The covariance of the point and its neighbours about their centroid, in double.
             glm::dvec3 centroid(x);
             float largest = std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)});
-            for (std::size_t m = 0; m < stored; ++m) {
-                const glm::vec3 y = points.position[mine[m]];
+            for (std::size_t r = 0; r < stored; ++r) {
+                const glm::vec3 y = distinct[mine[r]];
                 centroid += glm::dvec3(y);
                 largest = std::max({largest, std::abs(y.x), std::abs(y.y), std::abs(y.z)});
             }
@@ -172,31 +169,36 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
             double covariance[3][3] = {};
             const auto add = [&](glm::vec3 y) {
                 const glm::dvec3 d = glm::dvec3(y) - centroid;
-                for (int r = 0; r < 3; ++r)
-                    for (int c = r; c < 3; ++c) covariance[r][c] += d[r] * d[c];
+                for (int row = 0; row < 3; ++row)
+                    for (int c = row; c < 3; ++c) covariance[row][c] += d[row] * d[c];
             };
             add(x);
-            for (std::size_t m = 0; m < stored; ++m) add(points.position[mine[m]]);
-            for (std::size_t m = stored; m < k; ++m) mine[m] = static_cast<std::uint32_t>(i);
+            for (std::size_t r = 0; r < stored; ++r) add(distinct[mine[r]]);
+            // (Fewer are found only where squared distances overflow, ruled out above; the row would
+            // be completed with the point itself, which the graph ignores.)
+            for (std::size_t r = stored; r < k; ++r) mine[r] = static_cast<std::uint32_t>(i);
             const SmallestEigen e = smallestEigenvector(covariance);
             // No plane: the neighbours spread across a line by no more than the rounding of their
-            // single-precision coordinates (about (ε·|x|)² per point), or no neighbour at all.
+            // single-precision coordinates (about (ε·|x|)² per point).
             const double rounding = static_cast<double>(std::numeric_limits<float>::epsilon()) * static_cast<double>(largest);
             degenerate[i] = !(e.values[1] > static_cast<double>(stored + 1) * rounding * rounding);
             normal[i] = glm::vec3(e.vector);
         }
     });
-    const auto bad = static_cast<std::size_t>(std::count(degenerate.begin(), degenerate.end(), 1));
-    if (bad > 0) {
-        const auto first = static_cast<std::size_t>(std::find(degenerate.begin(), degenerate.end(), 1) - degenerate.begin());
-        return Error{fmt::format("no normal can be estimated for {} point(s) (the first: point {}): their {} "
-                                 "nearest distinct points are too few or lie on one line",
-                                 bad, first, k)};
+    std::size_t bad = 0, first = count;
+    for (std::size_t i = 0; i < count; ++i) {
+        if (!degenerate[distinctOf[i]]) continue;
+        ++bad;
+        first = std::min(first, i);
     }
+    if (bad > 0)
+        return Error{fmt::format("no normal can be estimated for {} point(s) (the first: point {}): their {} "
+                                 "nearest distinct points lie on one line",
+                                 bad, first, k)};
 
     // The symmetric graph: i's own nearest, then the points that have i among theirs.
-    std::vector<std::size_t> reverseBegin(count + 1, 0);
-    std::vector<std::uint32_t> reverse(count * k);
+    std::vector<std::size_t> reverseBegin(m + 1, 0);
+    std::vector<std::uint32_t> reverse(m * k);
     for (std::size_t e = 0; e < nearest.size(); ++e) ++reverseBegin[nearest[e] + 1];
     std::partial_sum(reverseBegin.begin(), reverseBegin.end(), reverseBegin.begin());
     {
@@ -204,18 +206,17 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
         for (std::size_t e = 0; e < nearest.size(); ++e) reverse[fill[nearest[e]]++] = static_cast<std::uint32_t>(e / k);
     }
 
-    std::vector<std::uint32_t> starts(count);
+    std::vector<std::uint32_t> starts(m);
     std::iota(starts.begin(), starts.end(), 0u);
-    std::sort(starts.begin(), starts.end(), [&](std::uint32_t a, std::uint32_t b) { return startsBefore(points, a, b); });
-    std::vector<std::uint8_t> reached(count, 0);
+    std::sort(starts.begin(), starts.end(), [&](std::uint32_t a, std::uint32_t b) { return startsBefore(distinct[a], distinct[b]); });
+    std::vector<std::uint8_t> reached(m, 0);
     std::priority_queue<FrontierEdge, std::vector<FrontierEdge>, std::greater<>> frontier;
     const auto extend = [&](std::uint32_t from) {
         const auto push = [&](std::uint32_t to) {
             if (reached[to]) return;
-            frontier.push(FrontierEdge{orientationWeight(points.position[from], normal[from], points.position[to], normal[to]),
-                                       to, from});
+            frontier.push(FrontierEdge{orientationWeight(distinct[from], normal[from], distinct[to], normal[to]), to, from});
         };
-        for (std::size_t m = 0; m < k; ++m) push(nearest[std::size_t{from} * k + m]);
+        for (std::size_t r = 0; r < k; ++r) push(nearest[std::size_t{from} * k + r]);
         for (std::size_t e = reverseBegin[from]; e < reverseBegin[from + 1]; ++e) push(reverse[e]);
     };
     NormalEstimate estimate;
@@ -234,7 +235,8 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
             extend(edge.to);
         }
     }
-    points.normal = std::move(normal);
+    points.normal.resize(count);
+    for (std::size_t i = 0; i < count; ++i) points.normal[i] = normal[distinctOf[i]];
     points.crease.clear();
     return estimate;
 }

@@ -3,7 +3,8 @@
 // (SIGGRAPH 1992).
 //
 // Direction: local PCA. The normal of p is the eigenvector of the smallest eigenvalue of the
-// covariance of p and its kNormalNearest nearest points (about their centroid).
+// covariance of p and its kNormalNearest nearest points (about their centroid). Coincident points
+// count as one, in the fit and in the orientation, and share its normal.
 //
 // Orientation: propagated along a minimum spanning tree of the symmetric k-nearest-neighbour
 // graph (i ~ j when either is among the other's nearest), edge weight Hoppe's 1 - |n_i · n_j| plus
@@ -11,8 +12,7 @@
 // across a thin wall or a sharp crease is crossed last; see orientationWeight). Each point takes
 // the sign that agrees with the point it was reached from.
 // Choice (SPEC 9 offers MST propagation or outward for closed shapes): each connected component
-// starts at its point of largest z (ties: largest y, then x, then smallest index), whose normal is
-// turned towards +z. At the top of a closed shape that is outward, so closed shapes come out
+// starts at its point of largest z (ties: largest y, then x), whose normal is turned towards +z. At the top of a closed shape that is outward, so closed shapes come out
 // outward-facing.
 //
 // Thread use: the PCA runs on the given number of worker threads (0 = all), the propagation on
@@ -28,8 +28,8 @@
 
 namespace pnsplat {
 
-// The neighbours of each point's plane fit (distinct points: the point itself and points
-// coincident with it are left out), and of its edges in the orientation's graph.
+// The neighbours of each point's plane fit (distinct positions), and its edges in the
+// orientation's graph.
 inline constexpr unsigned kNormalNearest = 10;
 
 // The unit eigenvector of the smallest eigenvalue of the symmetric 3×3 matrix m (m[r][c]; only
@@ -46,10 +46,10 @@ struct NormalEstimate {
 };
 
 // Fills points.normal (replacing any normals present) and clears points.crease. Fails with a
-// one-line message, changing nothing, for: fewer than 3 points; a non-finite position; all points
-// coincident; an extent whose square leaves single precision (the k-d tree's squared distances);
-// points whose nearest distinct points lie on one line within the rounding of their coordinates,
-// or are too few (no plane to fit), naming how many and the first. Any thread may call it (it
+// one-line message, changing nothing, for: fewer than 3 points or distinct positions; a
+// non-finite position; an extent whose square leaves single precision (the k-d tree's squared
+// distances); points whose nearest distinct points lie on one line within the rounding of their
+// coordinates (no plane to fit), naming how many and the first. Any thread may call it (it
 // runs its own workers).
 Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads = 0);
 

@@ -332,6 +332,28 @@ TEST(CliRefine, EstimatesMissingNormals) {
     EXPECT_GT(worst, std::cos(5.0 * std::numbers::pi / 180.0));
 }
 
+// A scan that repeats points (here every one, twice): each position is refined once, and the
+// file comes out as from the points without repeats, bit for bit.
+TEST(CliRefine, RepeatedPointsAreRefinedOnce) {
+    const TempDir dir;
+    PointSet sphere = sampleSphereUniform(600, 1.0f);
+    estimateRadii(sphere, 1);
+    PointSet twice = sphere;
+    for (std::size_t i = 0; i < sphere.size(); ++i) twice.appendFrom(sphere, i);
+    const fs::path once = dir / "once.ply", repeated = dir / "twice.ply";
+    ASSERT_TRUE(writePly(once, sphere).ok());
+    ASSERT_TRUE(writePly(repeated, twice).ok());
+    const RunResult a = run("refine " + quote(once) + " -l 2 -o " + quote(dir / "a.ply"));
+    const RunResult b = run("refine " + quote(repeated) + " -l 2 -o " + quote(dir / "b.ply"));
+    std::cout << "[refine, every point twice] exit " << b.exitCode << ": " << b.err;
+    ASSERT_TRUE(a.exited && a.exitCode == 0) << a.err;
+    ASSERT_TRUE(b.exited && b.exitCode == 0) << b.err;
+    EXPECT_NE(b.err.find("600 point(s) repeat the position of an earlier one"), std::string::npos) << b.err;
+    const std::string refinedOnce = readText(dir / "a.ply"), refinedTwice = readText(dir / "b.ply");
+    ASSERT_GT(refinedOnce.size(), 100000u);
+    EXPECT_TRUE(refinedOnce == refinedTwice);
+}
+
 TEST(CliRefine, ThreadCountDoesNotChangeTheFile) {
     const TempDir dir;
     const fs::path one = dir / "one.ply", two = dir / "two.ply";
@@ -606,7 +628,7 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
          "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
          "-3e38 0 0 0 0 1 1\n3e38 0 0 0 0 1 1\n0 3e38 0 0 0 1 1\n",
          "", "bounding sphere overflows"},
-        {"coincident points", headerAscii(3) + "1 2 3 0 0 1\n1 2 3 0 0 1\n1 2 3 0 0 1\n", "", "no radius can be estimated"},
+        {"coincident points", headerAscii(3) + "1 2 3 0 0 1\n1 2 3 0 0 1\n1 2 3 0 0 1\n", "", "1 distinct position"},
         {"three numbers for a hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
          "--fill-hole 1,2,3", "expected X,Y,Z,R"},
         {"a point inside the hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",

@@ -927,6 +927,39 @@ TEST(RefinerNeighbourhood, OversizedRadiiAreCutToTheNearestAndCounted) {
 // ---------------------------------------------------------------------------------------------
 // validateForRefinement: the input checks of the Refiner's precondition.
 
+// removeCoincident keeps the first point of each position with all its attributes, in input
+// order; findCoincident names the first pair.
+TEST(PointSetCoincident, RemovesRepeatsKeepingTheFirst) {
+    PointSet points;
+    const glm::vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+    for (const glm::vec3 x : {b, a, b, c, a, b}) {
+        points.position.push_back(x);
+        points.normal.push_back(glm::vec3(0, 0, 1));
+        points.radius.push_back(static_cast<float>(points.size()));
+        points.colour.push_back(glm::u8vec3(static_cast<std::uint8_t>(points.size())));
+    }
+    const auto pair = findCoincident(points);
+    ASSERT_TRUE(pair.has_value());
+    EXPECT_EQ(pair->first, 0u);
+    EXPECT_EQ(pair->second, 2u);
+    EXPECT_EQ(removeCoincident(points), 3u);
+    const std::vector<glm::vec3> positions(points.position.begin(), points.position.end());
+    EXPECT_EQ(positions, (std::vector<glm::vec3>{b, a, c}));
+    const std::vector<float> radii(points.radius.begin(), points.radius.end());
+    EXPECT_EQ(radii, (std::vector<float>{1, 2, 4})); // each the first of its position
+    EXPECT_EQ(points.colour[2], glm::u8vec3(4));
+    EXPECT_EQ(points.normal.size(), 3u);
+    EXPECT_FALSE(findCoincident(points).has_value());
+    EXPECT_EQ(removeCoincident(points), 0u);
+
+    // Positions only (normals to be estimated): none appear.
+    PointSet bare;
+    bare.position = {a, a, b};
+    EXPECT_EQ(removeCoincident(bare), 1u);
+    EXPECT_EQ(bare.size(), 2u);
+    EXPECT_FALSE(bare.hasNormal());
+}
+
 TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
     const PointSet valid = withRadii(sampleSphereUniform(50, 1.0f));
     EXPECT_TRUE(validateForRefinement(valid).ok());
@@ -966,6 +999,18 @@ TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
     PointSet nanRadius = valid;
     nanRadius.radius[9] = std::numeric_limits<float>::quiet_NaN();
     EXPECT_FALSE(validateForRefinement(nanRadius).ok());
+
+    // Two copies of a point would each insert the same new points.
+    PointSet repeated = valid;
+    repeated.position[31] = repeated.position[12];
+    const auto repeatedResult = validateForRefinement(repeated);
+    ASSERT_FALSE(repeatedResult.ok());
+    EXPECT_NE(repeatedResult.error().message.find("points 12 and 31 coincide"), std::string::npos)
+        << repeatedResult.error().message;
+
+    PointSet noNormals = valid;
+    noNormals.normal.clear();
+    EXPECT_FALSE(validateForRefinement(noNormals).ok());
 
     // Crease normals (section 6): zero or unit, never (nearly) opposite to the first normal, one per point.
     PointSet crease = valid;

@@ -79,7 +79,7 @@ void runRefine(const RefineArgs& args) {
         output = (args.input.empty() ? std::string("default") : std::filesystem::path(args.input).stem().string()) + "-refined.ply";
     unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
-    const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - inputCount) / refineSeconds : 0.0;
+    const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;
     std::string levelDetail = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
     if (!job.holes.empty())
         levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them", job.holes.size(),

@@ -62,6 +62,14 @@ PointSet readInput(const std::string& path) {
 }
 
 void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
+    const std::size_t given = points.size();
+    if (const std::size_t removed = removeCoincident(points); removed > 0) {
+        if (points.size() < 3)
+            throw CommandError(fmt::format("{}: {} points but {} distinct position(s); at least 3 are needed", inputName,
+                                           given, points.size()));
+        fmt::print(stderr, "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first)\n",
+                   inputName, removed);
+    }
     if (!points.hasNormal()) {
         auto estimate = estimateNormals(points, threads);
         if (!estimate) throw CommandError(inputName + ": " + estimate.error().message);
@@ -84,8 +92,9 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     if (points.size() < 3)
         throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
     completeInput(points, job.options.threads, inputName, job.estimateRadii);
-    if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
     RefineRun run;
+    run.inputPoints = points.size();
+    if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
     HoleRims rims;
     if (!job.holes.empty()) {
         auto enlarged = enlargeAroundHoles(points, job.holes);

@@ -17,6 +17,7 @@ namespace pnsplat::tools {
 
 struct RefineRun {
     PointSet points;
+    std::size_t inputPoints = 0; // refined from: the input's distinct positions (completeInput)
     unsigned levels = 0;       // levels run, the hole filling's and evening out's included
     unsigned evenOutLevels = 0; // adaptive levels of evenOut after them (part of `levels`)
     unsigned holeFillingLevels = 0; // adaptive levels filling the holes before them (part of `levels`)
@@ -49,8 +50,9 @@ std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
 // estimates them). A bad file is a CommandError.
 PointSet readInput(const std::string& path);
 
-// Completes an input (SPEC 9): normals estimated when it has none (with a note on stderr), then
-// radii when it has none or `replaceRadii`. A point for which either cannot be estimated (no plane
+// Completes an input: points repeating an earlier point's position dropped (removeCoincident; a
+// note on stderr), normals estimated when it has none (SPEC 9; a note), then radii when it has
+// none or `replaceRadii`. A point for which either cannot be estimated (no plane
 // through its nearest points; no neighbour but coincident points or points along its normal, or
 // distances beyond single precision) is a CommandError naming `inputName`.
 void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii = false);

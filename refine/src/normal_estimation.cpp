@@ -107,16 +107,9 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
     }
     // Coincident points are one point of the fit and of the graph (they share its normal): the
     // distinct positions in lexicographic order, and each point's place among them.
-    std::vector<std::uint32_t> byPosition(count);
-    std::iota(byPosition.begin(), byPosition.end(), 0u);
-    const auto lexicographic = [&](std::uint32_t a, std::uint32_t b) {
-        const glm::vec3 pa = points.position[a], pb = points.position[b];
-        return pa.x != pb.x ? pa.x < pb.x : (pa.y != pb.y ? pa.y < pb.y : pa.z < pb.z);
-    };
-    std::sort(byPosition.begin(), byPosition.end(), lexicographic);
     std::vector<glm::vec3> distinct;
     std::vector<std::uint32_t> distinctOf(count);
-    for (const std::uint32_t i : byPosition) {
+    for (const std::uint32_t i : orderByPosition(points)) {
         if (distinct.empty() || distinct.back() != points.position[i]) distinct.push_back(points.position[i]);
         distinctOf[i] = static_cast<std::uint32_t>(distinct.size() - 1);
     }

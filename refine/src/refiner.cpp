@@ -1394,6 +1394,7 @@ Result<void> validateForRefinement(const PointSet& points) {
     if (!points.hasRadius()) return Error{"the point set has no radii"};
     if (points.size() >= (1u << 31)) return Error{"too many points (at most 2^31)"};
     if (points.hasCrease() && points.crease.size() != points.size()) return Error{"crease normals do not match the points"};
+    if (points.normal.size() != points.size()) return Error{"the point set has no normals"};
     for (std::size_t i = 0; i < points.size(); ++i) {
         const glm::vec3 x = points.position[i], n = points.normal[i];
         if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
@@ -1412,6 +1413,10 @@ Result<void> validateForRefinement(const PointSet& points) {
                 return Error{"point " + std::to_string(i) + " has crease normals more than 170 degrees apart"};
         }
     }
+    // Two copies of a point would each insert the same new points (removeCoincident merges them).
+    if (const auto pair = findCoincident(points))
+        return Error{"points " + std::to_string(pair->first) + " and " + std::to_string(pair->second) +
+                     " coincide: the refinement needs distinct positions"};
     return {};
 }
 

@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -38,7 +39,25 @@ struct PointSet {
     // Appends point i of `other`; both sets must carry the same optional attributes.
     void appendFrom(const PointSet& other, std::size_t i);
     void reserve(std::size_t n);
+    // Resizes every attribute the set carries (normals too, unless a non-empty set has none).
     void resize(std::size_t n);
 };
+
+// The points' indices in lexicographic order of position (x, then y, then z), equal positions by
+// index: coincident points are adjacent, the first of each group its smallest index.
+std::vector<std::uint32_t> orderByPosition(const PointSet& points);
+
+// Removes every point whose position equals an earlier one's (bit for bit; a scan's repeated
+// samples), keeping the first of each with all its attributes, in input order. Returns how many
+// were removed. The refinement needs distinct positions (validateForRefinement): two coincident
+// points would each insert the same new points. O(n log n); any thread, one set at a time.
+std::size_t removeCoincident(PointSet& points);
+
+// The smallest j > i with position j equal to position i, for the smallest such i, or nothing:
+// whether, and where, a set has coincident points.
+struct CoincidentPair {
+    std::size_t first = 0, second = 0;
+};
+std::optional<CoincidentPair> findCoincident(const PointSet& points);
 
 } // namespace pnsplat

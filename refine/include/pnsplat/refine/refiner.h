@@ -191,7 +191,8 @@ Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> hole
 std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress = {});
 inline constexpr unsigned kHoleFillingLevels = 12;
 
-// Checks that a point set can be refined: non-empty, finite, unit normals, positive radii.
+// Checks that a point set can be refined: non-empty, finite, unit normals, positive radii,
+// distinct positions (removeCoincident).
 Result<void> validateForRefinement(const PointSet& points);
 
 } // namespace pnsplat

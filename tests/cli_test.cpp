@@ -349,6 +349,7 @@ TEST(CliRefine, RepeatedPointsAreRefinedOnce) {
     ASSERT_TRUE(a.exited && a.exitCode == 0) << a.err;
     ASSERT_TRUE(b.exited && b.exitCode == 0) << b.err;
     EXPECT_NE(b.err.find("600 point(s) repeat the position of an earlier one"), std::string::npos) << b.err;
+    EXPECT_NE(b.out.find("1200 points in (600 distinct)"), std::string::npos) << b.out;
     const std::string refinedOnce = readText(dir / "a.ply"), refinedTwice = readText(dir / "b.ply");
     ASSERT_GT(refinedOnce.size(), 100000u);
     EXPECT_TRUE(refinedOnce == refinedTwice);

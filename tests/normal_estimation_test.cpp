@@ -77,7 +77,8 @@ TEST(NormalEstimation, PlaneGetsItsNormalFacingUp) {
     std::mt19937_64 rng(5);
     PointSet points;
     for (int k = 0; k < 500; ++k)
-        points.position.push_back(u * test::uniform(rng, -1, 1) + v * test::uniform(rng, -1, 1) + glm::vec3(2, 3, 4));
+        points.position.push_back(u * test::uniform(rng, -1, 1) + v * test::uniform(rng, -1, 1) +
+                                  glm::vec3(2, 3, 4));
     const auto estimate = estimateNormals(points, 1);
     ASSERT_TRUE(estimate.ok()) << estimate.error().message;
     EXPECT_EQ(estimate->components, 1u);
@@ -93,7 +94,8 @@ Agreement compare(const PointSet& points, const HugePageVector<glm::vec3>& truth
     for (std::size_t i = 0; i < points.size(); ++i) {
         const float d = glm::dot(points.normal[i], truth[i]);
         a.flipped += d < 0.0f ? 1 : 0;
-        a.meanDegrees += std::acos(std::min(1.0, static_cast<double>(std::abs(d)))) * 180.0 / std::numbers::pi;
+        a.meanDegrees +=
+            std::acos(std::min(1.0, static_cast<double>(std::abs(d)))) * 180.0 / std::numbers::pi;
     }
     a.meanDegrees /= static_cast<double>(points.size());
     return a;
@@ -114,7 +116,8 @@ TEST(NormalEstimation, ClosedSurfacesFaceOutward) {
         const auto estimate = estimateNormals(points, 2);
         ASSERT_TRUE(estimate.ok()) << estimate.error().message;
         const Agreement a = compare(points, c.points.normal);
-        std::cout << "[" << c.name << "] flipped " << a.flipped << ", mean error " << a.meanDegrees << " deg\n";
+        std::cout << "[" << c.name << "] flipped " << a.flipped << ", mean error " << a.meanDegrees
+                  << " deg\n";
         EXPECT_EQ(estimate->components, 1u) << c.name;
         EXPECT_EQ(a.flipped, 0u) << c.name;
         EXPECT_LT(a.meanDegrees, c.maxMeanDegrees) << c.name;
@@ -148,7 +151,7 @@ TEST(NormalEstimation, FewPointsFitTheirPlane) {
 // Every point six times over, and one point 20,000 times: coincident points count as one in the
 // fit and the orientation (20,000 copies once crowded a search for distinct neighbours into
 // quadratic time), and every copy gets the outward normal of its point.
-TEST(NormalEstimation, DuplicatedPointsAreLeftOutOfTheFit) {
+TEST(NormalEstimation, CoincidentPointsCountOnceAndShareTheirNormal) {
     const PointSet sphere = sampleSphereRandom(1000, 1.0f, 13);
     PointSet copies;
     HugePageVector<glm::vec3> truth;
@@ -164,10 +167,12 @@ TEST(NormalEstimation, DuplicatedPointsAreLeftOutOfTheFit) {
     const auto estimate = estimateNormals(copies, 2);
     ASSERT_TRUE(estimate.ok()) << estimate.error().message;
     const Agreement a = compare(copies, truth);
-    std::cout << "[sphere 1000 random, 6 copies, one point 20,000 times] flipped " << a.flipped << ", mean error " << a.meanDegrees << " deg\n";
+    std::cout << "[sphere 1000 random, 6 copies, one point 20,000 times] flipped " << a.flipped
+              << ", mean error " << a.meanDegrees << " deg\n";
     EXPECT_EQ(a.flipped, 0u);
     EXPECT_LT(a.meanDegrees, 2.0);
-    for (std::size_t i = 0; i < sphere.size(); ++i) ASSERT_EQ(copies.normal[i], copies.normal[5 * sphere.size() + i]);
+    for (std::size_t i = 0; i < sphere.size(); ++i)
+        ASSERT_EQ(copies.normal[i], copies.normal[5 * sphere.size() + i]);
     EXPECT_EQ(copies.normal.back(), copies.normal[17]);
 }
 
@@ -187,10 +192,8 @@ TEST(NormalEstimation, DataModelsAgreeWithTheirNormals) {
         const char* file;
         double maxFlippedShare;
     } cases[] = {
-        {"rockerarm-2000-uniform.ply", 0.0},
-        {"fandisk-1500-uniform.ply", 0.005},
-        {"bunny-3500-random.ply", 0.01},
-        {"igea-600-uniform.ply", 0.0},
+        {"rockerarm-2000-uniform.ply", 0.0}, {"fandisk-1500-uniform.ply", 0.005},
+        {"bunny-3500-random.ply", 0.01},     {"igea-600-uniform.ply", 0.0},
         {"lion-3500-random.ply", 0.02},
     };
     for (const auto& c : cases) {
@@ -203,8 +206,8 @@ TEST(NormalEstimation, DataModelsAgreeWithTheirNormals) {
         ASSERT_TRUE(estimate.ok()) << estimate.error().message;
         const Agreement a = compare(points, given.normal);
         const double share = static_cast<double>(a.flipped) / static_cast<double>(points.size());
-        std::cout << "[" << c.file << "] flipped " << a.flipped << " of " << points.size() << " (" << share * 100.0
-                  << " %), mean unsigned error " << a.meanDegrees << " deg\n";
+        std::cout << "[" << c.file << "] flipped " << a.flipped << " of " << points.size() << " ("
+                  << share * 100.0 << " %), mean unsigned error " << a.meanDegrees << " deg\n";
         EXPECT_LE(share, c.maxFlippedShare) << c.file;
     }
 }
@@ -226,6 +229,8 @@ TEST(NormalEstimation, BadInputIsAnErrorAndChangesNothing) {
     }
     for (int k = 0; k < 20; ++k) coincident.position.push_back(glm::vec3(1, 2, 3));
     few.position = {glm::vec3(0), glm::vec3(1, 0, 0)};
+    PointSet twoPlaces;
+    twoPlaces.position = {glm::vec3(0), glm::vec3(0), glm::vec3(1, 0, 0), glm::vec3(1, 0, 0), glm::vec3(0)};
     PointSet notFinite = sampleSphereUniform(100, 1.0f), huge = notFinite, tiny = notFinite;
     notFinite.position[37].y = std::nanf("");
     for (glm::vec3& x : huge.position) x *= 1e20f;
@@ -236,9 +241,11 @@ TEST(NormalEstimation, BadInputIsAnErrorAndChangesNothing) {
         const char* says;
     } cases[] = {
         {"points on a line", withAttributes(line), "no normal can be estimated for 20 point(s)"},
-        {"a diagonal line off the origin", withAttributes(diagonal), "no normal can be estimated for 50 point(s)"},
+        {"a diagonal line off the origin", withAttributes(diagonal),
+         "no normal can be estimated for 50 point(s)"},
         {"coincident points", withAttributes(coincident), "all 20 points coincide"},
         {"two points", withAttributes(few), "at least 3 points"},
+        {"two distinct positions", withAttributes(twoPlaces), "2 distinct positions among 5 points"},
         {"NaN position", withAttributes(notFinite), "point 37 has a non-finite position"},
         {"extent 2e20", withAttributes(huge), "beyond single precision"},
         {"extent 2e-23", withAttributes(tiny), "beyond single precision"},
@@ -250,7 +257,9 @@ TEST(NormalEstimation, BadInputIsAnErrorAndChangesNothing) {
         std::cout << "[" << c.name << "] " << estimate.error().message << "\n";
         EXPECT_NE(estimate.error().message.find(c.says), std::string::npos) << estimate.error().message;
         const auto same = [](glm::vec3 a, glm::vec3 b) { return a == b || (a != a && b != b); }; // NaN too
-        EXPECT_TRUE(std::equal(points.position.begin(), points.position.end(), c.points.position.begin(), same)) << c.name;
+        EXPECT_TRUE(
+            std::equal(points.position.begin(), points.position.end(), c.points.position.begin(), same))
+            << c.name;
         EXPECT_TRUE(points.normal == c.points.normal) << c.name;
         EXPECT_TRUE(points.radius == c.points.radius) << c.name;
     }

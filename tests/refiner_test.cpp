@@ -924,9 +924,6 @@ TEST(RefinerNeighbourhood, OversizedRadiiAreCutToTheNearestAndCounted) {
     for (int level = 0; level < 4; ++level) EXPECT_EQ(ordinary.refineLevel().cappedNeighbourhoods, 0u) << level;
 }
 
-// ---------------------------------------------------------------------------------------------
-// validateForRefinement: the input checks of the Refiner's precondition.
-
 // removeCoincident keeps the first point of each position with all its attributes, in input
 // order; findCoincident names the first pair.
 TEST(PointSetCoincident, RemovesRepeatsKeepingTheFirst) {
@@ -942,7 +939,9 @@ TEST(PointSetCoincident, RemovesRepeatsKeepingTheFirst) {
     ASSERT_TRUE(pair.has_value());
     EXPECT_EQ(pair->first, 0u);
     EXPECT_EQ(pair->second, 2u);
-    EXPECT_EQ(removeCoincident(points), 3u);
+    const CoincidentRemoval removal = removeCoincident(points);
+    EXPECT_EQ(removal.points, 3u);
+    EXPECT_EQ(removal.withOtherAttributes, 3u); // each repeat had its own radius
     const std::vector<glm::vec3> positions(points.position.begin(), points.position.end());
     EXPECT_EQ(positions, (std::vector<glm::vec3>{b, a, c}));
     const std::vector<float> radii(points.radius.begin(), points.radius.end());
@@ -950,15 +949,20 @@ TEST(PointSetCoincident, RemovesRepeatsKeepingTheFirst) {
     EXPECT_EQ(points.colour[2], glm::u8vec3(4));
     EXPECT_EQ(points.normal.size(), 3u);
     EXPECT_FALSE(findCoincident(points).has_value());
-    EXPECT_EQ(removeCoincident(points), 0u);
+    EXPECT_EQ(removeCoincident(points).points, 0u);
 
     // Positions only (normals to be estimated): none appear.
     PointSet bare;
     bare.position = {a, a, b};
-    EXPECT_EQ(removeCoincident(bare), 1u);
+    const CoincidentRemoval bareRemoval = removeCoincident(bare);
+    EXPECT_EQ(bareRemoval.points, 1u);
+    EXPECT_EQ(bareRemoval.withOtherAttributes, 0u);
     EXPECT_EQ(bare.size(), 2u);
     EXPECT_FALSE(bare.hasNormal());
 }
+
+// ---------------------------------------------------------------------------------------------
+// validateForRefinement: the input checks of the Refiner's precondition.
 
 TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
     const PointSet valid = withRadii(sampleSphereUniform(50, 1.0f));

@@ -84,8 +84,10 @@ void runRefine(const RefineArgs& args) {
     if (!job.holes.empty())
         levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them", job.holes.size(),
                                    run.enlargedRadii, run.holeFillingLevels);
-    fmt::print("{}: {} points in, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
-               inputName, inputCount, outputCount, done, levelDetail, refineSeconds, rate, total, output);
+    const std::string distinct =
+        run.inputPoints != inputCount ? fmt::format(" ({} distinct)", run.inputPoints) : std::string();
+    fmt::print("{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
+               inputName, inputCount, distinct, outputCount, done, levelDetail, refineSeconds, rate, total, output);
     if (run.cappedNeighbourhoods > 0)
         fmt::print(stderr,
                    "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and used the {} "

@@ -63,12 +63,16 @@ PointSet readInput(const std::string& path) {
 
 void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
     const std::size_t given = points.size();
-    if (const std::size_t removed = removeCoincident(points); removed > 0) {
+    if (const CoincidentRemoval removed = removeCoincident(points); removed.points > 0) {
         if (points.size() < 3)
             throw CommandError(fmt::format("{}: {} points but {} distinct position(s); at least 3 are needed", inputName,
                                            given, points.size()));
-        fmt::print(stderr, "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first)\n",
-                   inputName, removed);
+        fmt::print(stderr, "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first){}\n",
+                   inputName, removed.points,
+                   removed.withOtherAttributes > 0
+                       ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
+                                     removed.withOtherAttributes)
+                       : "");
     }
     if (!points.hasNormal()) {
         auto estimate = estimateNormals(points, threads);
@@ -83,8 +87,7 @@ void completeInput(PointSet& points, unsigned threads, const std::string& inputN
     for (std::size_t i = 0; i < points.size(); ++i)
         if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
             throw CommandError(fmt::format("{}: no radius can be estimated for point {}: it has no neighbour but "
-                                           "coincident points or points along its normal, or its distances "
-                                           "overflow single precision",
+                                           "points along its normal, or its distances overflow single precision",
                                            inputName, i));
 }
 

@@ -138,7 +138,8 @@ void zeroPadding(float* array, std::size_t count) { std::fill(array + count, arr
 // Branch-free, kLanes entries at a time into per-lane maxima, so that the loop runs in SIMD lanes:
 // coincident points (j = i included) give a zero vector and w = 0, which changes no maximum. The
 // entries are taken a block of kBlock at a time and the test ends as soon as it has failed: the
-// maxima only grow, so the decision is that of the whole set (one block for at most kBlock).
+// maxima only grow, so the decision is that of the whole set. For sets larger than a block
+// (sets of at most kBlock entries go to survivorsOfSmallSet, with the same terms).
 constexpr std::size_t kBlock = 8 * kLanes;
 inline bool survives(const FilterArrays& a, std::size_t i, std::size_t count, float sinThetaF) {
     const float* __restrict px = a.px;
@@ -289,7 +290,7 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     const bool geodesic = params.geodesicProjection && !params.euclideanGeodesic;
     measure(p, n, set, geodesic || params.edgeControls, scratch);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
-    // (x, y, z apart) for the O(k²) loop (survives).
+    // (x, y, z apart) for the O(k²) loop (survivorsOfSmallSet, or survives for large sets).
     const std::size_t paddedCount = paddedToLanes(count);
     float* px = scratchArray(scratch.px, paddedCount);
     float* py = scratchArray(scratch.py, paddedCount);

@@ -13,8 +13,8 @@
 #include <fmt/core.h>
 #include <glm/geometric.hpp>
 
-#include "pnsplat/refine/worker_pool.h"
 #include "kd_tree.h"
+#include "pnsplat/refine/worker_pool.h"
 
 namespace pnsplat {
 
@@ -79,7 +79,8 @@ bool startsBefore(glm::vec3 a, glm::vec3 b) {
 double orientationWeight(glm::vec3 a, glm::vec3 na, glm::vec3 b, glm::vec3 nb) {
     const glm::dvec3 n0(na), n1(nb), d = glm::dvec3(b) - glm::dvec3(a);
     const double length = glm::length(d);
-    const double steep = length > 0.0 ? (std::abs(glm::dot(d, n0)) + std::abs(glm::dot(d, n1))) / length : 0.0;
+    const double steep =
+        length > 0.0 ? (std::abs(glm::dot(d, n0)) + std::abs(glm::dot(d, n1))) / length : 0.0;
     return 1.0 - std::abs(glm::dot(n0, n1)) + steep;
 }
 
@@ -116,7 +117,8 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
     const std::size_t m = distinct.size();
     if (m == 1) return Error{fmt::format("all {} points coincide: no normal can be estimated", count)};
     if (m < 3)
-        return Error{fmt::format("{} distinct positions among {} points: normals need at least 3 to fit a plane", m, count)};
+        return Error{fmt::format(
+            "{} distinct positions among {} points: normals need at least 3 to fit a plane", m, count)};
     glm::vec3 lo = distinct[0], hi = lo;
     for (const glm::vec3& x : distinct) {
         lo = glm::min(lo, x);
@@ -126,9 +128,10 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
     // The k-d tree measures squared distances in single precision: up to 3·extent² must fit.
     if (!(extent * extent <= 0.25f * std::numeric_limits<float>::max()) ||
         !(extent * extent >= std::numeric_limits<float>::min()))
-        return Error{fmt::format("the points' extent {} is beyond single precision (its square over- or underflows): "
-                                 "no normal can be estimated",
-                                 extent)};
+        return Error{
+            fmt::format("the points' extent {} is beyond single precision (its square over- or underflows): "
+                        "no normal can be estimated",
+                        extent)};
     const KdCloud cloud{distinct};
     KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     tree.buildIndex();
@@ -173,7 +176,8 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
             const SmallestEigen e = smallestEigenvector(covariance);
             // No plane: the neighbours spread across a line by no more than the rounding of their
             // single-precision coordinates (about (ε·|x|)² per point).
-            const double rounding = static_cast<double>(std::numeric_limits<float>::epsilon()) * static_cast<double>(largest);
+            const double rounding =
+                static_cast<double>(std::numeric_limits<float>::epsilon()) * static_cast<double>(largest);
             degenerate[i] = !(e.values[1] > static_cast<double>(stored + 1) * rounding * rounding);
             normal[i] = glm::vec3(e.vector);
         }
@@ -196,18 +200,21 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
     std::partial_sum(reverseBegin.begin(), reverseBegin.end(), reverseBegin.begin());
     {
         std::vector<std::size_t> fill(reverseBegin.begin(), reverseBegin.end() - 1);
-        for (std::size_t e = 0; e < nearest.size(); ++e) reverse[fill[nearest[e]]++] = static_cast<std::uint32_t>(e / k);
+        for (std::size_t e = 0; e < nearest.size(); ++e)
+            reverse[fill[nearest[e]]++] = static_cast<std::uint32_t>(e / k);
     }
 
     std::vector<std::uint32_t> starts(m);
     std::iota(starts.begin(), starts.end(), 0u);
-    std::sort(starts.begin(), starts.end(), [&](std::uint32_t a, std::uint32_t b) { return startsBefore(distinct[a], distinct[b]); });
+    std::sort(starts.begin(), starts.end(),
+              [&](std::uint32_t a, std::uint32_t b) { return startsBefore(distinct[a], distinct[b]); });
     std::vector<std::uint8_t> reached(m, 0);
     std::priority_queue<FrontierEdge, std::vector<FrontierEdge>, std::greater<>> frontier;
     const auto extend = [&](std::uint32_t from) {
         const auto push = [&](std::uint32_t to) {
             if (reached[to]) return;
-            frontier.push(FrontierEdge{orientationWeight(distinct[from], normal[from], distinct[to], normal[to]), to, from});
+            frontier.push(FrontierEdge{
+                orientationWeight(distinct[from], normal[from], distinct[to], normal[to]), to, from});
         };
         for (std::size_t r = 0; r < k; ++r) push(nearest[std::size_t{from} * k + r]);
         for (std::size_t e = reverseBegin[from]; e < reverseBegin[from + 1]; ++e) push(reverse[e]);

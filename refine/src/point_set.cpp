@@ -53,23 +53,39 @@ std::optional<CoincidentPair> findCoincident(const PointSet& points) {
     const std::vector<std::uint32_t> order = orderByPosition(points);
     std::optional<CoincidentPair> found;
     for (std::size_t k = 1; k < order.size(); ++k) {
-        if (points.position[order[k]] != points.position[order[k - 1]]) continue;
-        // order[k - 1] is not necessarily the group's first: the first of a group is its smallest.
-        std::size_t g = k - 1;
-        while (g > 0 && points.position[order[g - 1]] == points.position[order[k]]) --g;
-        const CoincidentPair pair{order[g], order[g + 1]};
-        if (!found || pair.first < found->first) found = pair;
+        // The second member of a group: the group's first two (smallest indices) are order[k-1, k].
+        const bool second = points.position[order[k]] == points.position[order[k - 1]] &&
+                            (k == 1 || points.position[order[k - 2]] != points.position[order[k - 1]]);
+        if (second && (!found || order[k - 1] < found->first)) found = CoincidentPair{order[k - 1], order[k]};
     }
     return found;
 }
 
-std::size_t removeCoincident(PointSet& points) {
+CoincidentRemoval removeCoincident(PointSet& points) {
+    const std::size_t n = points.size();
+    assert(!points.hasNormal() || points.normal.size() == n);
+    assert(!points.hasRadius() || points.radius.size() == n);
+    assert(!points.hasColour() || points.colour.size() == n);
+    assert(!points.hasCrease() || points.crease.size() == n);
     const std::vector<std::uint32_t> order = orderByPosition(points);
-    std::vector<std::uint8_t> keep(points.size(), 1);
-    for (std::size_t k = 1; k < order.size(); ++k)
-        if (points.position[order[k]] == points.position[order[k - 1]]) keep[order[k]] = 0;
+    CoincidentRemoval removal;
+    std::vector<std::uint8_t> keep(n, 1);
+    for (std::size_t k = 1, first = 0; k < order.size(); ++k) {
+        if (points.position[order[k]] != points.position[order[first]]) {
+            first = k;
+            continue;
+        }
+        const std::uint32_t i = order[k], kept = order[first];
+        keep[i] = 0;
+        ++removal.points;
+        const bool differs = (points.hasNormal() && points.normal[i] != points.normal[kept]) ||
+                             (points.hasRadius() && points.radius[i] != points.radius[kept]) ||
+                             (points.hasColour() && points.colour[i] != points.colour[kept]) ||
+                             (points.hasCrease() && points.crease[i] != points.crease[kept]);
+        removal.withOtherAttributes += differs ? 1 : 0;
+    }
     std::size_t kept = 0;
-    for (std::size_t i = 0; i < points.size(); ++i) {
+    for (std::size_t i = 0; i < n; ++i) {
         if (!keep[i]) continue;
         points.position[kept] = points.position[i];
         if (points.hasNormal()) points.normal[kept] = points.normal[i];
@@ -78,9 +94,8 @@ std::size_t removeCoincident(PointSet& points) {
         if (points.hasCrease()) points.crease[kept] = points.crease[i];
         ++kept;
     }
-    const std::size_t removed = points.size() - kept;
     points.resize(kept);
-    return removed;
+    return removal;
 }
 
 } // namespace pnsplat

@@ -19,7 +19,7 @@ inline float fastAtan2Upper(float y, float x) {
     constexpr float kPi = std::numbers::pi_v<float>;
     const float ax = std::abs(x);
     const float hi = std::max(ax, y), lo = std::min(ax, y);
-    const float a = hi > 0.0f ? lo / hi : 0.0f; // a select, so that loops of it vectorise; (0, 0) gives 0
+    const float a = hi != 0.0f ? lo / hi : 0.0f; // a select, so that loops of it vectorise; (0, 0) gives 0
     const float s = a * a;
     float r = ((((0.0208351f * s - 0.0851330f) * s + 0.1801410f) * s - 0.3302995f) * s + 0.9998660f) * a;
     if (y > ax) r = 0.5f * kPi - r;

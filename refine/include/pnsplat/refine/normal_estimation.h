@@ -12,8 +12,8 @@
 // across a thin wall or a sharp crease is crossed last; see orientationWeight). Each point takes
 // the sign that agrees with the point it was reached from.
 // Choice (SPEC 9 offers MST propagation or outward for closed shapes): each connected component
-// starts at its point of largest z (ties: largest y, then x), whose normal is turned towards +z. At the top of a closed shape that is outward, so closed shapes come out
-// outward-facing.
+// starts at its point of largest z (ties: largest y, then x), whose normal is turned towards +z.
+// At the top of a closed shape that is outward, so closed shapes come out outward-facing.
 //
 // Thread use: the PCA runs on the given number of worker threads (0 = all), the propagation on
 // the calling thread; the result does not depend on the thread count.
@@ -47,10 +47,10 @@ struct NormalEstimate {
 
 // Fills points.normal (replacing any normals present) and clears points.crease. Fails with a
 // one-line message, changing nothing, for: fewer than 3 points or distinct positions; a
-// non-finite position; an extent whose square leaves single precision (the k-d tree's squared
-// distances); points whose nearest distinct points lie on one line within the rounding of their
-// coordinates (no plane to fit), naming how many and the first. Any thread may call it (it
-// runs its own workers).
+// non-finite position; an extent e with 4e² beyond single precision, or e² below it (the k-d
+// tree's squared distances); points whose nearest distinct points lie on one line within the
+// rounding of their coordinates (no plane to fit), naming how many and the first. Any thread may
+// call it (it runs its own workers).
 Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads = 0);
 
 } // namespace pnsplat

@@ -47,11 +47,15 @@ struct PointSet {
 // index: coincident points are adjacent, the first of each group its smallest index.
 std::vector<std::uint32_t> orderByPosition(const PointSet& points);
 
-// Removes every point whose position equals an earlier one's (bit for bit; a scan's repeated
-// samples), keeping the first of each with all its attributes, in input order. Returns how many
-// were removed. The refinement needs distinct positions (validateForRefinement): two coincident
-// points would each insert the same new points. O(n log n); any thread, one set at a time.
-std::size_t removeCoincident(PointSet& points);
+// Removes every point whose position equals (==) an earlier one's (a scan's repeated samples),
+// keeping the first of each with all its attributes, in input order. The refinement needs
+// distinct positions (validateForRefinement): two coincident points would each insert the same
+// new points. O(n log n); any thread, one set at a time.
+struct CoincidentRemoval {
+    std::size_t points = 0;              // removed
+    std::size_t withOtherAttributes = 0; // of them, with another normal, radius, colour or crease: lost
+};
+CoincidentRemoval removeCoincident(PointSet& points);
 
 // The smallest j > i with position j equal to position i, for the smallest such i, or nothing:
 // whether, and where, a set has coincident points.

@@ -171,7 +171,7 @@ TEST(CliHelp, ProgramAndSubcommandsPrintTheirOptions) {
          {"--output", "--levels", "--target-points", "--threads", "--fast", "--neighbourhood",
           "--no-smoothing", "--euclidean-geodesic", "--plain-angle", "--centroid-candidates", "--fill-hole"}},
         {"eval --help",
-         {"--reference", "--input", "--output", "sphere:R", "torus:R,r", "uniformity_cv", "holes"}},
+         {"--reference", "--input", "--output", "--flat-normals", "sphere:R", "torus:R,r", "uniformity_cv", "holes"}},
         {"bench --help", {"refine"}},
         {"bench refine --help", {"--sphere-points", "--target-points", "--repeat", "--output"}},
     };

@@ -129,6 +129,42 @@ Cube makeCube() {
     return cube;
 }
 
+// A cube of 8 shared corners, whose (area-weighted) vertex normals lie along its diagonals: over
+// a face, interpolated vertex normals tilt away from the face's, flat normals are the face's.
+TEST(MeshReference, FlatNormalsAreTheClosestTrianglesOwn) {
+    PointSet corners;
+    for (int k = 0; k < 8; ++k)
+        corners.position.push_back(glm::vec3(k & 1 ? 1.0f : -1.0f, k & 2 ? 1.0f : -1.0f, k & 4 ? 1.0f : -1.0f));
+    // Faces as corner quads, counter-clockwise seen from outside.
+    const std::uint32_t quads[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+    std::vector<glm::u32vec3> triangles;
+    for (const auto& q : quads) {
+        triangles.push_back({q[0], q[1], q[2]});
+        triangles.push_back({q[0], q[2], q[3]});
+    }
+    const Reference ref = meshReference(corners, triangles, "shared-corner cube").value();
+    for (std::size_t k = 0; k < 8; ++k) ASSERT_GT(glm::dot(ref.points.normal[k], ref.points.position[k]), 1.5f);
+    PointSet refined;
+    const glm::vec3 axes[3] = {glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)};
+    for (const glm::vec3 axis : axes)
+        for (const float side : {-1.0f, 1.0f})
+            for (const float s : {-0.5f, 0.3f}) {
+                const glm::vec3 u = axis.x != 0.0f ? axes[1] : axes[0], v = glm::cross(axis, u);
+                refined.position.push_back(side * axis + s * u + 0.2f * v);
+                refined.normal.push_back(side * axis);
+            }
+    const EvalOptions interpolated{.threads = 2};
+    EvalOptions flat = interpolated;
+    flat.flatNormals = true;
+    const QualityReport smooth = evaluateQuality(refined, ref, nullptr, interpolated);
+    const QualityReport faces = evaluateQuality(refined, ref, nullptr, flat);
+    std::cout << "[shared-corner cube] normal error over the faces: interpolated " << smooth.normalErrorMeanDeg
+              << " deg, flat " << faces.normalErrorMeanDeg << " deg\n";
+    EXPECT_GT(smooth.normalErrorMeanDeg, 10.0);
+    EXPECT_LT(faces.normalErrorMaxDeg, 1e-4);
+    EXPECT_EQ(faces.distanceMax, smooth.distanceMax); // distances are the same either way
+}
+
 TEST(MeshReference, CubeDistancesReproduceKnownOffsets) {
     const Cube cube = makeCube();
     Reference ref = meshReference(cube.vertices, cube.triangles, "cube").value();

@@ -23,6 +23,7 @@ struct EvalArgs {
     std::string output;
     std::string holeMap;
     unsigned threads = 0;
+    bool flatNormals = false;
 };
 
 void writeText(const std::string& path, const std::string& text) {
@@ -61,6 +62,7 @@ void runEval(const EvalArgs& args) {
 
     EvalOptions options;
     options.threads = args.threads;
+    options.flatNormals = args.flatNormals;
     const QualityReport report =
         evaluateQuality(refined, reference, args.input.empty() ? nullptr : &input, options);
     if (!args.holeMap.empty()) unwrap(writePly(args.holeMap, holeMap(std::move(refined), report)));
@@ -85,6 +87,9 @@ void addEvalCommand(CLI::App& app) {
                     "Write a PLY to look at (pnsplat render): the refined points in grey and the reference points "
                     "counted as holes, red where no refined point is near in their tangent plane either (a gap in "
                     "the sampling), orange where the refined surface passes off the true one");
+    cmd->add_flag("--flat-normals", args->flatNormals,
+                  "A mesh reference's true normal is the closest triangle's own, not its vertex normals interpolated "
+                  "(CAD parts with sharp edges, whose vertex normals average the faces on both sides)");
     cmd->add_option("--threads", args->threads, "Worker threads (0 = all hardware threads); results do not depend on it")
         ->capture_default_str();
     cmd->footer(
@@ -98,7 +103,8 @@ void addEvalCommand(CLI::App& app) {
         "  input_preserved   every --input point's position and normal (position alone for an input without normals)\n"
         "                    in the output bit for bit (+ input_missing)\n"
         "True surface: sphere/torus exact (holes use 200k samples); a mesh PLY exact (true normal = vertex\n"
-        "normals interpolated at the closest point; holes use its vertices); a points-only PLY approximate\n"
+        "normals interpolated at the closest point, or its face's with --flat-normals; holes use its vertices);\n"
+        "a points-only PLY approximate\n"
         "(nearest reference point's tangent plane and normal).");
     cmd->callback([args] { runEval(*args); });
 }

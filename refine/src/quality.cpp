@@ -469,6 +469,10 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
                 glm::vec3 normal = hit.barycentric.x * vn[t.x] + hit.barycentric.y * vn[t.y] + hit.barycentric.z * vn[t.z];
                 if (!(length2(normal) > 1e-12f)) normal = glm::cross(vp[t.y] - vp[t.x], vp[t.z] - vp[t.x]);
                 if (!(length2(normal) > 0.0f)) normal = vn[t.x];
+                if (options.flatNormals) {
+                    const glm::vec3 face = glm::cross(vp[t.y] - vp[t.x], vp[t.z] - vp[t.x]);
+                    if (length2(face) > 0.0f) normal = glm::dot(face, normal) < 0.0f ? -face : face;
+                }
                 distance[i] = std::sqrt(hit.distanceSquared);
                 angle[i] = normalError(i, normal);
             }

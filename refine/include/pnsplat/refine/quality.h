@@ -25,7 +25,8 @@
 // - a triangle mesh (a PLY with a `face` element, e.g. ../shared/data/*-mesh.ply): exact
 //   point-to-triangle distance; the true normal is the closest triangle's vertex normals
 //   interpolated with the barycentric coordinates of the closest point (the face normal where
-//   that interpolation vanishes); the vertices are the hole test's reference points;
+//   that interpolation vanishes; always the face normal with EvalOptions::flatNormals); the
+//   vertices are the hole test's reference points;
 // - points only (a PLY without faces, e.g. *-reference.ply): an approximation. The closest
 //   reference point q (Euclidean) stands for the surface: the distance is measured to q's tangent
 //   plane, |(p - q) . n_q|, and the true normal is n_q.
@@ -115,6 +116,11 @@ inline constexpr glm::u8vec3 kOffSurfaceColour{255, 170, 0};
 struct EvalOptions {
     unsigned threads = 0;                      // worker threads; 0 = std::thread::hardware_concurrency
     std::size_t analyticSamples = 200'000;     // dense reference samples of an analytic surface
+    // A mesh reference's true normal is its closest triangle's own (facing like the vertex
+    // normals there), not the vertex normals interpolated: for CAD parts with sharp edges, whose
+    // vertex normals average the faces on both sides (../shared/data's fandisk), so that near an
+    // edge they reward rounding it off.
+    bool flatNormals = false;
 };
 
 struct QualityReport {

@@ -214,8 +214,6 @@ inline glm::vec3 facing(glm::vec3 normal, glm::vec3 crease, glm::vec3 towards) {
 // Choice: two crease points lie on the same crease when their normals pair up within 45° (the
 // paper defers to its dyadic predecessor, which compares normals too).
 constexpr float kCreaseMatch = 0.70710678f; // cos 45°
-constexpr float kCreaseReach = 3.0f; // crease neighbours within kCreaseReach·r (creaseNeighbours)
-constexpr float kCreaseAlong = 0.9f; // and within acos 0.9 = 26° of the crease direction
 inline bool sameCrease(glm::vec3 n1, glm::vec3 n2, glm::vec3 m1, glm::vec3 m2) {
     return (glm::dot(n1, m1) > kCreaseMatch && glm::dot(n2, m2) > kCreaseMatch) ||
            (glm::dot(n1, m2) > kCreaseMatch && glm::dot(n2, m1) > kCreaseMatch);
@@ -482,7 +480,7 @@ private:
     }
     bool creaseTriangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
                                glm::vec3 (&normals)[3]) const;
-    std::array<std::uint32_t, 2> creaseNeighbours(std::uint32_t p, WorkerScratch& s) const;
+    std::array<std::uint32_t, 2> creaseNeighbours(std::uint32_t p, std::span<const NearbyPoint> nearby) const;
     void makeCandidates(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s) const;
     float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
     NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const;
@@ -855,30 +853,29 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
 }
 
 // Crease neighbours of a crease point p (section 6): among the crease points of the same crease
-// within kCreaseReach·r_p, the nearest on each side along the crease direction n1 × n2, within
-// 26° of it (kCreaseAlong). UINT32_MAX where there is none. Choices: not only in p's fan (an
-// edge is sampled as sparsely as the faces beside it, and the filtered first ring of a crease
-// point often holds no crease point ahead: on the fandisk's 179 crease points the fans gave 61
-// segments, this 142); and 26° rather than the 45° that tells crease normals apart, so that the
-// wider search does not take a point of a parallel crease a step away. On the fandisk against its
-// face normals (RefinerCreases): RMS distance 0.071 -> 0.056 % of the diagonal, mean normal error
-// 3.2 -> 2.4 degrees, holes 6.7 -> 2.4 %.
-std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, WorkerScratch& s) const {
+// closer than r_p, the nearest on each side along the crease direction n1 × n2 (choice: within 45°
+// of it, so that a point of a parallel crease is not taken). UINT32_MAX where there is none.
+// Choice: the neighbours in the sense of eq. 7's ball, not only those that pass the fuzzy filter
+// into p's fan. An edge is sampled as sparsely as the faces beside it, and the filtered first
+// ring of a crease point often holds no crease point ahead: on the fandisk's 179 crease points the
+// fans gave 61 segments, the ball gives 92 (RefinerCreases). A wider ball finds more (142 within
+// 3 r) but breaks the convergence bound of SPEC 4 on some of them (r'/r up to 3.6 at level 5):
+// the first point on a segment joins N'_p at a third of its length.
+std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, std::span<const NearbyPoint> nearby) const {
     const glm::vec3 x = points.position[p], n1 = points.normal[p], n2 = points.crease[p];
     const glm::vec3 direction = glm::normalize(glm::cross(n1, n2));
+    const float r = levelRadius[p];
     std::array<std::uint32_t, 2> ends{UINT32_MAX, UINT32_MAX};
     std::array<float, 2> nearest{std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
-    const float reach = kCreaseReach * levelRadius[p];
-    hierarchy.query(x, reach, s.stack, [&](std::uint32_t i, float d2) {
-        if (i == p || !(d2 < reach * reach) || !points.isCrease(i) ||
-            !sameCrease(n1, n2, points.normal[i], points.crease[i]))
-            return;
-        const glm::vec3 d = points.position[i] - x;
+    for (const NearbyPoint& candidate : nearby) {
+        const std::uint32_t i = candidate.index;
+        if (i == p || !points.isCrease(i) || !sameCrease(n1, n2, points.normal[i], points.crease[i])) continue;
+        const glm::vec3 d = candidate.position - x;
         const float along = glm::dot(d, direction), length = glm::length(d);
-        if (!(std::abs(along) > kCreaseAlong * length)) return;
+        if (!(length < r) || !(std::abs(along) > kCreaseMatch * length)) continue;
         const int end = along > 0.0f ? 0 : 1;
         if (length < nearest[end] || (length == nearest[end] && i < ends[end])) nearest[end] = length, ends[end] = i;
-    });
+    }
     return ends;
 }
 
@@ -907,7 +904,7 @@ void Refiner::State::findSegments() {
             }
             if (cut) break; // a wider search would keep the same neighbours
         }
-        if (points.isCrease(p)) creaseEnds[p] = creaseNeighbours(p, s);
+        if (points.isCrease(p)) creaseEnds[p] = creaseNeighbours(p, s.nearby);
         const std::size_t m = s.fan.size();
         if (!options.boundaries || !open || m < 2) return; // closed, or isolated: no direction to follow
         std::size_t widest = 0;

@@ -163,6 +163,15 @@ TEST(MeshReference, FlatNormalsAreTheClosestTrianglesOwn) {
     EXPECT_GT(smooth.normalErrorMeanDeg, 10.0);
     EXPECT_LT(faces.normalErrorMaxDeg, 1e-4);
     EXPECT_EQ(faces.distanceMax, smooth.distanceMax); // distances are the same either way
+
+    // Every face wound the other way (cross products inward) under outward vertex normals given
+    // with the mesh: the flat normals face like the vertex normals, outward.
+    PointSet oriented = corners;
+    for (const glm::vec3& x : corners.position) oriented.normal.push_back(glm::normalize(x));
+    std::vector<glm::u32vec3> reversed = triangles;
+    for (glm::u32vec3& t : reversed) std::swap(t.y, t.z);
+    const Reference inward = meshReference(oriented, reversed, "cube wound inward").value();
+    EXPECT_LT(evaluateQuality(refined, inward, nullptr, flat).normalErrorMaxDeg, 1e-4);
 }
 
 TEST(MeshReference, CubeDistancesReproduceKnownOffsets) {

@@ -879,10 +879,11 @@ std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, s
     return ends;
 }
 
-// The segments of section 6, from the fans of P0. Boundary: potential boundary points are those
+// The segments of section 6, from the neighbourhoods of P0. Boundary: potential boundary points are those
 // whose fan leaves an opening wider than θb (after the wider second search); the two fan
 // neighbours at the ends of the opening, when they are potential boundary points too, make
-// boundary segments with the point. Crease: each crease point with its crease neighbours.
+// boundary segments with the point. Crease: each crease point with its crease neighbours (in its
+// ball, creaseNeighbours).
 void Refiner::State::findSegments() {
     const auto count = static_cast<std::uint32_t>(points.size());
     std::vector<std::uint8_t> potential(count, 0);

@@ -626,8 +626,9 @@ TEST(RefinerConvergence, RealModelRadiiShrinkByCBetaPerLevel) {
     expectRadiiShrink(withRadii(std::move(data->points)), 3, "bunny 3500 random", 0.0);
 }
 
-// Crease points and the points on their segments too (section 6). Crease neighbours looked for
-// within 3 r instead of r broke the bound here (r'/r up to 3.6 at level 5).
+// Crease points and the points on their segments too (section 6). Segments longer than r broke
+// the bound here (r'/r up to 3.6 at level 5 for crease neighbours within 3 r, 1.9 within 1.5 r)
+// until a segment's first point joined N'_p only within c_β,max · r (splitSegments).
 TEST(RefinerConvergence, CreaseModelRadiiShrinkByCBetaPerLevel) {
     PNSPLAT_REQUIRE_DATA("fandisk-1500-uniform-crease.ply");
     auto data = readPly(test::dataDir() / "fandisk-1500-uniform-crease.ply");
@@ -1250,9 +1251,9 @@ TEST(RefinerCreases, FandiskIsCloserToItsMeshWithCreaseNormals) {
     const QualityReport s = evaluateQuality(sharp.points(), *ref, &creased, flat);
     const QualityReport b = evaluateQuality(blunt.points(), *ref, &averaged, flat);
     // Crease segments, each split in three at the first level: the fans alone gave 61 (183 after
-    // the split); the crease points within r (creaseNeighbours) give 92.
+    // the split); the crease points within 1.5 r (creaseNeighbours) give 123.
     std::cout << "[fandisk creases] " << first.boundarySegments / 3 << " crease segments in P0\n";
-    EXPECT_GE(first.boundarySegments, 3u * 85u);
+    EXPECT_GE(first.boundarySegments, 3u * 110u);
     std::cout << "[fandisk creases, " << levels << " levels] points " << s.points << " / " << b.points
               << "; mean distance " << s.distanceMeanRel * 100.0 << " / " << b.distanceMeanRel * 100.0
               << " % of diag, RMS " << s.distanceRmsRel * 100.0 << " / " << b.distanceRmsRel * 100.0 << " %, max "

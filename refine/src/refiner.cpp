@@ -846,25 +846,28 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             const std::uint32_t local = store(cell, np, s);
             ++s.inserted;
             ++s.boundaryInserted;
-            if (third == 1)
+            // The first point joins N'_p (it fills the gap along the segment), unless it lies
+            // farther than c_β,max · r_p: choice, as for Y_p's substitutes, so that r' stays within
+            // the convergence bound of SPEC 4 (a segment may be up to kRetryReach · r long).
+            if (third == 1 && kRadiusMargin * glm::length(q - x) <= kCBetaMax * levelRadius[p])
                 insertIntoRing(s.ring, RingMember{cell, local, q, facing(np.normal, np.crease, frame.n), frame.angleOf(q - x)});
         }
     }
 }
 
 // Crease neighbours of a crease point p (section 6): among the crease points of the same crease
-// closer than r_p, the nearest on each side along the crease direction n1 × n2 (choice: within 45°
-// of it, so that a point of a parallel crease is not taken). UINT32_MAX where there is none.
-// Choice: the neighbours in the sense of eq. 7's ball, not only those that pass the fuzzy filter
-// into p's fan. An edge is sampled as sparsely as the faces beside it, and the filtered first
-// ring of a crease point often holds no crease point ahead: on the fandisk's 179 crease points the
-// fans gave 61 segments, the ball gives 92 (RefinerCreases). A wider ball finds more (142 within
-// 3 r) but breaks the convergence bound of SPEC 4 on some of them (r'/r up to 3.6 at level 5):
-// the first point on a segment joins N'_p at a third of its length.
+// closer than kRetryReach·r_p (the points gathered for the wider second look), the nearest on
+// each side along the crease direction n1 × n2 (choice: within 45° of it, so that a point of a
+// parallel crease is not taken). UINT32_MAX where there is none. Choice: not only those that pass
+// the fuzzy filter into p's fan. An edge is sampled as sparsely as the faces beside it, and the
+// filtered first ring of a crease point often holds no crease point ahead: on the fandisk's 179
+// crease points the fans gave 61 segments, r gives 92 and 1.5 r 123 (RefinerCreases). A segment
+// longer than r_p needs splitSegments' guard on N'_p for the convergence bound of SPEC 4; with it,
+// wider balls (2 r, 3 r) still broke the bound at level 5 (r'/r up to 0.983).
 std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, std::span<const NearbyPoint> nearby) const {
     const glm::vec3 x = points.position[p], n1 = points.normal[p], n2 = points.crease[p];
     const glm::vec3 direction = glm::normalize(glm::cross(n1, n2));
-    const float r = levelRadius[p];
+    const float reach = kRetryReach * levelRadius[p];
     std::array<std::uint32_t, 2> ends{UINT32_MAX, UINT32_MAX};
     std::array<float, 2> nearest{std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
     for (const NearbyPoint& candidate : nearby) {
@@ -872,7 +875,7 @@ std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, s
         if (i == p || !points.isCrease(i) || !sameCrease(n1, n2, points.normal[i], points.crease[i])) continue;
         const glm::vec3 d = candidate.position - x;
         const float along = glm::dot(d, direction), length = glm::length(d);
-        if (!(length < r) || !(std::abs(along) > kCreaseMatch * length)) continue;
+        if (!(length < reach) || !(std::abs(along) > kCreaseMatch * length)) continue;
         const int end = along > 0.0f ? 0 : 1;
         if (length < nearest[end] || (length == nearest[end] && i < ends[end])) nearest[end] = length, ends[end] = i;
     }

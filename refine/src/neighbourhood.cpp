@@ -210,22 +210,17 @@ PNSPLAT_AVX2_CLONE std::size_t survivors(const FilterArrays& arrays, std::size_t
 // lanes past the set are computed on and not kept.
 PNSPLAT_AVX2_CLONE std::size_t survivorsOfSmallSet(const FilterArrays& a, std::size_t count, float sinThetaF,
                                                    std::uint32_t* kept) {
-    const float* __restrict px = a.px;
-    const float* __restrict py = a.py;
-    const float* __restrict pz = a.pz;
-    const float* __restrict su = a.su;
-    const float* __restrict sv = a.sv;
     const float inverseSin = 1.0f / sinThetaF;
     std::size_t n = 0;
     for (std::size_t lanes = 0; lanes < count; lanes += kLanes) {
         float worstSucc[kLanes] = {}, worstPred[kLanes] = {};
         for (std::size_t j = 0; j < count; ++j) {
-            const float pjx = px[j], pjy = py[j], pjz = pz[j], djx = a.dx[j], djy = a.dy[j], djz = a.dz[j];
-            const float suj = su[j], svj = sv[j];
+            const float pjx = a.px[j], pjy = a.py[j], pjz = a.pz[j], djx = a.dx[j], djy = a.dy[j], djz = a.dz[j];
+            const float suj = a.su[j], svj = a.sv[j];
             for (std::size_t l = 0; l < kLanes; ++l) {
                 const std::size_t i = lanes + l;
-                addPair(px[i] - pjx, py[i] - pjy, pz[i] - pjz, djx, djy, djz, su[i] * svj - sv[i] * suj,
-                        su[i] * suj + sv[i] * svj, sinThetaF, inverseSin, worstSucc[l], worstPred[l]);
+                addPair(a.px[i] - pjx, a.py[i] - pjy, a.pz[i] - pjz, djx, djy, djz, a.su[i] * svj - a.sv[i] * suj,
+                        a.su[i] * suj + a.sv[i] * svj, sinThetaF, inverseSin, worstSucc[l], worstPred[l]);
             }
         }
         for (std::size_t l = 0; l < kLanes && lanes + l < count; ++l) {

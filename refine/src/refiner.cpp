@@ -147,7 +147,7 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     std::vector<std::uint32_t> inReach; // the candidates within reach of the point being refined
     std::vector<NearbyPoint> nearest; // the maxNeighbours nearest, for an oversized neighbourhood
     BlockArena<NewPoint> arena;       // the points this worker inserts, cell after cell
-    std::size_t inserted = 0, discarded = 0, retried = 0, boundaryInserted = 0, capped = 0;
+    std::size_t inserted = 0, discarded = 0, retried = 0, beyondBound = 0, boundaryInserted = 0, capped = 0;
 };
 
 // Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
@@ -1068,6 +1068,17 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         Clock::time_point ti;
         if (profile) ti = Clock::now();
         const NewPoint np = newPointFrom(p, s.fan, c);
+        // Choice: a candidate farther than c_β,max · r from p is not inserted, as Y_p's substitutes
+        // and the segments' first points are not put into N'_p: it would break the convergence
+        // bound of section 8.1. The bound assumes a fan within r; after the wider second look (up
+        // to kRetryReach · r) a PN centre can lie beyond it (1 in 118,000 on the fandisk). The
+        // gap stays open for p's other candidates, and the far triangle's other corners, which
+        // are closer to it, insert their own.
+        if (kRadiusMargin * glm::length(np.position - x) > kCBetaMax * levelRadius[p]) {
+            ++s.beyondBound;
+            if (profile) interpolationSeconds += secondsSince(ti);
+            continue;
+        }
         const std::uint32_t local = store(cell, np, s);
         ++s.inserted;
         RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
@@ -1204,7 +1215,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (WorkerScratch& s : scratch) {
         s.arena.clear();
         s.times = {};
-        s.inserted = s.discarded = s.retried = s.boundaryInserted = s.capped = 0;
+        s.inserted = s.discarded = s.retried = s.beyondBound = s.boundaryInserted = s.capped = 0;
         s.columnsOf = kNoCell;
     }
     // A cell's points find their surroundings together, from the grid; a large point alone,
@@ -1291,6 +1302,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         stats.inserted += s.inserted;
         stats.discarded += s.discarded;
         stats.retried += s.retried;
+        stats.beyondBound += s.beyondBound;
         stats.cappedNeighbourhoods += s.capped;
         stats.boundaryInserted += s.boundaryInserted;
         stats.phases.neighbourhood += s.times.neighbourhood;

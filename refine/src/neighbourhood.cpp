@@ -8,6 +8,7 @@
 
 #include "pnsplat/refine/fast_math.h"
 #include "pnsplat/refine/pn_triangle.h"
+#include "simd_clone.h"
 
 namespace pnsplat {
 
@@ -32,17 +33,6 @@ void NeighbourSet::clear() {
 namespace {
 
 constexpr std::size_t kLanes = 8; // the filter's pair loop runs over arrays padded to this
-
-// The pair loop is built twice on x86-64 with GCC, for the baseline and for AVX2 (eight lanes at
-// once), and the processor picks one when the program loads. Both compute the same bits: IEEE
-// division and square root, selects, and no fused multiply-adds (-ffp-contract=off, and AVX2
-// alone has none). Not under ThreadSanitizer: the loader runs the choosing function before the
-// sanitizer's runtime is up, and the program crashes at start.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_THREAD__)
-#define PNSPLAT_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
-#else
-#define PNSPLAT_AVX2_CLONE
-#endif
 
 // Scratch arrays only grow: every call writes entries [0, count) before reading them, and a
 // resize down then up again would refill the tail at almost every point.

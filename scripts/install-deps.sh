@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs everything pnsplat needs to build, run and test on Debian 12 (run as root).
+# Installs everything pnsplat needs to build, run and test on Debian 12 (run as root);
+# `install-deps.sh fuzz` adds Clang and its libFuzzer runtime (scripts/fuzz.sh).
 # Debian's packages only; nothing is downloaded from anywhere else.
 set -euo pipefail
 
@@ -9,6 +10,9 @@ packages=(
   libnanoflann-dev libcli11-dev libfmt-dev libstb-dev
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools
 )
+if [ "${1:-}" = fuzz ]; then
+  packages+=(clang libclang-rt-14-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -181,6 +181,28 @@ INSTANTIATE_TEST_SUITE_P(
                (c.colour ? "Colour" : "");
     });
 
+// parsePly reads bytes in memory as readPly reads the file holding them, and names its `name`
+// in errors.
+TEST_F(PlyTest, BytesInMemoryReadAsTheirFile) {
+    const PointSet points = randomPoints(500, true, true, 99u);
+    for (const PlyFormat format : {PlyFormat::Ascii, PlyFormat::BinaryLittleEndian}) {
+        const fs::path path = file("memory.ply");
+        ASSERT_TRUE(writePly(path, points, format).ok());
+        std::string bytes(fs::file_size(path), '\0');
+        std::ifstream(path, std::ios::binary).read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+        const Result<PlyData> fromFile = readPly(path), fromBytes = parsePly(bytes, "in memory");
+        ASSERT_TRUE(fromFile.ok() && fromBytes.ok());
+        EXPECT_TRUE(sameBits(fromBytes->points.position, fromFile->points.position));
+        EXPECT_TRUE(sameBits(fromBytes->points.normal, fromFile->points.normal));
+        EXPECT_TRUE(sameBits(fromBytes->points.radius, fromFile->points.radius));
+        EXPECT_TRUE(sameBits(fromBytes->points.colour, fromFile->points.colour));
+        bytes.resize(bytes.size() - 5);
+        const Result<PlyData> cut = parsePly(bytes, "in memory");
+        ASSERT_FALSE(cut.ok());
+        EXPECT_EQ(cut.error().message.rfind("in memory: ", 0), 0u) << cut.error().message;
+    }
+}
+
 TEST_F(PlyTest, WrittenBinaryHeaderIsAsSpecified) {
     PointSet points = randomPoints(3, true, true, 7u);
     const fs::path path = file("header.ply");

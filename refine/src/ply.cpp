@@ -710,10 +710,7 @@ Result<FileData> readWholeFile(const fs::path& path, std::string_view file) {
     return data;
 }
 
-Result<PlyData> readPlyData(const fs::path& path, const PlyReadOptions& options, std::string_view file) {
-    Result<FileData> data = readWholeFile(path, file);
-    if (!data) return data.error();
-    const std::string_view bytes = data->view();
+Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options, std::string_view file) {
     Result<Header> header = parseHeader(bytes, file);
     if (!header) return header.error();
 
@@ -877,28 +874,37 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
     return {};
 }
 
-} // namespace
-
-Result<PlyData> readPly(const std::filesystem::path& path, const PlyReadOptions& options) {
-    const std::string file = path.string();
+// run() with allocation failures and other exceptions turned into one-line errors; `doing` is
+// "reading" or "writing".
+template <typename Run>
+auto guarded(std::string_view file, std::string_view doing, const Run& run) -> decltype(run()) {
     try {
-        return readPlyData(path, options, file);
+        return run();
     } catch (const std::bad_alloc&) {
-        return fail(file, "out of memory while reading");
+        return fail(file, fmt::format("out of memory while {}", doing));
     } catch (const std::exception& e) {
         return fail(file, e.what());
     }
 }
 
+} // namespace
+
+Result<PlyData> readPly(const std::filesystem::path& path, const PlyReadOptions& options) {
+    const std::string file = path.string();
+    return guarded(file, "reading", [&]() -> Result<PlyData> {
+        Result<FileData> data = readWholeFile(path, file);
+        if (!data) return data.error();
+        return parseBytes(data->view(), options, file);
+    });
+}
+
+Result<PlyData> parsePly(std::string_view bytes, std::string_view name, const PlyReadOptions& options) {
+    return guarded(name, "reading", [&] { return parseBytes(bytes, options, name); });
+}
+
 Result<void> writePly(const std::filesystem::path& path, const PointSet& points, PlyFormat format) {
     const std::string file = path.string();
-    try {
-        return writePlyFile(path, points, format, file);
-    } catch (const std::bad_alloc&) {
-        return fail(file, "out of memory while writing");
-    } catch (const std::exception& e) {
-        return fail(file, e.what());
-    }
+    return guarded(file, "writing", [&] { return writePlyFile(path, points, format, file); });
 }
 
 } // namespace pnsplat

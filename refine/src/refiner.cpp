@@ -42,6 +42,7 @@
 #include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <glm/geometric.hpp>
 
 #include "pnsplat/refine/hierarchy.h"
@@ -622,7 +623,7 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
     for (std::size_t k = 0; k < candidates.size(); ++k) {
         const glm::vec3 d = candidates[k].position - x;
         s.inReach[inReach] = static_cast<std::uint32_t>(k);
-        inReach += static_cast<std::size_t>((glm::dot(d, d) < reach2) & (candidates[k].index != p));
+        inReach += static_cast<std::size_t>(glm::dot(d, d) < reach2) & static_cast<std::size_t>(candidates[k].index != p);
     }
     for (std::size_t j = 0; j < inReach; ++j) {
         const NearbyPoint& candidate = candidates[s.inReach[j]];
@@ -1432,6 +1433,9 @@ Result<void> validateForRefinement(const PointSet& points) {
             return Error{"point " + std::to_string(i) + " has a normal that is not of unit length"};
         if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
             return Error{"point " + std::to_string(i) + " has a radius that is not positive and finite"};
+        if (!(points.radius[i] >= kMinRadius && points.radius[i] <= kMaxRadius))
+            return Error{fmt::format("point {} has a radius of {}, outside [{}, {}] (radii are squared in single precision)",
+                                     i, points.radius[i], kMinRadius, kMaxRadius)};
         if (points.isCrease(i)) {
             const glm::vec3 c = points.crease[i];
             if (!(std::abs(glm::length(c) - 1.0f) < 1e-3f))

@@ -14,6 +14,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "pnsplat/refine/point_set.h"
@@ -44,6 +45,8 @@ struct PlyData {
 // normalised on reading (below 1e-12 counts as zero length); a normal already within 1e-6 of unit
 // length is kept bit for bit, so files from writePly read back exactly.
 Result<PlyData> readPly(const std::filesystem::path& path, const PlyReadOptions& options = {});
+// The same from bytes in memory (the fuzz targets' entry); `name` stands for the file in messages.
+Result<PlyData> parsePly(std::string_view bytes, std::string_view name, const PlyReadOptions& options = {});
 
 enum class PlyFormat { Ascii, BinaryLittleEndian };
 

@@ -192,8 +192,14 @@ Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> hole
 std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress = {});
 inline constexpr unsigned kHoleFillingLevels = 12;
 
-// Checks that a point set can be refined: non-empty, finite, unit normals, positive radii,
-// distinct positions (removeCoincident).
+// Radii the refinement accepts: it squares them, and distances up to kRetryReach times them, in
+// single precision; below kMinRadius the square is no longer a normal float (and a radius can no
+// longer shrink by c_β,max), above kMaxRadius the squared reach of a colour cell overflows.
+inline constexpr float kMinRadius = 1.1e-19f;
+inline constexpr float kMaxRadius = 1e18f;
+
+// Checks that a point set can be refined: non-empty, finite, unit normals, radii within
+// [kMinRadius, kMaxRadius], distinct positions (removeCoincident).
 Result<void> validateForRefinement(const PointSet& points);
 
 } // namespace pnsplat

@@ -8,17 +8,18 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-120}
 bash scripts/install-deps.sh fuzz
-CXX=clang++ cmake -G Ninja -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPNSPLAT_FUZZ=ON \
-  -DPNSPLAT_SANITIZE=address -DPNSPLAT_BUILD_TESTS=OFF -DPNSPLAT_WERROR=ON >/dev/null
+# Debug keeps the asserts (-O1 for speed), as scripts/sanitize.sh does.
+CXX=clang++ cmake -G Ninja -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
+  -DPNSPLAT_FUZZ=ON -DPNSPLAT_SANITIZE=address -DPNSPLAT_BUILD_TESTS=OFF -DPNSPLAT_WERROR=ON >/dev/null
 cmake --build build-fuzz --target fuzz_ply fuzz_refine fuzz_seeds
 rm -rf build-fuzz/corpus build-fuzz/artifacts
 mkdir -p build-fuzz/artifacts
-./build-fuzz/tests/fuzz/fuzz_seeds build-fuzz/corpus/seeds
+./build-fuzz/tests/fuzz/fuzz_seeds build-fuzz/corpus/seeds-ply build-fuzz/corpus/seeds-refine
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 for target in ply refine; do
   mkdir -p "build-fuzz/corpus/$target"
   # New inputs go to the first folder; the seeds are read from the second.
   ./build-fuzz/tests/fuzz/fuzz_$target -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
     -max_len=65536 -print_final_stats=1 -artifact_prefix="build-fuzz/artifacts/$target-" \
-    "build-fuzz/corpus/$target" build-fuzz/corpus/seeds 2>&1 | grep -v -E '^(#[0-9]+|\s+NEW_FUNC|"|######)'
+    "build-fuzz/corpus/$target" "build-fuzz/corpus/seeds-$target" 2>&1 | grep -v -E '^(#[0-9]+|\s+NEW_FUNC|"|######)'
 done

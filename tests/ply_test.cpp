@@ -25,10 +25,13 @@
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
+#include "oracles.h"
 #include "test_data.h"
 
 namespace pnsplat {
 namespace {
+
+using test::sameBits;
 
 namespace fs = std::filesystem;
 
@@ -132,11 +135,6 @@ PointSet randomPoints(std::size_t n, bool withRadius, bool withColour, unsigned 
                                        static_cast<std::uint8_t>(byte(rng)));
     }
     return points;
-}
-
-template <typename Array>
-bool sameBits(const Array& a, const Array& b) {
-    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0);
 }
 
 // --- Round trips -----------------------------------------------------------------------------

@@ -31,18 +31,19 @@
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
+#include "oracles.h"
 #include "test_data.h"
 
 namespace pnsplat {
 namespace {
 
+using test::inputMismatches;
+using test::kConvergenceBound;
+using test::sameBits;
+
 constexpr unsigned kThreads = 2; // the test machine's cores; results do not depend on it
 constexpr std::size_t kTargetPoints = 150'000;
 constexpr double kPi = std::numbers::pi;
-
-// c_β,max: the largest radius ratio of one level (SPEC 4, paper eq. 14), the maximum over β of
-// c_β = 1/3 (5/6 + 5/6 + cos(β/2) + 2/3 sin(β/2)); cos x + 2/3 sin x peaks at sqrt(1 + 4/9).
-const double kConvergenceBound = (5.0 / 6.0 + 5.0 / 6.0 + std::sqrt(1.0 + 4.0 / 9.0)) / 3.0;
 
 PointSet withRadii(PointSet set) {
     estimateRadii(set, kThreads);
@@ -86,17 +87,6 @@ PointSet randomSphereCap() {
     return cap;
 }
 
-template <typename T>
-    requires std::is_trivially_copyable_v<T>
-bool sameBits(const T& a, const T& b) {
-    return std::memcmp(&a, &b, sizeof(T)) == 0;
-}
-
-template <typename T, typename Allocator>
-bool sameBits(const std::vector<T, Allocator>& a, const std::vector<T, Allocator>& b) {
-    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
-}
-
 bool samePointSets(const PointSet& a, const PointSet& b) {
     return sameBits(a.position, b.position) && sameBits(a.normal, b.normal) && sameBits(a.radius, b.radius) &&
            sameBits(a.colour, b.colour) && sameBits(a.crease, b.crease);
@@ -129,22 +119,6 @@ SphereError unitSphereError(const PointSet& set) {
     e.rms = std::sqrt(sum2 / n);
     e.normalMeanDeg = normalSum / n;
     return e;
-}
-
-// P0 points of the output that differ from their input twin (position, normal, colour) in any bit.
-std::size_t inputMismatches(const Refiner& refiner, const PointSet& input) {
-    const PointSet& out = refiner.points();
-    const auto order = refiner.inputOrder();
-    if (order.size() != input.size() || refiner.levelEnd(0) != input.size()) return input.size();
-    std::size_t bad = 0;
-    for (std::size_t k = 0; k < order.size(); ++k) {
-        const std::size_t i = order[k];
-        bool same = sameBits(out.position[k], input.position[i]) && sameBits(out.normal[k], input.normal[i]);
-        if (input.hasColour()) same = same && out.hasColour() && sameBits(out.colour[k], input.colour[i]);
-        if (input.hasCrease()) same = same && out.hasCrease() && sameBits(out.crease[k], input.crease[i]);
-        bad += !same;
-    }
-    return bad;
 }
 
 bool isPermutation(std::span<const std::uint32_t> order) {
@@ -283,13 +257,13 @@ void printComparison(const std::string& name, std::size_t inputSize, const Compa
 
 // Known gap: acceptance asks for CV(full) <= CV(centroid baseline). On the uniform inputs (igea,
 // rockerarm, fandisk) the full method is better; on the random ones (torus, nefertiti, bunny,
-// lion, sometimes banana) it is worse by up to 1.2 % (bunny; 0.8 % with the colour cells of
+// lion, sometimes banana) it is worse by up to 1.23 % (bunny; 0.8 % with the colour cells of
 // 2.25 r_lim: the order in which points are refined moves it). The nearest-neighbour spacing there
 // is dominated by the random P0, and the two methods' spacing histograms agree level by level (no
 // near-duplicates); keeping only the normal component of the smoothing operator's displacement
-// closes a third of the gap on the bunny. The assertion allows 2 %, a guard against regressions;
-// the printout says whether the strict criterion holds. See closing note.
-constexpr double kUniformityTolerance = 1.02;
+// closes a third of the gap on the bunny, in an experiment). The assertion allows 1.5 %, a guard
+// against regressions; the printout says whether the strict criterion holds. See closing note.
+constexpr double kUniformityTolerance = 1.015;
 
 void expectUniformityNoWorse(const Comparison& c) {
     EXPECT_LE(c.full.uniformityCv, kUniformityTolerance * c.baseline.uniformityCv)
@@ -559,9 +533,10 @@ TEST(HoleFilling, DataHolesAreFilled) {
         const char* file;
         const char* mesh;
         Hole hole;
+        std::size_t minInside; // about 0.8 times the points measured inside the filled hole
     };
-    for (const Case& c : {Case{"igea-4000-uniform-hole.ply", "igea-mesh.ply", {{0.002176f, 0.012023f, -0.04599f}, 0.02346f}},
-                          Case{"bunny-3500-random-hole.ply", "bunny-mesh.ply", {{0.019996f, 0.120682f, 0.03262f}, 0.02502f}}}) {
+    for (const Case& c : {Case{"igea-4000-uniform-hole.ply", "igea-mesh.ply", {{0.002176f, 0.012023f, -0.04599f}, 0.02346f}, 330},
+                          Case{"bunny-3500-random-hole.ply", "bunny-mesh.ply", {{0.019996f, 0.120682f, 0.03262f}, 0.02502f}, 70}}) {
         PNSPLAT_REQUIRE_DATA(c.file);
         PNSPLAT_REQUIRE_DATA(c.mesh);
         auto data = readPly(test::dataDir() / c.file);
@@ -578,7 +553,7 @@ TEST(HoleFilling, DataHolesAreFilled) {
         // Measured: 421 and 90 points inside; holes 6.9 % -> 0.7 % (igea: the fill is smooth where
         // the true surface has a knot of hair) and 3.3 % -> 0.16 % (bunny).
         EXPECT_EQ(inside[0], 0u) << c.file;
-        EXPECT_GT(inside[1], 50u) << c.file;
+        EXPECT_GT(inside[1], c.minInside) << c.file;
         EXPECT_LT(holes[1], 0.2 * holes[0]) << c.file;
     }
 }
@@ -671,6 +646,32 @@ TEST(RefinerDeterminism, ColouredDefaultModelIdenticalFor1To8Threads) {
     const PointSet input = withRadii(makeDefaultModel());
     ASSERT_TRUE(input.hasColour());
     expectSameForThreadCounts(input, 4, "default model");
+}
+
+// The arithmetic is exactly scale-invariant (refiner.cpp, scaleExponent): a point set scaled by a
+// power of two refines to the same points scaled by it, bit for bit, also where squared distances
+// and their squares leave single precision (radii 1e-18 to 1e16), the levels then running
+// rescaled. Without the rescaling, at 2^-40 and 2^40 this torus gave 4,250 and 7,400 points
+// instead of 6,573 (every angle 0, or π/2).
+TEST(RefinerScale, PowersOfTwoGiveTheSameBitsScaled) {
+    const PointSet input = withRadii(sampleTorusRandom(800, 1.0f, 0.4f, 5));
+    Refiner unscaled(input, options());
+    refineLevels(unscaled, 2);
+    const PointSet& expected = unscaled.points();
+    for (const int exponent : {-56, -40, -24, 24, 40, 56}) {
+        const float factor = std::ldexp(1.0f, exponent);
+        PointSet scaled = input;
+        for (glm::vec3& x : scaled.position) x *= factor;
+        for (float& r : scaled.radius) r *= factor;
+        ASSERT_TRUE(validateForRefinement(scaled).ok()) << exponent;
+        Refiner refiner(scaled, options());
+        refineLevels(refiner, 2);
+        PointSet back = std::move(refiner).takePoints();
+        for (glm::vec3& x : back.position) x /= factor;
+        for (float& r : back.radius) r /= factor;
+        EXPECT_TRUE(samePointSets(back, expected)) << "scaled by 2^" << exponent << ": " << back.size() << " points, "
+                                                   << expected.size() << " unscaled";
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1027,6 +1028,13 @@ TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
         ASSERT_FALSE(result.ok()) << radius;
         EXPECT_NE(result.error().message.find("point 9 has a radius of"), std::string::npos) << result.error().message;
     }
+    PointSet overflowingExtent = valid;
+    overflowingExtent.position[3].x = 3e38f;
+    overflowingExtent.position[4].x = -3e38f;
+    const auto extentResult = validateForRefinement(overflowingExtent);
+    ASSERT_FALSE(extentResult.ok());
+    EXPECT_NE(extentResult.error().message.find("single precision"), std::string::npos) << extentResult.error().message;
+
     PointSet atBounds = valid;
     atBounds.radius[9] = kMinRadius;
     atBounds.radius[10] = kMaxRadius;

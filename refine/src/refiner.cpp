@@ -400,6 +400,38 @@ Tiles makeTiles(const CellKeys& keyed, std::span<const Cell> cells, std::uint32_
     return tiles;
 }
 
+// Choice (not in the paper): a level runs at a scale that keeps its arithmetic in single
+// precision's normal range. The refinement computes squares and fourth powers of distances
+// (angle tests, pn_triangle.h), which underflow for radii below about 1e-9 and overflow above
+// about 1e9; everything else is relative. Scaling by a power of two is exact, and within that
+// range the output is exactly scale-invariant (RefinerScale). So a level whose 99th-percentile
+// radius r_lim lies outside [2^-20, 2^20] is computed on the points scaled by 2^e, e chosen to
+// bring r_lim into [1, 2) (limited so that no coordinate or radius leaves the normal range), and
+// scaled back: the same bits as refining a copy scaled by hand. Elsewhere e = 0 and this costs
+// nothing.
+constexpr int kUnscaledExponent = 20;
+constexpr int kScaledMagnitude = 100; // scaled coordinates below 2^100, radii above 2^-100
+int scaleExponent(const PointSet& points, float radiusLimit) {
+    const int rlim = std::ilogb(radiusLimit);
+    if (rlim >= -kUnscaledExponent && rlim < kUnscaledExponent) return 0;
+    float largest = 0.0f, smallest = std::numeric_limits<float>::max();
+    for (const glm::vec3& x : points.position) largest = std::max({largest, std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+    for (const float r : points.radius) smallest = std::min(smallest, r);
+    const int highest = largest > 0.0f ? kScaledMagnitude - std::ilogb(largest) : kScaledMagnitude;
+    const int lowest = -kScaledMagnitude - std::ilogb(smallest);
+    return lowest > highest ? 0 : std::clamp(-rlim, lowest, highest);
+}
+
+// Multiplies every position and radius by `factor`, a power of two (exact).
+void scalePoints(PointSet& points, float factor, WorkerPool& pool) {
+    parallelForRanges(pool, points.size(), 65536, [&](std::size_t begin, std::size_t end, unsigned) {
+        for (std::size_t i = begin; i < end; ++i) {
+            points.position[i] *= factor;
+            points.radius[i] *= factor;
+        }
+    });
+}
+
 } // namespace
 
 RefineOptions RefineOptions::fast() {
@@ -1128,6 +1160,17 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     stats.level = hierarchy.levels();
     stats.pointsBefore = count;
 
+    // Colouring (see the top of this file), and the level's scale.
+    HugePageVector<float> sortedRadii = points.radius;
+    const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
+    std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
+                     sortedRadii.end());
+    const int exponent = scaleExponent(points, sortedRadii[quantileIndex]);
+    const float scale = std::ldexp(1.0f, exponent);
+    if (exponent != 0) scalePoints(points, scale, pool);
+    const float radiusLimit = sortedRadii[quantileIndex] * scale;
+    const float targetRadius = options.targetRadius * scale;
+
     levelRadius = points.radius;
     hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
@@ -1143,12 +1186,6 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         segmentChild.assign(segments.size(), 0);
     }
 
-    // Colouring (see the top of this file).
-    HugePageVector<float> sortedRadii = levelRadius;
-    const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
-    std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
-                     sortedRadii.end());
-    const float radiusLimit = sortedRadii[quantileIndex];
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
     for (const glm::vec3& x : points.position) {
         lo = glm::min(lo, x);
@@ -1170,13 +1207,13 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     // Adaptive refinement skips a point small enough already, unless it owns a segment longer than
     // the target: its radius covers its new ring, not the segment, which only its refinement splits.
     std::vector<float> longestOwned;
-    if (options.targetRadius > 0.0f && !segments.empty()) {
+    if (targetRadius > 0.0f && !segments.empty()) {
         longestOwned.assign(count, 0.0f);
         for (const Segment& segment : segments)
             longestOwned[segment.a] = std::max(longestOwned[segment.a], segmentLength(segment));
     }
     const auto skipped = [&](std::uint32_t i) {
-        return levelRadius[i] <= options.targetRadius && (longestOwned.empty() || longestOwned[i] <= options.targetRadius);
+        return levelRadius[i] <= targetRadius && (longestOwned.empty() || longestOwned[i] <= targetRadius);
     };
     std::erase_if(keyed, [&](const auto& entry) {
         return skipped(entry.second) || levelRadius[entry.second] > radiusLimit;
@@ -1303,6 +1340,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
     stats.boundarySegments = segments.size();
     hierarchy.addLevel(std::move(childBegin));
+    if (exponent != 0) scalePoints(points, std::ldexp(1.0f, -exponent), pool);
 
     for (const WorkerScratch& s : scratch) {
         stats.inserted += s.inserted;
@@ -1445,6 +1483,15 @@ Result<void> validateForRefinement(const PointSet& points) {
                 return Error{"point " + std::to_string(i) + " has crease normals more than 170 degrees apart"};
         }
     }
+    // Cell keys and Morton codes divide by the extent of the set.
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+    for (const glm::vec3& x : points.position) {
+        lo = glm::min(lo, x);
+        hi = glm::max(hi, x);
+    }
+    const glm::vec3 extent = hi - lo;
+    if (!std::isfinite(extent.x) || !std::isfinite(extent.y) || !std::isfinite(extent.z))
+        return Error{"the points span more than single precision holds (coordinates of both signs beyond 1.7e38)"};
     // Two copies of a point would each insert the same new points (removeCoincident merges them).
     if (const auto pair = findCoincident(points))
         return Error{"points " + std::to_string(pair->first) + " and " + std::to_string(pair->second) +

@@ -1,9 +1,11 @@
-// Writes the fuzz targets' starting corpus into the folder given (scripts/fuzz.sh): small valid
-// files of every kind the reader takes — ascii and binary, with and without radii, colours,
-// second normals and faces, positions only — made here rather than stored.
+// Writes the fuzz targets' starting corpora (scripts/fuzz.sh): small valid files of every kind the
+// reader takes — ascii and binary, with and without radii, colours, second normals and faces,
+// positions only — made here rather than stored. fuzz_ply's folder gets the files; fuzz_refine's
+// gets each one several times behind the byte that picks the variant (refine_fuzz.cpp).
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "pnsplat/refine/ply.h"
@@ -23,12 +25,13 @@ bool write(const fs::path& path, const PointSet& points, PlyFormat format) {
 } // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 2) {
-        std::fprintf(stderr, "usage: fuzz_seeds FOLDER\n");
+    if (argc != 3) {
+        std::fprintf(stderr, "usage: fuzz_seeds PLY_FOLDER REFINE_FOLDER\n");
         return 2;
     }
-    const fs::path folder = argv[1];
+    const fs::path folder = argv[1], refineFolder = argv[2];
     fs::create_directories(folder);
+    fs::create_directories(refineFolder);
     PointSet sphere = sampleSphereUniform(60, 1.0f);
     PointSet torus = sampleTorusRandom(120, 1.0f, 0.4f, 3);
     PointSet model = makeDefaultModel();
@@ -54,5 +57,18 @@ int main(int argc, char** argv) {
     mesh << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
             "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
             "0 0 0\n1 0 0\n0 1 0\n1 1 0.2\n3 0 1 2\n3 1 3 2\n";
-    return ok && bare.good() && mesh.good() ? 0 : 1;
+    ok = ok && bare.good() && mesh.good();
+    bare.close();
+    mesh.close();
+    // The full method, the faster variants, the fuzzy neighbourhood, no smoothing, no boundaries.
+    for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
+        std::ifstream in(entry.path(), std::ios::binary);
+        const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        for (const char variant : {0, 1, 2, 4, 8}) {
+            std::ofstream out(refineFolder / (std::to_string(variant) + "-" + entry.path().filename().string()), std::ios::binary);
+            out << variant << bytes;
+            ok = ok && out.good();
+        }
+    }
+    return ok ? 0 : 1;
 }

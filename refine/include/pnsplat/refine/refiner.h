@@ -192,9 +192,10 @@ Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> hole
 std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress = {});
 inline constexpr unsigned kHoleFillingLevels = 12;
 
-// Radii the refinement accepts: it squares them, and distances up to kRetryReach times them, in
-// single precision; below kMinRadius the square is no longer a normal float (and a radius can no
-// longer shrink by c_β,max), above kMaxRadius the squared reach of a colour cell overflows.
+// Radii the refinement accepts: each is squared in single precision, below kMinRadius into a
+// denormal (and a radius cannot shrink by c_β,max any more), above kMaxRadius with the reach of a
+// colour cell towards overflow. Between them any scale works alike: each level runs rescaled by a
+// power of two where its radii would take the squares of squared distances out of range.
 inline constexpr float kMinRadius = 1.1e-19f;
 inline constexpr float kMaxRadius = 1e18f;
 

@@ -26,6 +26,7 @@
 #include <glm/vector_relational.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/input.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/quality.h"
 #include "pnsplat/refine/radius_estimation.h"
@@ -977,6 +978,35 @@ TEST(PointSetCoincident, RemovesRepeatsKeepingTheFirst) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// completeInput (input.h): what the tools do with a file before refining it.
+TEST(RefinerInput, CompletesAScanOfRepeatedPositionsOnly) {
+    PointSet scan = sampleTorusRandom(400, 1.0f, 0.4f, 11);
+    scan.normal.clear();
+    for (std::size_t i = 0; i < 50; ++i) scan.position.push_back(scan.position[3 * i]); // 50 repeats
+    const Result<InputCompletion> done = completeInput(scan, kThreads);
+    ASSERT_TRUE(done.ok()) << done.error().message;
+    EXPECT_EQ(done->repeats.points, 50u);
+    EXPECT_EQ(done->normalComponents, 1u); // one torus
+    EXPECT_TRUE(done->radiiEstimated);
+    EXPECT_EQ(scan.size(), 400u);
+    EXPECT_TRUE(validateForRefinement(scan).ok());
+
+    PointSet withRadii = scan; // radii kept unless replaced
+    withRadii.radius.assign(withRadii.size(), 0.5f);
+    ASSERT_TRUE(completeInput(withRadii, kThreads).ok());
+    EXPECT_EQ(withRadii.radius[7], 0.5f);
+    ASSERT_TRUE(completeInput(withRadii, kThreads, true).ok());
+    EXPECT_EQ(withRadii.radius, scan.radius);
+
+    PointSet few = scan;
+    few.position = {glm::vec3(0.0f), glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(0.0f), glm::vec3(1.0f, 0.0f, 0.0f)};
+    few.normal.assign(4, glm::vec3(0.0f, 0.0f, 1.0f));
+    few.radius.clear();
+    const Result<InputCompletion> tooFew = completeInput(few, kThreads);
+    ASSERT_FALSE(tooFew.ok());
+    EXPECT_EQ(tooFew.error().message, "4 points but 2 distinct position(s); at least 3 are needed");
+}
+
 // validateForRefinement: the input checks of the Refiner's precondition.
 
 TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {

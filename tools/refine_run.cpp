@@ -1,6 +1,5 @@
 #include "refine_run.h"
 
-#include <cmath>
 #include <optional>
 #include <string_view>
 
@@ -8,9 +7,9 @@
 
 #include "commands.h"
 #include "progress.h"
+#include "pnsplat/refine/input.h"
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/text.h"
 
 namespace pnsplat::tools {
@@ -62,33 +61,20 @@ PointSet readInput(const std::string& path) {
 }
 
 void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
-    const std::size_t given = points.size();
-    if (const CoincidentRemoval removed = removeCoincident(points); removed.points > 0) {
-        if (points.size() < 3)
-            throw CommandError(fmt::format("{}: {} points but {} distinct position(s); at least 3 are needed", inputName,
-                                           given, points.size()));
+    const Result<InputCompletion> done = pnsplat::completeInput(points, threads, replaceRadii);
+    if (!done) throw CommandError(inputName + ": " + done.error().message);
+    if (const CoincidentRemoval& removed = done->repeats; removed.points > 0)
         fmt::print(stderr, "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first){}\n",
                    inputName, removed.points,
                    removed.withOtherAttributes > 0
                        ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
                                      removed.withOtherAttributes)
                        : "");
-    }
-    if (!points.hasNormal()) {
-        auto estimate = estimateNormals(points, threads);
-        if (!estimate) throw CommandError(inputName + ": " + estimate.error().message);
+    if (done->normalComponents > 0)
         fmt::print(stderr,
                    "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented along a "
                    "spanning tree ({} connected part(s), each facing +z at its top)\n",
-                   inputName, kNormalNearest, estimate->components);
-    }
-    if (points.hasRadius() && !replaceRadii) return;
-    estimateRadii(points, threads);
-    for (std::size_t i = 0; i < points.size(); ++i)
-        if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
-            throw CommandError(fmt::format("{}: no radius can be estimated for point {}: it has no neighbour but "
-                                           "points along its normal, or its distances overflow single precision",
-                                           inputName, i));
+                   inputName, kNormalNearest, done->normalComponents);
 }
 
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {

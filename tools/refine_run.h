@@ -50,11 +50,8 @@ std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
 // estimates them). A bad file is a CommandError.
 PointSet readInput(const std::string& path);
 
-// Completes an input: points repeating an earlier point's position dropped (removeCoincident; a
-// note on stderr), normals estimated when it has none (SPEC 9; a note), then radii when it has
-// none or `replaceRadii`. Fewer than 3 distinct positions, or a point for which either cannot be
-// estimated (no plane through its nearest points; no neighbour but points along its normal, or
-// distances beyond single precision), is a CommandError naming `inputName`.
+// Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
+// positions dropped and for normals estimated; its errors are a CommandError naming `inputName`.
 void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii = false);
 
 // Completes the input (completeInput, job.estimateRadii), checks it (CommandError naming

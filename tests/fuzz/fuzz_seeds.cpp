@@ -64,9 +64,9 @@ int main(int argc, char** argv) {
     for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
         std::ifstream in(entry.path(), std::ios::binary);
         const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-        for (const char variant : {0, 1, 2, 4, 8}) {
+        for (const int variant : {0, 1, 2, 4, 8}) {
             std::ofstream out(refineFolder / (std::to_string(variant) + "-" + entry.path().filename().string()), std::ios::binary);
-            out << variant << bytes;
+            out << static_cast<char>(variant) << bytes;
             ok = ok && out.good();
         }
     }

@@ -19,9 +19,8 @@
 
 #include "fuzz_check.h"
 #include "oracles.h"
-#include "pnsplat/refine/normal_estimation.h"
+#include "pnsplat/refine/input.h"
 #include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 
 using namespace pnsplat;
@@ -34,16 +33,8 @@ constexpr std::size_t kMaxPoints = 300;
 constexpr unsigned kLevels = 2;
 
 // The input as `pnsplat refine` completes it; false where the tool would stop with an error.
-bool completeInput(PointSet& points) {
-    removeCoincident(points);
-    if (points.size() < 3) return false;
-    if (!points.hasNormal() && !estimateNormals(points, 1)) return false;
-    if (!points.hasRadius()) {
-        estimateRadii(points, 1);
-        for (const float r : points.radius)
-            if (!(r > 0.0f) || !std::isfinite(r)) return false;
-    }
-    return validateForRefinement(points).ok();
+bool completeForRefinement(PointSet& points) {
+    return completeInput(points, 1).ok() && validateForRefinement(points).ok();
 }
 
 RefineOptions optionsFrom(std::uint8_t knob, unsigned threads) {
@@ -86,7 +77,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     Result<PlyData> read = parsePly(std::string_view(reinterpret_cast<const char*>(data) + 1, size - 1), "input", options);
     if (!read || read->points.size() > kMaxPoints) return 0;
     PointSet points = std::move(read->points);
-    if (!completeInput(points)) return 0;
+    if (!completeForRefinement(points)) return 0;
     const PointSet one = refine(points, knob, 1), two = refine(points, knob, 2);
     check(sameBits(one.position, two.position) && sameBits(one.normal, two.normal) && sameBits(one.radius, two.radius) &&
               sameBits(one.colour, two.colour) && sameBits(one.crease, two.crease),

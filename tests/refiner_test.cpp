@@ -706,6 +706,16 @@ TEST(RefinerScale, PowersOfTwoGiveTheSameBitsScaled) {
         EXPECT_TRUE(samePointSets(back, expected)) << "scaled by 2^" << exponent << ": " << back.size() << " points, "
                                                    << expected.size() << " unscaled";
     }
+    // A coordinate near the smallest normal float limits how far a level scales down: it would
+    // lose bits as a denormal (found by fuzz_refine, a radius of 2e6 beside a coordinate of 2e-38).
+    PointSet huge = input;
+    for (glm::vec3& x : huge.position) x *= std::ldexp(1.0f, 40);
+    for (float& r : huge.radius) r *= std::ldexp(1.0f, 40);
+    huge.position[0].z = 1.5f * std::numeric_limits<float>::min();
+    ASSERT_TRUE(validateForRefinement(huge).ok());
+    Refiner refiner(huge, options());
+    refineLevels(refiner, 2);
+    EXPECT_EQ(inputMismatches(refiner, huge), 0u);
 }
 
 // ---------------------------------------------------------------------------------------------

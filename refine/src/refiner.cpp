@@ -406,20 +406,27 @@ Tiles makeTiles(const CellKeys& keyed, std::span<const Cell> cells, std::uint32_
 // about 1e9; everything else is relative. Scaling by a power of two is exact, and within that
 // range the output is exactly scale-invariant (RefinerScale). So a level whose 99th-percentile
 // radius r_lim lies outside [2^-20, 2^20] is computed on the points scaled by 2^e, e chosen to
-// bring r_lim into [1, 2) (limited so that no coordinate or radius leaves the normal range), and
-// scaled back: the same bits as refining a copy scaled by hand. Elsewhere e = 0 and this costs
-// nothing.
+// bring r_lim into [1, 2), and scaled back: the same bits as refining a copy scaled by hand.
+// Elsewhere e = 0 and this costs nothing. e is limited so that the input comes back bit for bit:
+// scaled down, no coordinate or radius may become a denormal (it would lose bits), and scaled
+// up, no coordinate may pass 2^100 (extents and cell keys stay finite).
 constexpr int kUnscaledExponent = 20;
-constexpr int kScaledMagnitude = 100; // scaled coordinates below 2^100, radii above 2^-100
+constexpr int kLargestScaledExponent = 100;
 int scaleExponent(const PointSet& points, float radiusLimit) {
     const int rlim = std::ilogb(radiusLimit);
     if (rlim >= -kUnscaledExponent && rlim < kUnscaledExponent) return 0;
-    float largest = 0.0f, smallest = std::numeric_limits<float>::max();
-    for (const glm::vec3& x : points.position) largest = std::max({largest, std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+    float largest = 0.0f, smallest = std::numeric_limits<float>::max(); // |coordinates| and radii
+    for (const glm::vec3& x : points.position) {
+        for (int k = 0; k < 3; ++k) {
+            const float c = std::abs(x[k]);
+            largest = std::max(largest, c);
+            if (c > 0.0f) smallest = std::min(smallest, c);
+        }
+    }
     for (const float r : points.radius) smallest = std::min(smallest, r);
-    const int highest = largest > 0.0f ? kScaledMagnitude - std::ilogb(largest) : kScaledMagnitude;
-    const int lowest = -kScaledMagnitude - std::ilogb(smallest);
-    return lowest > highest ? 0 : std::clamp(-rlim, lowest, highest);
+    const int wanted = -rlim;
+    if (wanted < 0) return std::max(wanted, std::min(0, std::numeric_limits<float>::min_exponent - 1 - std::ilogb(smallest)));
+    return std::min(wanted, std::max(0, kLargestScaledExponent - (largest > 0.0f ? std::ilogb(largest) : 0)));
 }
 
 // Multiplies every position and radius by `factor`, a power of two (exact).

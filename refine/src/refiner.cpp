@@ -402,18 +402,20 @@ Tiles makeTiles(const CellKeys& keyed, std::span<const Cell> cells, std::uint32_
 
 // Choice (not in the paper): a level runs at a scale that keeps its arithmetic in single
 // precision's normal range. The refinement computes squares and fourth powers of distances
-// (angle tests, pn_triangle.h), which underflow for radii below about 1e-9 and overflow above
-// about 1e9; everything else is relative. Scaling by a power of two is exact, and within that
-// range the output is exactly scale-invariant (RefinerScale). So a level whose 99th-percentile
-// radius r_lim lies outside [2^-20, 2^20] is computed on the points scaled by 2^e, e chosen to
-// bring r_lim into [1, 2), and scaled back: the same bits as refining a copy scaled by hand.
+// (angle tests, pn_triangle.h), which underflow for distances below about 1e-9 and overflow
+// above about 1e9; everything else is relative. Scaling by a power of two is exact, and within
+// that range the output is exactly scale-invariant (RefinerScale). The distances measured are
+// those within a point's ball, so their size is that of the radii (the 99th percentile r_lim),
+// or of the set's extent where radii exceed it. A level whose `size`, the smaller of the two,
+// lies outside [2^-20, 2^20] is computed on the points scaled by 2^e, e chosen to bring it into
+// [1, 2), and scaled back: the same bits as refining a copy scaled by hand.
 // Elsewhere e = 0 and this costs nothing. e is limited so that the input comes back bit for bit:
 // scaled down, no coordinate or radius may become a denormal (it would lose bits), and scaled
 // up, no coordinate may pass 2^100 (extents and cell keys stay finite).
 constexpr int kUnscaledExponent = 20;
 constexpr int kLargestScaledExponent = 100;
-int scaleExponent(const PointSet& points, float radiusLimit) {
-    const int rlim = std::ilogb(radiusLimit);
+int scaleExponent(const PointSet& points, float size) {
+    const int rlim = std::ilogb(size);
     if (rlim >= -kUnscaledExponent && rlim < kUnscaledExponent) return 0;
     float largest = 0.0f, smallest = std::numeric_limits<float>::max(); // |coordinates| and radii
     for (const glm::vec3& x : points.position) {
@@ -799,7 +801,7 @@ NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, 
     }
     NewPoint np{c.position, glm::vec3(0.0f), 0.0f, glm::u8vec3(0)};
     if (!options.smoothing) {
-        np.normal = glm::normalize(n + na + nb);
+        np.normal = meanNormal(n, na, nb);
     } else {
         PnTriangle t;
         if (creaseP) {
@@ -1172,9 +1174,15 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
     std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
                      sortedRadii.end());
-    const int exponent = scaleExponent(points, sortedRadii[quantileIndex]);
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+    for (const glm::vec3& x : points.position) {
+        lo = glm::min(lo, x);
+        hi = glm::max(hi, x);
+    }
+    const int exponent = scaleExponent(points, std::min(sortedRadii[quantileIndex], std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z})));
     const float scale = std::ldexp(1.0f, exponent);
     if (exponent != 0) scalePoints(points, scale, pool);
+    lo *= scale, hi *= scale;
     const float radiusLimit = sortedRadii[quantileIndex] * scale;
     const float targetRadius = options.targetRadius * scale;
 
@@ -1193,11 +1201,6 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         segmentChild.assign(segments.size(), 0);
     }
 
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-    for (const glm::vec3& x : points.position) {
-        lo = glm::min(lo, x);
-        hi = glm::max(hi, x);
-    }
     const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
     const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
     std::vector<std::uint32_t> large;

@@ -312,13 +312,13 @@ TEST(CentreNormal, CollinearSliverFallsBackToMeanNormal) {
     EXPECT_LT(glm::length(centreNormal(point, n0, n1, n2) - expected), 1e-6f);
 }
 
-// A patch so small that its cross product's squared length is no normal float (found by
-// fuzz_refine): the mean normal, of unit length, where the division by a denormal length gave
-// normals up to 15 % off. Normals that cancel: the first corner's.
+// A patch so small or so large that its cross product's squared length is no normal float (found
+// by fuzz_refine): the mean normal, of unit length, where the division by a denormal length gave
+// normals up to 15 % off, and by an infinite one zero. Normals that cancel: the first corner's.
 TEST(CentreNormal, TinyPatchGivesAUnitNormal) {
     const glm::vec3 n0 = glm::normalize(glm::vec3(0.1f, 0.0f, 1.0f)), n1 = glm::normalize(glm::vec3(0.0f, 0.2f, 1.0f));
     const glm::vec3 n2 = glm::normalize(glm::vec3(-0.1f, -0.1f, 1.0f));
-    for (const float side : {1e-8f, 1e-10f, 1e-12f, 1e-20f}) {
+    for (const float side : {1e-8f, 1e-10f, 1e-12f, 1e-20f, 1e9f, 1e10f, 1e15f}) {
         const PnTriangle pn = makePnTriangle(glm::vec3(0.0f), n0, glm::vec3(side, 0.0f, 0.0f), n1, glm::vec3(0.0f, side, 0.0f), n2);
         const glm::vec3 n = centreNormal(pn, n0, n1, n2);
         EXPECT_NEAR(glm::length(n), 1.0f, 1e-6f) << side;

@@ -119,9 +119,10 @@ inline glm::vec3 centreOfGravity(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
 //   3 dB/ds = (p1-p0) + (b120-b210) + (b012-b102) + 2(b021-b201)
 //   3 dB/dt = (p2-p0) + (b102-b201) + (b021-b120) + 2(b012-b210)
 // oriented like n0+n1+n2. For a degenerate patch (tangents parallel within 0.5°: a sliver whose
-// normal rounding decides), or one so small that the squared length of its cross product leaves
-// single precision's normal range (sides below about 1e-10 of the unit: found by fuzz_refine,
-// whose normals came out up to 15 % off unit length), the mean normal (meanNormal).
+// normal rounding decides), or one so small or so large that the squared length of its cross
+// product leaves single precision's normal range (sides below about 1e-10 or above 1e9 of the
+// unit; found by fuzz_refine, whose normals came out up to 15 % off unit length, or zero), the
+// mean normal (meanNormal).
 [[gnu::always_inline]] inline glm::vec3 meanNormal(glm::vec3 n0, glm::vec3 n1, glm::vec3 n2) {
     const glm::vec3 sum = n0 + n1 + n2;
     const float length2 = glm::dot(sum, sum);
@@ -134,7 +135,8 @@ inline glm::vec3 centreOfGravity(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
     glm::vec3 n = glm::cross(ds, dt);
     const float length2 = glm::dot(n, n);
     constexpr float kMinSin2 = 7.6e-5f; // sin²(0.5°)
-    if (!(length2 > kMinSin2 * glm::dot(ds, ds) * glm::dot(dt, dt)) || !(length2 >= std::numeric_limits<float>::min()))
+    if (!(length2 > kMinSin2 * glm::dot(ds, ds) * glm::dot(dt, dt)) || !(length2 >= std::numeric_limits<float>::min()) ||
+        !(length2 <= std::numeric_limits<float>::max()))
         return meanNormal(n0, n1, n2);
     n *= 1.0f / std::sqrt(length2);
     return glm::dot(n, n0 + n1 + n2) < 0.0f ? -n : n;

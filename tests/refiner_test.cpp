@@ -1366,6 +1366,34 @@ TEST(RefinerCreases, FandiskIsCloserToItsMeshWithCreaseNormals) {
     EXPECT_LT(s.holes, b.holes);
 }
 
+// A crease point whose second normal (nearly) equals its first has no crease direction: its
+// segments' curves leave it along the chord (fuzz_refine found NaN points there). A shallow roof
+// (normals 30° apart, so such a point still pairs with its crease neighbours), every third crease
+// point given its first normal twice.
+TEST(RefinerCreases, ParallelCreaseNormalsGiveFinitePoints) {
+    const float s = 0.25881904f, c = 0.96592583f; // sin and cos of 15°
+    PointSet roof;
+    for (int i = -10; i <= 10; ++i) {
+        for (int j = -10; j <= 10; ++j) {
+            const float x = 0.1f * static_cast<float>(i), y = 0.1f * static_cast<float>(j) + (i % 2 != 0 ? 0.05f : 0.0f);
+            roof.position.emplace_back(x, y, -std::abs(x) * s / c);
+            const glm::vec3 left(-s, 0.0f, c), right(s, 0.0f, c);
+            roof.normal.push_back(i < 0 ? left : right);
+            roof.crease.push_back(i != 0 ? glm::vec3(0.0f) : (j % 3 == 0 ? right : left));
+        }
+    }
+    roof = withRadii(std::move(roof));
+    ASSERT_TRUE(validateForRefinement(roof).ok());
+    Refiner refiner(roof, options());
+    refineLevels(refiner, 3);
+    const PointSet& out = refiner.points();
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        ASSERT_TRUE(std::isfinite(out.position[i].x) && std::isfinite(out.position[i].y) && std::isfinite(out.position[i].z)) << i;
+        ASSERT_NEAR(glm::length(out.normal[i]), 1.0f, 1e-3f) << i;
+    }
+    EXPECT_EQ(inputMismatches(refiner, roof), 0u);
+}
+
 TEST(RefinerCreases, CylinderIdenticalFor1To8Threads) {
     expectSameForThreadCounts(withRadii(sampleCappedCylinder(40, 1.0f, 1.5f)), 3, "capped cylinder");
 }

@@ -70,6 +70,7 @@ constexpr std::size_t kPrefetchAhead = 16; // grid entries between a point's pre
 constexpr unsigned kMaxTileShift = 4;      // tiles of at most 16³ cells
 constexpr std::size_t kMinTiles = 64;      // tiles of a level, at least (where the cells allow)
 constexpr float kMinCreaseCos = -0.98480775f; // cos 170°
+constexpr float kMinCreaseSin2 = 3.0459e-4f;  // sin²(1°): a crease's two normals at least 1° apart
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
 // neighbour at the next level; without the margin it would drop out by rounding.
@@ -864,7 +865,18 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
         glm::vec3 c1, c2;
         if (segments[segment].crease) {
             const float leg = glm::length(pb - x) / 3.0f;
-            glm::vec3 ta = glm::normalize(glm::cross(n, nc)), tb = glm::normalize(glm::cross(nb, nbc));
+            // Choice: where an end's two normals are (nearly) parallel its crease direction is
+            // undefined, and the curve leaves it along the chord (fuzz_refine: a crease point whose
+            // second normal equalled its first gave NaN points).
+            const glm::vec3 chord = pb - x;
+            const float chord2 = glm::dot(chord, chord);
+            const glm::vec3 along = chord2 >= std::numeric_limits<float>::min() ? chord * (1.0f / std::sqrt(chord2)) : glm::vec3(0.0f);
+            const auto creaseDirection = [&](glm::vec3 first, glm::vec3 second) {
+                const glm::vec3 d = glm::cross(first, second);
+                const float length2 = glm::dot(d, d);
+                return length2 > kMinCreaseSin2 ? d * (1.0f / std::sqrt(length2)) : along;
+            };
+            glm::vec3 ta = creaseDirection(n, nc), tb = creaseDirection(nb, nbc);
             if (glm::dot(ta, pb - x) < 0.0f) ta = -ta;
             if (glm::dot(tb, pb - x) < 0.0f) tb = -tb;
             c1 = x + leg * ta;

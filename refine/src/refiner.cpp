@@ -251,17 +251,28 @@ inline std::uint64_t spreadBits(std::uint64_t v) {
     return v;
 }
 
+// The axis-aligned bounding box of `positions`, and its longest side.
+struct Bounds {
+    glm::vec3 lo{std::numeric_limits<float>::max()}, hi{std::numeric_limits<float>::lowest()};
+    float extent() const { return std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}); }
+};
+Bounds boundsOf(std::span<const glm::vec3> positions) {
+    Bounds b;
+    for (const glm::vec3& x : positions) {
+        b.lo = glm::min(b.lo, x);
+        b.hi = glm::max(b.hi, x);
+    }
+    return b;
+}
+
 // P0 sorted along a Morton curve. Children are stored grouped by parent in parent order, so every
 // level inherits the order: points close in space are close in memory, and the hierarchy walks
 // and neighbourhood gathers touch few cache lines. Ties keep the input order.
 PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     const auto count = static_cast<std::uint32_t>(input.size());
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-    for (const glm::vec3& x : input.position) {
-        lo = glm::min(lo, x);
-        hi = glm::max(hi, x);
-    }
-    const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, std::numeric_limits<float>::min()});
+    const Bounds bounds = boundsOf(input.position);
+    const glm::vec3 lo = bounds.lo;
+    const float extent = std::max(bounds.extent(), std::numeric_limits<float>::min());
     const float scale = float((1u << 21) - 1) / extent;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
     for (std::uint32_t i = 0; i < count; ++i) {
@@ -534,6 +545,12 @@ private:
     void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
     void splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s);
     NewPoint& newPoint(const RingMember& m) { return cellBase[m.cell][m.local]; }
+    // Whether q may join N'_p: r' = kRadiusMargin·|q - p| stays within c_β,max·r (the convergence
+    // bound of SPEC 4, section 8.1), which the choices on Y_p's substitutes, the segments' first
+    // points and the candidates of a wider second look rely on.
+    bool withinConvergenceBound(std::uint32_t p, glm::vec3 q) const {
+        return kRadiusMargin * glm::length(q - points.position[p]) <= kCBetaMax * levelRadius[p];
+    }
     // Appends np to `cell`, refined by the worker of `s`; returns its index in the cell.
     std::uint32_t store(std::uint32_t cell, const NewPoint& np, WorkerScratch& s) {
         s.arena.append(cellBase[cell], cellCount[cell], np);
@@ -908,7 +925,7 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             // The first point joins N'_p (it fills the gap along the segment), unless it lies
             // farther than c_β,max · r_p: choice, as for Y_p's substitutes, so that r' stays within
             // the convergence bound of SPEC 4 (a segment may be up to kRetryReach · r long).
-            if (third == 1 && kRadiusMargin * glm::length(q - x) <= kCBetaMax * levelRadius[p])
+            if (third == 1 && withinConvergenceBound(p, q))
                 insertIntoRing(s.ring, RingMember{cell, local, q, facing(np.normal, np.crease, frame.n), frame.angleOf(q - x)});
         }
     }
@@ -1121,7 +1138,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             // Choice: a substitute farther than c_β,max · r from p would break the convergence
             // bound of section 8.1 (the proof assumes the farthest new neighbour is a PN centre);
             // such a point is left out and nothing joins N'_p.
-            if (!present && kRadiusMargin * glm::length(y.position - x) <= kCBetaMax * levelRadius[p]) insertIntoRing(ring, y);
+            if (!present && withinConvergenceBound(p, y.position)) insertIntoRing(ring, y);
             continue;
         }
         Clock::time_point ti;
@@ -1133,7 +1150,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         // to kRetryReach · r) a PN centre can lie beyond it (1 in 118,000 on the fandisk). The
         // gap stays open for p's other candidates, and the far triangle's other corners, which
         // are closer to it, insert their own.
-        if (kRadiusMargin * glm::length(np.position - x) > kCBetaMax * levelRadius[p]) {
+        if (!withinConvergenceBound(p, np.position)) {
             ++s.beyondBound;
             if (profile) interpolationSeconds += secondsSince(ti);
             continue;
@@ -1186,15 +1203,12 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
     std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
                      sortedRadii.end());
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-    for (const glm::vec3& x : points.position) {
-        lo = glm::min(lo, x);
-        hi = glm::max(hi, x);
-    }
-    const int exponent = scaleExponent(points, std::min(sortedRadii[quantileIndex], std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z})));
+    const Bounds bounds = boundsOf(points.position);
+    const int exponent = scaleExponent(points, std::min(sortedRadii[quantileIndex], bounds.extent()));
     const float scale = std::ldexp(1.0f, exponent);
     if (exponent != 0) scalePoints(points, scale, pool);
-    lo *= scale, hi *= scale;
+    const glm::vec3 lo = bounds.lo * scale; // exact, as the points'
+    const float extent = bounds.extent() * scale;
     const float radiusLimit = sortedRadii[quantileIndex] * scale;
     const float targetRadius = options.targetRadius * scale;
 
@@ -1213,7 +1227,6 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         segmentChild.assign(segments.size(), 0);
     }
 
-    const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
     const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
     std::vector<std::uint32_t> large;
     CellKeys keyed(count);
@@ -1506,13 +1519,7 @@ Result<void> validateForRefinement(const PointSet& points) {
         }
     }
     // Cell keys and Morton codes divide by the extent of the set.
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-    for (const glm::vec3& x : points.position) {
-        lo = glm::min(lo, x);
-        hi = glm::max(hi, x);
-    }
-    const glm::vec3 extent = hi - lo;
-    if (!std::isfinite(extent.x) || !std::isfinite(extent.y) || !std::isfinite(extent.z))
+    if (!std::isfinite(boundsOf(points.position).extent()))
         return Error{"the points span more than single precision holds (coordinates of both signs beyond 1.7e38)"};
     // Two copies of a point would each insert the same new points (removeCoincident merges them).
     if (const auto pair = findCoincident(points))

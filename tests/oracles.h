@@ -1,13 +1,16 @@
 // Oracles shared by the test suite and the fuzz targets (tests/fuzz): bitwise equality, the
-// convergence bound of SPEC 4, and the interpolation check of SPEC 1.
+// convergence bound of SPEC 4, the interpolation check of SPEC 1, and a point set's consistency.
 #pragma once
 
 #include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <span>
+#include <string>
 #include <type_traits>
 #include <vector>
+
+#include <glm/geometric.hpp>
 
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/refiner.h"
@@ -45,6 +48,34 @@ inline std::size_t inputMismatches(const Refiner& refiner, const PointSet& input
         bad += !same;
     }
     return bad;
+}
+
+struct Consistency {
+    float normalTolerance = 1e-5f; // largest | |n| - 1 | of normals and second normals
+    bool positiveRadii = false;    // radii > 0 (else >= 0)
+};
+
+// What is wrong with a point set, empty where nothing is: attribute arrays that do not match the
+// positions (normals, radii, colours and second normals for every point or none), positions that
+// are not finite, normals or second normals off unit length, radii not finite or out of range.
+inline std::string pointSetDefect(const PointSet& points, const Consistency& expect = {}) {
+    const std::size_t n = points.size();
+    const auto sized = [n](std::size_t size) { return size == 0 || size == n; };
+    if (!sized(points.normal.size()) || !sized(points.radius.size()) || !sized(points.colour.size()) ||
+        !sized(points.crease.size()))
+        return "an attribute array does not match the positions";
+    const auto unit = [&](glm::vec3 v) { return std::abs(glm::length(v) - 1.0f) <= expect.normalTolerance; };
+    for (std::size_t i = 0; i < n; ++i) {
+        const glm::vec3 x = points.position[i];
+        if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z)) return "position " + std::to_string(i) + " not finite";
+        if (points.hasNormal() && !unit(points.normal[i])) return "normal " + std::to_string(i) + " not of unit length";
+        if (points.isCrease(i) && !unit(points.crease[i])) return "second normal " + std::to_string(i) + " not of unit length";
+        if (points.hasRadius()) {
+            const float r = points.radius[i];
+            if (!std::isfinite(r) || r < 0.0f || (expect.positiveRadii && r == 0.0f)) return "radius " + std::to_string(i) + " out of range";
+        }
+    }
+    return {};
 }
 
 } // namespace pnsplat::test

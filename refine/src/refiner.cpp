@@ -225,6 +225,17 @@ inline bool sameCrease(glm::vec3 n1, glm::vec3 n2, glm::vec3 m1, glm::vec3 m2) {
            (glm::dot(n1, m2) > kCreaseMatch && glm::dot(n2, m1) > kCreaseMatch);
 }
 
+// The crease direction n1 × n2 of a crease point, of unit length; zero where its two normals are
+// less than 1° apart and the direction is undefined. Choice: such a point looks for no crease
+// neighbours of its own (creaseNeighbours), and a segment that ends at it leaves it along the
+// chord (splitSegments; fuzz_refine: a crease point whose second normal equalled its first gave
+// NaN points).
+inline glm::vec3 creaseDirection(glm::vec3 n1, glm::vec3 n2) {
+    const glm::vec3 d = glm::cross(n1, n2);
+    const float length2 = glm::dot(d, d);
+    return length2 > kMinCreaseSin2 ? d * (1.0f / std::sqrt(length2)) : glm::vec3(0.0f);
+}
+
 inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
     const glm::uvec3 sum = glm::uvec3(a) + glm::uvec3(b) + glm::uvec3(c);
     return glm::u8vec3((sum + glm::uvec3(1)) / 3u);
@@ -882,18 +893,14 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
         glm::vec3 c1, c2;
         if (segments[segment].crease) {
             const float leg = glm::length(pb - x) / 3.0f;
-            // Choice: where an end's two normals are (nearly) parallel its crease direction is
-            // undefined, and the curve leaves it along the chord (fuzz_refine: a crease point whose
-            // second normal equalled its first gave NaN points).
             const glm::vec3 chord = pb - x;
             const float chord2 = glm::dot(chord, chord);
             const glm::vec3 along = chord2 >= std::numeric_limits<float>::min() ? chord * (1.0f / std::sqrt(chord2)) : glm::vec3(0.0f);
-            const auto creaseDirection = [&](glm::vec3 first, glm::vec3 second) {
-                const glm::vec3 d = glm::cross(first, second);
-                const float length2 = glm::dot(d, d);
-                return length2 > kMinCreaseSin2 ? d * (1.0f / std::sqrt(length2)) : along;
+            const auto directionAt = [&](glm::vec3 first, glm::vec3 second) {
+                const glm::vec3 d = creaseDirection(first, second);
+                return d == glm::vec3(0.0f) ? along : d;
             };
-            glm::vec3 ta = creaseDirection(n, nc), tb = creaseDirection(nb, nbc);
+            glm::vec3 ta = directionAt(n, nc), tb = directionAt(nb, nbc);
             if (glm::dot(ta, pb - x) < 0.0f) ta = -ta;
             if (glm::dot(tb, pb - x) < 0.0f) tb = -tb;
             c1 = x + leg * ta;
@@ -942,9 +949,10 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
 // wider balls (2 r, 3 r) still broke the bound at level 5 (r'/r up to 0.983).
 std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, std::span<const NearbyPoint> nearby) const {
     const glm::vec3 x = points.position[p], n1 = points.normal[p], n2 = points.crease[p];
-    const glm::vec3 direction = glm::normalize(glm::cross(n1, n2));
-    const float reach = kRetryReach * levelRadius[p];
+    const glm::vec3 direction = creaseDirection(n1, n2);
     std::array<std::uint32_t, 2> ends{UINT32_MAX, UINT32_MAX};
+    if (direction == glm::vec3(0.0f)) return ends;
+    const float reach = kRetryReach * levelRadius[p];
     std::array<float, 2> nearest{std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
     for (const NearbyPoint& candidate : nearby) {
         const std::uint32_t i = candidate.index;

@@ -9,13 +9,11 @@
 //   keeps r' <= c_β,max·r in single precision with c_β,max rounded down, below the exact bound);
 // - determinism (SPEC 5): one and two threads give the same bits;
 // - finite positions, unit normals, finite positive radii.
-#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <string_view>
 #include <utility>
-
-#include <glm/geometric.hpp>
 
 #include "fuzz_check.h"
 #include "oracles.h"
@@ -57,13 +55,8 @@ PointSet refine(const PointSet& input, std::uint8_t knob, unsigned threads) {
                   "every old radius shrinks by c_beta,max");
     }
     check(test::inputMismatches(refiner, input) == 0, "every input point kept bit for bit");
-    const PointSet& out = refiner.points();
-    for (std::size_t i = 0; i < out.size(); ++i) {
-        const glm::vec3 x = out.position[i];
-        check(std::isfinite(x.x) && std::isfinite(x.y) && std::isfinite(x.z), "finite positions");
-        check(std::abs(glm::length(out.normal[i]) - 1.0f) < 1e-3f, "unit normals");
-        check(out.radius[i] > 0.0f && std::isfinite(out.radius[i]), "finite positive radii");
-    }
+    const std::string defect = test::pointSetDefect(refiner.points(), {.normalTolerance = 1e-3f, .positiveRadii = true});
+    check(defect.empty(), defect.c_str());
     return std::move(refiner).takePoints();
 }
 

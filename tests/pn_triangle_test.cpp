@@ -388,6 +388,35 @@ TEST(CurvedAngle, FlatCaseEqualsPlainAngle) {
     }
 }
 
+// Eq. 5 in double precision from SPEC 2's definitions alone: b_ab = p_a + |p_a p_b|/3 ·
+// normalize(Q_a(p_a + (p_b - p_a)/3) - p_a), then the three angles at p by acos. A swapped or
+// misplaced control point (∠(p0,p,b120), b_ab from the wrong end) moves the sum by far more.
+TEST(CurvedAngle, MatchesEquationFiveInDoublePrecision) {
+    const auto control = [](glm::dvec3 a, glm::dvec3 na, glm::dvec3 b) {
+        const glm::dvec3 third = a + (b - a) / 3.0;
+        const glm::dvec3 projected = third + glm::dot(a - third, na) * na; // Q_a
+        return a + glm::length(b - a) / 3.0 * glm::normalize(projected - a);
+    };
+    const auto angle = [](glm::dvec3 o, glm::dvec3 a, glm::dvec3 b) {
+        return std::acos(std::clamp(glm::dot(glm::normalize(a - o), glm::normalize(b - o)), -1.0, 1.0));
+    };
+    std::mt19937_64 rng(18);
+    double worst = 0.0;
+    for (int trial = 0; trial < 1000; ++trial) {
+        Triangle t = sphereTriangle(rng, 10.0, 45.0);
+        // Tilted normals for half of the trials: the control points then leave the sphere's planes.
+        if (trial % 2 == 1)
+            for (glm::vec3& n : t.n) n = glm::normalize(n + 0.3f * randomUnit(rng));
+        const glm::dvec3 p(t.p[0]), p0(t.p[1]), p1(t.p[2]), n0(t.n[1]), n1(t.n[2]);
+        const glm::dvec3 b210 = control(p0, n0, p1), b120 = control(p1, n1, p0);
+        const double expected = angle(p, p0, b210) + angle(p, b210, b120) + angle(p, b120, p1);
+        const double error = std::abs(static_cast<double>(curvedAngle(t.p[0], t.p[1], t.n[1], t.p[2], t.n[2])) - expected);
+        worst = std::max(worst, error);
+        EXPECT_LT(error, 1e-4) << trial;
+    }
+    std::cout << "curved angle against eq. 5 in double: largest difference " << worst << " rad\n";
+}
+
 TEST(CurvedAngle, CurvedCaseIsAtLeastThePlainAngle) {
     std::mt19937_64 rng(16);
     double largestExcess = 0.0;

@@ -260,76 +260,101 @@ TEST(FilterFuzzy, IndependentOfInputOrder) {
 // Sets of more than 64 entries take the filter's blocked path (entries by distance, each test ended
 // once it fails); the small sets after them reuse the scratch arrays, whose padding lanes (past a
 // set's size, up to a multiple of 8) then hold the earlier sets' leftovers, which must not count.
-// Oracle: the rule of SPEC 3 by brute force, w_i = max over Succ_i + max over
-// Pred_i of fuzzyBadness against every other entry, on random points of a paraboloid patch
-// (Nf, so that the badness is measured on the points themselves). Entries whose oracle w_i lies
-// within 1e-4 of 1 are left out of the comparison: the filter computes the same formula with a
-// multiplication where fuzzyBadness divides. Shuffled inputs give the same output. The last set
-// puts 80 points on one side of p and two far points on the other, one behind the other: the
-// farther is removed only by a point outside the first block of nearest entries.
+// Oracle: the rule of SPEC 3 by brute force, w_i = max over Succ_i + max over Pred_i of
+// fuzzyBadness against every other entry, on random points of a paraboloid patch, measured on the
+// points themselves (Nf), on their geodesic projections q'_i = p + G(p,p_i)·normalize(q_i - p)
+// (Ng), and on those with G = |p p_i| (variant 1). Entries whose oracle w_i lies within 1e-4 of
+// 1 are left out of the comparison: the filter computes the same formula with a multiplication
+// where fuzzyBadness divides. Shuffled inputs give the same output. The last large set puts 80
+// points on one side of p and two far points on the other, one behind the other: the farther is
+// removed only by a point outside the first block of nearest entries.
 TEST(FilterFuzzy, SetsMatchBruteForce) {
-    std::mt19937_64 rng(611);
-    const glm::vec3 p(0.0f), n(0.0f, 0.0f, 1.0f);
-    const TangentFrame frame(n);
-    FuzzyParams params;
-    params.geodesicProjection = false;
-    const float sinThetaF = std::sin(params.thetaF);
-    std::size_t compared = 0, removed = 0;
-    const auto onPatch = [](float x, float y) { return glm::vec3(x, y, 0.3f * (x * x + y * y)); };
-    const auto normalAt = [](float x, float y) { return glm::normalize(glm::vec3(-0.6f * x, -0.6f * y, 1.0f)); };
-    NeighbourhoodScratch scratch; // shared: the small sets' padding lanes hold the large sets' leftovers
-    // Large sets (survivors by distance), then small ones (survivorsOfSmallSet), many of the size
-    // of a first ring.
-    std::vector<std::size_t> counts = {65u, 100u, 256u, 700u, 82u, 13u, 5u, 30u};
-    for (std::size_t k = 0; k < 200; ++k) counts.push_back(3 + k % 62);
-    for (const std::size_t count : counts) {
-        const bool farPair = count == 82u;
-        NeighbourSet set;
-        for (std::uint32_t k = 0; k < count; ++k) {
-            float x = uniform(rng, -1.0, 1.0), y = uniform(rng, -1.0, 1.0);
-            if (farPair) x = k < 80 ? uniform(rng, 0.2, 1.0) : (k == 80 ? -2.0f : -3.0f), y = k < 80 ? y : 0.05f * float(k - 79);
-            set.push(k, onPatch(x, y), normalAt(x, y));
-        }
-        std::vector<std::uint32_t> expected;
-        std::set<std::uint32_t> borderline;
-        for (std::size_t i = 0; i < count; ++i) {
-            const glm::vec3 di = set.position[i] - p;
-            const float ui = glm::dot(di, frame.u), vi = glm::dot(di, frame.v);
-            float succ = 0.0f, pred = 0.0f;
-            for (std::size_t j = 0; j < count; ++j) {
-                const glm::vec3 dj = set.position[j] - p;
-                const float uj = glm::dot(dj, frame.u), vj = glm::dot(dj, frame.v);
-                const float cross = ui * vj - vi * uj;
-                const float w = fuzzyBadness(p, set.position[i], set.position[j], sinThetaF);
-                if (cross > 0.0f || (cross == 0.0f && ui * uj + vi * vj > 0.0f)) succ = std::max(succ, w);
-                else if (cross < 0.0f) pred = std::max(pred, w);
+    enum class Measure { Points, Geodesic, Euclidean };
+    for (const Measure measure : {Measure::Points, Measure::Geodesic, Measure::Euclidean}) {
+        std::mt19937_64 rng(611);
+        const glm::vec3 p(0.0f), n(0.0f, 0.0f, 1.0f);
+        const TangentFrame frame(n);
+        FuzzyParams params;
+        params.geodesicProjection = measure != Measure::Points;
+        params.euclideanGeodesic = measure == Measure::Euclidean;
+        const float sinThetaF = std::sin(params.thetaF);
+        std::size_t compared = 0, removed = 0;
+        const auto onPatch = [](float x, float y) { return glm::vec3(x, y, 0.3f * (x * x + y * y)); };
+        const auto normalAt = [](float x, float y) {
+            return glm::normalize(glm::vec3(-0.6f * x, -0.6f * y, 1.0f));
+        };
+        // Where the badness of an entry is measured (SPEC 3).
+        const auto measured = [&](glm::vec3 pi, glm::vec3 ni) {
+            if (measure == Measure::Points) return pi;
+            const glm::vec3 q = pi - glm::dot(pi - p, n) * n;
+            const float g =
+                measure == Measure::Geodesic ? geodesicDistance(p, n, pi, ni) : glm::length(pi - p);
+            return p + g * glm::normalize(q - p);
+        };
+        NeighbourhoodScratch scratch; // shared: the small sets' padding lanes hold the large sets' leftovers
+        // Large sets (survivors by distance), then small ones (survivorsOfSmallSet), many of the size
+        // of a first ring.
+        std::vector<std::size_t> counts = {65u, 100u, 256u, 700u, 82u, 13u, 5u, 30u};
+        for (std::size_t k = 0; k < 200; ++k) counts.push_back(3 + k % 62);
+        for (const std::size_t count : counts) {
+            const bool farPair = count == 82u;
+            NeighbourSet set;
+            for (std::uint32_t k = 0; k < count; ++k) {
+                float x = uniform(rng, -1.0, 1.0), y = uniform(rng, -1.0, 1.0);
+                if (farPair)
+                    x = k < 80 ? uniform(rng, 0.2, 1.0) : (k == 80 ? -2.0f : -3.0f),
+                    y = k < 80 ? y : 0.05f * float(k - 79);
+                set.push(k, onPatch(x, y), normalAt(x, y));
             }
-            if (std::abs(succ + pred - 1.0f) < 1e-4f) borderline.insert(set.index[i]);
-            else if (succ + pred < 1.0f) expected.push_back(set.index[i]);
+            std::vector<glm::vec3> at(count);
+            for (std::size_t i = 0; i < count; ++i) at[i] = measured(set.position[i], set.normal[i]);
+            std::vector<std::uint32_t> expected;
+            std::set<std::uint32_t> borderline;
+            for (std::size_t i = 0; i < count; ++i) {
+                const glm::vec3 di = set.position[i] - p;
+                const float ui = glm::dot(di, frame.u), vi = glm::dot(di, frame.v);
+                float succ = 0.0f, pred = 0.0f;
+                for (std::size_t j = 0; j < count; ++j) {
+                    const glm::vec3 dj = set.position[j] - p;
+                    const float uj = glm::dot(dj, frame.u), vj = glm::dot(dj, frame.v);
+                    const float cross = ui * vj - vi * uj;
+                    const float w = fuzzyBadness(p, at[i], at[j], sinThetaF);
+                    if (cross > 0.0f || (cross == 0.0f && ui * uj + vi * vj > 0.0f))
+                        succ = std::max(succ, w);
+                    else if (cross < 0.0f)
+                        pred = std::max(pred, w);
+                }
+                if (std::abs(succ + pred - 1.0f) < 1e-4f)
+                    borderline.insert(set.index[i]);
+                else if (succ + pred < 1.0f)
+                    expected.push_back(set.index[i]);
+            }
+            NeighbourSet shuffled;
+            std::vector<std::uint32_t> order(count);
+            for (std::uint32_t k = 0; k < count; ++k) order[k] = k;
+            std::shuffle(order.begin(), order.end(), rng);
+            for (const std::uint32_t k : order) shuffled.push(set.index[k], set.position[k], set.normal[k]);
+            filterFuzzy(p, n, params, set, scratch);
+            filterFuzzy(p, n, params, shuffled, scratch);
+            EXPECT_EQ(indices(set), indices(shuffled)) << count << " entries";
+            EXPECT_TRUE(std::is_sorted(set.angle.begin(), set.angle.end())) << count << " entries";
+            std::vector<std::uint32_t> kept;
+            for (const std::uint32_t i : set.index)
+                if (!borderline.count(i)) kept.push_back(i);
+            std::sort(kept.begin(), kept.end());
+            EXPECT_EQ(kept, expected) << count << " entries, measure " << static_cast<int>(measure);
+            if (farPair) {
+                EXPECT_TRUE(std::count(expected.begin(), expected.end(), 80u) == 1 &&
+                            std::count(expected.begin(), expected.end(), 81u) == 0)
+                    << "the oracle keeps the nearer far point and removes the one behind it";
+            }
+            compared += count - borderline.size();
+            removed += count - set.size();
         }
-        NeighbourSet shuffled;
-        std::vector<std::uint32_t> order(count);
-        for (std::uint32_t k = 0; k < count; ++k) order[k] = k;
-        std::shuffle(order.begin(), order.end(), rng);
-        for (const std::uint32_t k : order) shuffled.push(set.index[k], set.position[k], set.normal[k]);
-        filterFuzzy(p, n, params, set, scratch);
-        filterFuzzy(p, n, params, shuffled, scratch);
-        EXPECT_EQ(indices(set), indices(shuffled)) << count << " entries";
-        EXPECT_TRUE(std::is_sorted(set.angle.begin(), set.angle.end())) << count << " entries";
-        std::vector<std::uint32_t> kept;
-        for (const std::uint32_t i : set.index)
-            if (!borderline.count(i)) kept.push_back(i);
-        std::sort(kept.begin(), kept.end());
-        EXPECT_EQ(kept, expected) << count << " entries";
-        if (farPair) {
-            EXPECT_TRUE(std::count(expected.begin(), expected.end(), 80u) == 1 && std::count(expected.begin(), expected.end(), 81u) == 0)
-                << "the oracle keeps the nearer far point and removes the one behind it";
-        }
-        compared += count - borderline.size();
-        removed += count - set.size();
+        std::cout << "[filter sets, measure " << static_cast<int>(measure) << "] " << compared
+                  << " entries compared with brute force, " << removed << " removed\n";
+        EXPECT_GT(removed, 900u); // most of a dense patch lies behind the first ring
     }
-    std::cout << "[filter sets] " << compared << " entries compared with brute force, " << removed << " removed\n";
-    EXPECT_GT(removed, 900u); // most of a dense patch lies behind the first ring
 }
 
 TEST(FilterFuzzy, StronglyBehindOneIsRemovedSlightlyBehindTwoIsKept) {

@@ -67,12 +67,16 @@ inline std::string pointSetDefect(const PointSet& points, const Consistency& exp
     const auto unit = [&](glm::vec3 v) { return std::abs(glm::length(v) - 1.0f) <= expect.normalTolerance; };
     for (std::size_t i = 0; i < n; ++i) {
         const glm::vec3 x = points.position[i];
-        if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z)) return "position " + std::to_string(i) + " not finite";
-        if (points.hasNormal() && !unit(points.normal[i])) return "normal " + std::to_string(i) + " not of unit length";
-        if (points.isCrease(i) && !unit(points.crease[i])) return "second normal " + std::to_string(i) + " not of unit length";
+        if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
+            return "position " + std::to_string(i) + " not finite";
+        if (points.hasNormal() && !unit(points.normal[i]))
+            return "normal " + std::to_string(i) + " not of unit length";
+        if (points.isCrease(i) && !unit(points.crease[i]))
+            return "second normal " + std::to_string(i) + " not of unit length";
         if (points.hasRadius()) {
             const float r = points.radius[i];
-            if (!std::isfinite(r) || r < 0.0f || (expect.positiveRadii && r == 0.0f)) return "radius " + std::to_string(i) + " out of range";
+            if (!std::isfinite(r) || r < 0.0f || (expect.positiveRadii && r == 0.0f))
+                return "radius " + std::to_string(i) + " out of range";
         }
     }
     return {};

@@ -410,7 +410,8 @@ TEST(CurvedAngle, MatchesEquationFiveInDoublePrecision) {
         const glm::dvec3 p(t.p[0]), p0(t.p[1]), p1(t.p[2]), n0(t.n[1]), n1(t.n[2]);
         const glm::dvec3 b210 = control(p0, n0, p1), b120 = control(p1, n1, p0);
         const double expected = angle(p, p0, b210) + angle(p, b210, b120) + angle(p, b120, p1);
-        const double error = std::abs(static_cast<double>(curvedAngle(t.p[0], t.p[1], t.n[1], t.p[2], t.n[2])) - expected);
+        const double error =
+            std::abs(static_cast<double>(curvedAngle(t.p[0], t.p[1], t.n[1], t.p[2], t.n[2])) - expected);
         worst = std::max(worst, error);
         EXPECT_LT(error, 1e-4) << trial;
     }

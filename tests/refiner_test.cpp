@@ -27,6 +27,7 @@
 #include <glm/vector_relational.hpp>
 #include <gtest/gtest.h>
 
+#include "oracles.h"
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/ply.h"
@@ -34,7 +35,6 @@
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
-#include "oracles.h"
 #include "test_data.h"
 
 namespace pnsplat {
@@ -342,7 +342,7 @@ TEST(RefinerEvenOut, SplitsBoundarySegmentsLongerThanTheTarget) {
 // A sparse input of ../shared/data (radii estimated) and its mesh, by the input's file name
 // without ".ply"; the test skips where the data are absent.
 class RealModel : public ::testing::TestWithParam<const char*> {
-protected:
+  protected:
     void SetUp() override {
         name = GetParam();
         const std::string inputFile = name + ".ply";
@@ -401,17 +401,19 @@ TEST_P(RefinerUniformModel, NoHolesAtTwoLevelsAndTheDistanceConverges) {
     const QualityReport two = evaluateQuality(refiner.points(), ref, &input, evalOptions());
     refineLevels(refiner, 2);
     const QualityReport four = evaluateQuality(refiner.points(), ref, &input, evalOptions());
-    std::cout << "[" << name << "] 2 levels: " << two.points << " points, spacing " << two.spacingMean << ", RMS "
-              << two.distanceRms << ", holes " << two.holeReferencePoints << "; 4 levels: " << four.points
-              << " points, spacing " << four.spacingMean << ", RMS " << four.distanceRms << ", holes "
-              << four.holeReferencePoints << " of " << four.referencePoints << "\n";
+    std::cout << "[" << name << "] 2 levels: " << two.points << " points, spacing " << two.spacingMean
+              << ", RMS " << two.distanceRms << ", holes " << two.holeReferencePoints
+              << "; 4 levels: " << four.points << " points, spacing " << four.spacingMean << ", RMS "
+              << four.distanceRms << ", holes " << four.holeReferencePoints << " of " << four.referencePoints
+              << "\n";
     EXPECT_EQ(two.holeReferencePoints, 0u);
     EXPECT_LT(four.spacingMean, two.spacingMean / 2.5);
     EXPECT_NEAR(four.distanceRms, two.distanceRms, 0.05 * two.distanceRms);
 }
 
 INSTANTIATE_TEST_SUITE_P(RefinerData, RefinerUniformModel,
-                         ::testing::Values("igea-600-uniform", "rockerarm-2000-uniform", "fandisk-1500-uniform"),
+                         ::testing::Values("igea-600-uniform", "rockerarm-2000-uniform",
+                                           "fandisk-1500-uniform"),
                          modelTestName);
 
 // ---------------------------------------------------------------------------------------------
@@ -603,6 +605,28 @@ TEST(HoleFilling, DataHolesAreFilled) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The paper's constants (SPEC 3, 4, 6) and defaults (SPEC 10: the full method unless a variant is
+// asked for; each variant a switch of its own).
+TEST(RefinerConstants, AreThePapersAndTheFullMethodIsTheDefault) {
+    EXPECT_FLOAT_EQ(kLambda1, static_cast<float>(1.0 / std::sqrt(3.0)));
+    EXPECT_EQ(kLambda2, 0.5f);
+    EXPECT_FLOAT_EQ(kThetaC, static_cast<float>(kPi / 2.0));
+    EXPECT_LT(kConvergenceBound, 0.96);
+    EXPECT_NEAR(kConvergenceBound, (5.0 + std::sqrt(13.0)) / 9.0, 1e-12);
+    const RefineOptions full;
+    EXPECT_EQ(full.neighbourhood, NeighbourhoodKind::Accurate);
+    EXPECT_FLOAT_EQ(full.thetaF, static_cast<float>(kPi / 6.0));
+    EXPECT_GT(full.thetaB, static_cast<float>(2.0 * kPi / 3.0));
+    EXPECT_LE(full.thetaB, static_cast<float>(kPi));
+    EXPECT_TRUE(full.smoothing && full.boundaries);
+    EXPECT_FALSE(full.euclideanGeodesic || full.plainAngle || full.centroidCandidates);
+    const RefineOptions fast = RefineOptions::fast();
+    EXPECT_TRUE(fast.euclideanGeodesic && fast.plainAngle && fast.centroidCandidates);
+    EXPECT_EQ(fast.neighbourhood, NeighbourhoodKind::Fuzzy);
+    EXPECT_TRUE(fast.smoothing);
+}
+
+// ---------------------------------------------------------------------------------------------
 // SPEC 4 against an exact oracle: a flat triangular lattice of spacing h, radii 1.1 h (each point's
 // one-ring is its six lattice neighbours), tilted so that no coordinate is exact. On a plane the PN
 // triangles are flat (φ = 0), so one level must put exactly one new point at the centroid of every
@@ -629,13 +653,17 @@ TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
     }
     input.radius.assign(input.size(), 1.1f * h);
     const float width = h * (kColumns - 0.5f), height = h * 0.8660254f * (kRows - 1);
-    const auto planeCoordinates = [&](glm::vec3 x) { return glm::vec2(glm::dot(x - origin, plane.u), glm::dot(x - origin, plane.v)); };
+    const auto planeCoordinates = [&](glm::vec3 x) {
+        return glm::vec2(glm::dot(x - origin, plane.u), glm::dot(x - origin, plane.v));
+    };
     const auto interior = [&](glm::vec2 q) {
         constexpr float kBorder = 3.2f * h; // on no row or column of centroids
         return q.x > kBorder && q.x < width - kBorder && q.y > kBorder && q.y < height - kBorder;
     };
     // The oracle's triangles: lattice triples at mutual distance h, by brute force over the pairs.
-    const auto side = [&](std::size_t i, std::size_t j) { return std::abs(glm::length(lattice[i] - lattice[j]) - h) < 1e-3f * h; };
+    const auto side = [&](std::size_t i, std::size_t j) {
+        return std::abs(glm::length(lattice[i] - lattice[j]) - h) < 1e-3f * h;
+    };
     std::vector<std::vector<std::size_t>> after(lattice.size()); // the neighbours of larger index
     for (std::size_t a = 0; a < lattice.size(); ++a)
         for (std::size_t b = a + 1; b < lattice.size(); ++b)
@@ -656,7 +684,8 @@ TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
     for (std::size_t i = 0; i < oldCount; ++i) {
         if (!interior(planeCoordinates(out.position[i]))) continue;
         ++interiorOld;
-        EXPECT_TRUE(radiusIsRing(out.radius[i])) << "old point " << i << ": r' = " << out.radius[i] << ", h/sqrt 3 = " << ring;
+        EXPECT_TRUE(radiusIsRing(out.radius[i]))
+            << "old point " << i << ": r' = " << out.radius[i] << ", h/sqrt 3 = " << ring;
     }
     std::vector<int> hits(centroids.size(), 0);
     for (std::size_t i = oldCount; i < out.size(); ++i) {
@@ -669,7 +698,8 @@ TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
         if (!interior(q)) continue;
         ++interiorNew;
         EXPECT_LT(nearest, 1e-4f * h) << "new point " << i << " is no triangle's centroid";
-        EXPECT_LT(std::abs(glm::dot(out.position[i] - origin, plane.n)), 1e-5f * h) << "new point " << i << " off the plane";
+        EXPECT_LT(std::abs(glm::dot(out.position[i] - origin, plane.n)), 1e-5f * h)
+            << "new point " << i << " off the plane";
         EXPECT_GT(glm::dot(out.normal[i], plane.n), 1.0f - 1e-6f) << "new point " << i;
         EXPECT_TRUE(radiusIsRing(out.radius[i])) << "new point " << i << ": r = " << out.radius[i];
     }
@@ -678,8 +708,8 @@ TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
         ++interiorCentroids;
         EXPECT_EQ(hits[t], 1) << "triangle centroid (" << centroids[t].x << ", " << centroids[t].y << ")";
     }
-    std::cout << "[flat lattice " << kColumns << " x " << kRows << "] interior: " << interiorOld << " old points, "
-              << interiorCentroids << " triangles, " << interiorNew << " new points\n";
+    std::cout << "[flat lattice " << kColumns << " x " << kRows << "] interior: " << interiorOld
+              << " old points, " << interiorCentroids << " triangles, " << interiorNew << " new points\n";
     ASSERT_GT(interiorOld, 200u);
     EXPECT_EQ(interiorNew, interiorCentroids);
 }

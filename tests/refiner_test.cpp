@@ -614,6 +614,8 @@ TEST(RefinerConstants, AreThePapersAndTheFullMethodIsTheDefault) {
     EXPECT_FLOAT_EQ(kThetaC, static_cast<float>(kPi / 2.0));
     EXPECT_LT(kConvergenceBound, 0.96);
     EXPECT_NEAR(kConvergenceBound, (5.0 + std::sqrt(13.0)) / 9.0, 1e-12);
+    EXPECT_LE(static_cast<double>(kCBetaMax), kConvergenceBound); // rounded down
+    EXPECT_GT(static_cast<double>(kCBetaMax), kConvergenceBound - 1e-6);
     const RefineOptions full;
     EXPECT_EQ(full.neighbourhood, NeighbourhoodKind::Accurate);
     EXPECT_FLOAT_EQ(full.thetaF, static_cast<float>(kPi / 6.0));
@@ -777,17 +779,27 @@ void expectRadiiShrink(const PointSet& input, unsigned levels, const std::string
         const auto before = refiner.points().radius;
         const LevelStats stats = refiner.refineLevel();
         const auto& after = refiner.points().radius;
-        double worst = 0;
-        std::size_t violations = 0;
+        // The bound is the refiner's own rule for a point whose one-ring stays empty (kCBetaMax);
+        // every other radius is the distance of its farthest new neighbour, a measurement.
+        double worst = 0, worstMeasured = 0;
+        std::size_t violations = 0, emptyRings = 0;
         for (std::size_t i = 0; i < before.size(); ++i) {
             const double ratio = static_cast<double>(after[i]) / static_cast<double>(before[i]);
             worst = std::max(worst, ratio);
             violations += ratio > kConvergenceBound;
+            if (after[i] == kCBetaMax * before[i])
+                ++emptyRings;
+            else
+                worstMeasured = std::max(worstMeasured, ratio);
         }
         const double share = static_cast<double>(violations) / static_cast<double>(before.size());
         std::cout << "    level " << l + 1 << ": " << before.size() << " old points, largest r_new/r_old "
-                  << worst << ", above the bound: " << violations << " (share " << share
+                  << worst << " (" << worstMeasured << " without the " << emptyRings
+                  << " empty one-rings), above the bound: " << violations << " (share " << share
                   << "); candidates beyond it, not inserted: " << stats.beyondBound << "\n";
+        EXPECT_LE(static_cast<double>(emptyRings), 1e-3 * static_cast<double>(before.size()))
+            << name << " level " << l + 1;
+        EXPECT_LT(worstMeasured, kConvergenceBound) << name << " level " << l + 1;
         if (!beyondBoundExpected) {
             EXPECT_EQ(stats.beyondBound, 0u) << name << " level " << l + 1;
         }

@@ -63,8 +63,6 @@ constexpr float kTwoPi = 2.0f * kPi;
 // (1.06x over 2.25 on the faster variants, 1.04x on the full method; pinned A/B).
 constexpr float kCellFactor = 4.5f;
 constexpr float kRetryReach = 1.5f;
-// c_β,max = max over β of (5/6 + 5/6 + cos(β/2) + 2/3 sin(β/2)) / 3 = (5/3 + √(13)/3) / 3 (eq. 14).
-constexpr float kCBetaMax = 0.956172f; // rounded down
 constexpr float kLargeQuantile = 0.99f;
 constexpr std::size_t kPrefetchAhead = 16; // grid entries between a point's prefetch and its read: 1.03x over 8 (pinned A/B)
 constexpr unsigned kMaxTileShift = 4;      // tiles of at most 16³ cells

@@ -29,6 +29,11 @@ enum class NeighbourhoodKind {
 inline constexpr float kLambda1 = 0.57735026918962576f;
 inline constexpr float kLambda2 = 0.5f;
 inline constexpr float kThetaC = std::numbers::pi_v<float> / 2.0f;
+// The convergence bound (section 8.1, eq. 14, SPEC 4): c_β,max = max over β of
+// (5/6 + 5/6 + cos(β/2) + 2/3 sin(β/2)) / 3 = (5 + √13) / 9, rounded down. Every radius of P(l)
+// ends a level at most c_β,max times its value before; a point whose new one-ring stays empty
+// (nothing found, nothing inserted: the paper's r' is undefined) gets exactly c_β,max · r.
+inline constexpr float kCBetaMax = 0.956172f;
 
 // Choice (not in the paper): when more than RefineOptions::maxNeighbours points within a point's
 // radius pass the validity cone, only that many nearest points within the radius are kept (and

@@ -638,30 +638,42 @@ TEST(RefinerConstants, AreThePapersAndTheFullMethodIsTheDefault) {
 // own lies within r (the next are 2h/√3 = 1.155 h away). The radius rule of step 6 gives every old
 // and new point the distance h/√3 to its new neighbours (plus the refiner's rounding margin).
 // Away from the lattice's border (3.2 h), whose open fans make boundary segments.
-TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
-    constexpr int kColumns = 24, kRows = 24;
-    constexpr float h = 0.1f;
-    const TangentFrame plane(glm::normalize(glm::vec3(1.0f, 2.0f, 3.0f)));
-    const glm::vec3 origin(0.3f, -0.2f, 0.7f);
+// A triangular lattice of spacing h, kColumns × kRows, on a tilted plane (no coordinate exact),
+// radii 1.1 h: each point's one-ring is its lattice neighbours. Odd rows are shifted by h/2.
+struct FlatLattice {
+    static constexpr int kColumns = 24, kRows = 24;
+    static constexpr float h = 0.1f;
+    const TangentFrame plane{glm::normalize(glm::vec3(1.0f, 2.0f, 3.0f))};
+    const glm::vec3 origin{0.3f, -0.2f, 0.7f};
     std::vector<glm::vec2> lattice; // plane coordinates
-    PointSet input;
-    for (int row = 0; row < kRows; ++row) {
-        for (int column = 0; column < kColumns; ++column) {
-            const glm::vec2 q(h * (static_cast<float>(column) + 0.5f * static_cast<float>(row % 2)),
-                              h * 0.8660254f * static_cast<float>(row));
-            lattice.push_back(q);
-            input.position.push_back(origin + q.x * plane.u + q.y * plane.v);
-            input.normal.push_back(plane.n);
+    PointSet points;
+    float width = h * (kColumns - 0.5f), height = h * 0.8660254f * (kRows - 1);
+
+    FlatLattice() {
+        for (int row = 0; row < kRows; ++row) {
+            for (int column = 0; column < kColumns; ++column) {
+                const glm::vec2 q(h * (static_cast<float>(column) + 0.5f * static_cast<float>(row % 2)),
+                                  h * 0.8660254f * static_cast<float>(row));
+                lattice.push_back(q);
+                points.position.push_back(origin + q.x * plane.u + q.y * plane.v);
+                points.normal.push_back(plane.n);
+            }
         }
+        points.radius.assign(points.size(), 1.1f * h);
     }
-    input.radius.assign(input.size(), 1.1f * h);
-    const float width = h * (kColumns - 0.5f), height = h * 0.8660254f * (kRows - 1);
-    const auto planeCoordinates = [&](glm::vec3 x) {
+    glm::vec2 planeCoordinates(glm::vec3 x) const {
         return glm::vec2(glm::dot(x - origin, plane.u), glm::dot(x - origin, plane.v));
-    };
+    }
+};
+
+TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
+    const FlatLattice grid;
+    constexpr float h = FlatLattice::h;
+    const std::vector<glm::vec2>& lattice = grid.lattice;
+    const auto planeCoordinates = [&](glm::vec3 x) { return grid.planeCoordinates(x); };
     const auto interior = [&](glm::vec2 q) {
         constexpr float kBorder = 3.2f * h; // on no row or column of centroids
-        return q.x > kBorder && q.x < width - kBorder && q.y > kBorder && q.y < height - kBorder;
+        return q.x > kBorder && q.x < grid.width - kBorder && q.y > kBorder && q.y < grid.height - kBorder;
     };
     // The oracle's triangles: lattice triples at mutual distance h, by brute force over the pairs.
     const auto side = [&](std::size_t i, std::size_t j) {
@@ -677,7 +689,7 @@ TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
             for (const std::size_t c : after[a])
                 if (b < c && side(b, c)) centroids.push_back((lattice[a] + lattice[b] + lattice[c]) / 3.0f);
 
-    Refiner refiner(input, options());
+    Refiner refiner(grid.points, options());
     refiner.refineLevel();
     const PointSet& out = refiner.points();
     const std::size_t oldCount = refiner.levelEnd(0);
@@ -701,9 +713,9 @@ TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
         if (!interior(q)) continue;
         ++interiorNew;
         EXPECT_LT(nearest, 1e-4f * h) << "new point " << i << " is no triangle's centroid";
-        EXPECT_LT(std::abs(glm::dot(out.position[i] - origin, plane.n)), 1e-5f * h)
+        EXPECT_LT(std::abs(glm::dot(out.position[i] - grid.origin, grid.plane.n)), 1e-5f * h)
             << "new point " << i << " off the plane";
-        EXPECT_GT(glm::dot(out.normal[i], plane.n), 1.0f - 1e-6f) << "new point " << i;
+        EXPECT_GT(glm::dot(out.normal[i], grid.plane.n), 1.0f - 1e-6f) << "new point " << i;
         EXPECT_TRUE(radiusIsRing(out.radius[i])) << "new point " << i << ": r = " << out.radius[i];
     }
     for (std::size_t t = 0; t < centroids.size(); ++t) {
@@ -711,10 +723,53 @@ TEST(RefinerLocal, FlatLatticeGetsOneCentroidPerTriangle) {
         ++interiorCentroids;
         EXPECT_EQ(hits[t], 1) << "triangle centroid (" << centroids[t].x << ", " << centroids[t].y << ")";
     }
-    std::cout << "[flat lattice " << kColumns << " x " << kRows << "] interior: " << interiorOld
-              << " old points, " << interiorCentroids << " triangles, " << interiorNew << " new points\n";
+    std::cout << "[flat lattice " << FlatLattice::kColumns << " x " << FlatLattice::kRows
+              << "] interior: " << interiorOld << " old points, " << interiorCentroids << " triangles, "
+              << interiorNew << " new points\n";
     ASSERT_GT(interiorOld, 200u);
     EXPECT_EQ(interiorNew, interiorCentroids);
+}
+
+// Boundaries (section 6) against an exact oracle: on the flat lattice, a point of the bottom or
+// top row sees an opening of 180° > θb between its two row neighbours, so it is a potential
+// boundary point and makes a segment with each (they are potential too). A straight segment's
+// curve (tangents in the plane) is its chord, so the first level puts one new point at each of
+// its thirds, and none beyond the row. Away from the corners (3 columns), whose zigzag sides
+// (openings of 120° or 240°) are another case.
+TEST(RefinerBoundaries, FlatLatticeRowsGetPointsAtTheThirdsOfEverySegment) {
+    const FlatLattice grid;
+    constexpr float h = FlatLattice::h;
+    Refiner refiner(grid.points, options());
+    const LevelStats stats = refiner.refineLevel();
+    const PointSet& out = refiner.points();
+    std::vector<glm::vec2> added;
+    for (std::size_t i = refiner.levelEnd(0); i < out.size(); ++i)
+        added.push_back(grid.planeCoordinates(out.position[i]));
+    std::size_t segments = 0;
+    for (const float y : {0.0f, grid.height}) {
+        const float shift = y == 0.0f ? 0.0f : 0.5f * h * static_cast<float>((FlatLattice::kRows - 1) % 2);
+        for (int column = 3; column + 1 < FlatLattice::kColumns - 3; ++column) {
+            ++segments;
+            const float x0 = h * static_cast<float>(column) + shift;
+            for (const float third : {1.0f / 3.0f, 2.0f / 3.0f}) {
+                const glm::vec2 expected(x0 + third * h, y);
+                const auto near = std::ranges::count_if(
+                    added, [&](glm::vec2 q) { return glm::length(q - expected) < 1e-4f * h; });
+                EXPECT_EQ(near, 1) << "segment at column " << column << ", row y = " << y << ", third "
+                                   << third;
+            }
+        }
+    }
+    for (const glm::vec2 q : added) {
+        EXPECT_GT(q.y, -1e-4f * h) << "beyond the bottom row";
+        EXPECT_LT(q.y, grid.height + 1e-4f * h) << "beyond the top row";
+    }
+    // Each segment is split in three by its two new points.
+    std::cout << "[flat lattice, boundaries] " << segments << " row segments checked; "
+              << stats.boundaryInserted / 2 << " segments in all, " << stats.boundarySegments
+              << " after the level\n";
+    EXPECT_EQ(stats.boundarySegments, 3 * (stats.boundaryInserted / 2));
+    EXPECT_GE(stats.boundaryInserted / 2, segments);
 }
 
 // Levels stay separated (SPEC 1, 4, 8) and L_p is eq. 12 beyond the first level, where P(l) is no

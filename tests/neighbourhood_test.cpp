@@ -301,9 +301,10 @@ TEST(FilterFuzzy, SetsMatchBruteForce) {
             NeighbourSet set;
             for (std::uint32_t k = 0; k < count; ++k) {
                 float x = uniform(rng, -1.0, 1.0), y = uniform(rng, -1.0, 1.0);
-                if (farPair)
-                    x = k < 80 ? uniform(rng, 0.2, 1.0) : (k == 80 ? -2.0f : -3.0f),
+                if (farPair) {
+                    x = k < 80 ? uniform(rng, 0.2, 1.0) : (k == 80 ? -2.0f : -3.0f);
                     y = k < 80 ? y : 0.05f * float(k - 79);
+                }
                 set.push(k, onPatch(x, y), normalAt(x, y));
             }
             std::vector<glm::vec3> at(count);

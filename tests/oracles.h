@@ -52,18 +52,23 @@ inline std::size_t inputMismatches(const Refiner& refiner, const PointSet& input
 
 struct Consistency {
     float normalTolerance = 1e-5f; // largest | |n| - 1 | of normals and second normals
-    bool positiveRadii = false;    // radii > 0 (else >= 0)
+    bool refined = false;          // a refiner's output: normals and radii present, radii > 0
 };
+// A refiner's output: its new normals come from cross products normalised in single precision.
+inline constexpr Consistency kRefined{.normalTolerance = 1e-3f, .refined = true};
 
 // What is wrong with a point set, empty where nothing is: attribute arrays that do not match the
-// positions (normals, radii, colours and second normals for every point or none), positions that
-// are not finite, normals or second normals off unit length, radii not finite or out of range.
+// positions (normals, radii, colours and second normals for every point or none; for a refined
+// set, normals and radii for every point), positions that are not finite, normals or second
+// normals off unit length, radii not finite or negative (or zero, in a refined set).
 inline std::string pointSetDefect(const PointSet& points, const Consistency& expect = {}) {
     const std::size_t n = points.size();
     const auto sized = [n](std::size_t size) { return size == 0 || size == n; };
     if (!sized(points.normal.size()) || !sized(points.radius.size()) || !sized(points.colour.size()) ||
         !sized(points.crease.size()))
         return "an attribute array does not match the positions";
+    if (expect.refined && n > 0 && (!points.hasNormal() || !points.hasRadius()))
+        return "no normals or no radii";
     const auto unit = [&](glm::vec3 v) { return std::abs(glm::length(v) - 1.0f) <= expect.normalTolerance; };
     for (std::size_t i = 0; i < n; ++i) {
         const glm::vec3 x = points.position[i];
@@ -75,7 +80,7 @@ inline std::string pointSetDefect(const PointSet& points, const Consistency& exp
             return "second normal " + std::to_string(i) + " not of unit length";
         if (points.hasRadius()) {
             const float r = points.radius[i];
-            if (!std::isfinite(r) || r < 0.0f || (expect.positiveRadii && r == 0.0f))
+            if (!std::isfinite(r) || r < 0.0f || (expect.refined && r == 0.0f))
                 return "radius " + std::to_string(i) + " out of range";
         }
     }

@@ -68,7 +68,6 @@ constexpr std::size_t kPrefetchAhead = 16; // grid entries between a point's pre
 constexpr unsigned kMaxTileShift = 4;      // tiles of at most 16³ cells
 constexpr std::size_t kMinTiles = 64;      // tiles of a level, at least (where the cells allow)
 constexpr float kMinCreaseCos = -0.98480775f; // cos 170°
-constexpr float kMinCreaseSin2 = 3.0459e-4f;  // sin²(1°): a crease's two normals at least 1° apart
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
 // neighbour at the next level; without the margin it would drop out by rounding.
@@ -224,14 +223,15 @@ inline bool sameCrease(glm::vec3 n1, glm::vec3 n2, glm::vec3 m1, glm::vec3 m2) {
 }
 
 // The crease direction n1 × n2 of a crease point, of unit length; zero where its two normals are
-// less than 1° apart and the direction is undefined. Choice: such a point looks for no crease
+// less than 1° apart and the direction is undefined (validateForRefinement takes no pair more than
+// 170° apart, so nearly opposite normals do not arise). Choice: such a point looks for no crease
 // neighbours of its own (creaseNeighbours), and a segment that ends at it leaves it along the
 // chord (splitSegments; fuzz_refine: a crease point whose second normal equalled its first gave
 // NaN points).
 inline glm::vec3 creaseDirection(glm::vec3 n1, glm::vec3 n2) {
     const glm::vec3 d = glm::cross(n1, n2);
     const float length2 = glm::dot(d, d);
-    return length2 > kMinCreaseSin2 ? d * (1.0f / std::sqrt(length2)) : glm::vec3(0.0f);
+    return length2 > kSin2Of1Degree ? d * (1.0f / std::sqrt(length2)) : glm::vec3(0.0f);
 }
 
 inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
@@ -944,7 +944,9 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
 // filtered first ring of a crease point often holds no crease point ahead: on the fandisk's 179
 // crease points the fans gave 61 segments, r gives 92 and 1.5 r 123 (RefinerCreases). A segment
 // longer than r_p needs splitSegments' guard on N'_p for the convergence bound of SPEC 4; with it,
-// wider balls (2 r, 3 r) still broke the bound at level 5 (r'/r up to 0.983).
+// wider balls (2 r, 3 r) still broke the bound at level 5 (r'/r up to 0.983). None for a point
+// whose two normals are less than 1° apart (creaseDirection; before, such points within 1° of
+// parallel found neighbours along a direction made of rounding, and exactly parallel ones none).
 std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, std::span<const NearbyPoint> nearby) const {
     const glm::vec3 x = points.position[p], n1 = points.normal[p], n2 = points.crease[p];
     const glm::vec3 direction = creaseDirection(n1, n2);

@@ -55,8 +55,7 @@ PointSet refine(const PointSet& input, std::uint8_t knob, unsigned threads) {
                   "every old radius shrinks by c_beta,max");
     }
     check(test::inputMismatches(refiner, input) == 0, "every input point kept bit for bit");
-    const std::string defect =
-        test::pointSetDefect(refiner.points(), {.normalTolerance = 1e-3f, .positiveRadii = true});
+    const std::string defect = test::pointSetDefect(refiner.points(), test::kRefined);
     check(defect.empty(), defect.c_str());
     return std::move(refiner).takePoints();
 }

@@ -37,6 +37,7 @@
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
 #include "test_data.h"
+#include "test_random.h"
 
 namespace pnsplat {
 namespace {
@@ -777,6 +778,56 @@ TEST(RefinerBoundaries, FlatLatticeRowsGetPointsAtTheThirdsOfEverySegment) {
               << " after the level\n";
     EXPECT_EQ(stats.boundaryInserted, 2 * kSegments);
     EXPECT_EQ(stats.boundarySegments, 3 * kSegments); // each split in three by its two new points
+}
+
+// SPEC 4 steps 2, 3 and 5c: no candidate is inserted into the discard space D_p, the balls of
+// radius λ2·r_h around the points h of Y_p (already inserted, λ1·r_p < |h - p| < r_p, and found
+// as the children of p's neighbours, SPEC 7). A set that
+// fits one colour cell (extent 2 < kCellFactor · r = 2.25, equal radii, so none is "large") is
+// refined in storage order, so the new points already there when p is refined are the children
+// of the points before it; and r_h is at least |h - q|, q its parent (step 6, right after q's
+// refinement), which gives a lower bound of D_p that every inserted point must respect. Random
+// irregular sets on a plane, boundaries off (segment points are no candidates).
+TEST(RefinerLocal, NoCandidateIsInsertedIntoTheDiscardSpace) {
+    const TangentFrame plane(glm::normalize(glm::vec3(-1.0f, 0.5f, 2.0f)));
+    constexpr float kRadius = 0.5f;
+    RefineOptions noBoundaries = options();
+    noBoundaries.boundaries = false;
+    std::mt19937_64 rng(20261125);
+    std::size_t discarded = 0, yPairs = 0;
+    for (int set = 0; set < 100; ++set) {
+        PointSet input;
+        while (input.size() < 25) {
+            const glm::vec2 q(test::uniform(rng, -1.0, 1.0), test::uniform(rng, -1.0, 1.0));
+            if (glm::length(q) > 1.0f) continue;
+            input.position.push_back(q.x * plane.u + q.y * plane.v);
+            input.normal.push_back(plane.n);
+        }
+        input.radius.assign(input.size(), kRadius);
+        Refiner refiner(input, noBoundaries);
+        discarded += refiner.refineLevel().discarded;
+        const PointSet& out = refiner.points();
+        const std::size_t oldCount = refiner.levelEnd(0);
+        for (std::size_t p = 0; p < oldCount; ++p) {
+            const glm::vec3 x = out.position[p];
+            for (std::size_t q = 0; q < p; ++q) {
+                if (!(glm::length(out.position[q] - x) < kRadius)) continue; // SPEC 7: neighbours' children
+                for (std::size_t h = refiner.childBegin(0, q); h < refiner.childEnd(0, q); ++h) {
+                    const float toP = glm::length(out.position[h] - x);
+                    if (!(toP > kLambda1 * kRadius * 1.0001f && toP < kRadius * 0.9999f)) continue; // Y_p
+                    ++yPairs;
+                    const float discardRadius = kLambda2 * glm::length(out.position[h] - out.position[q]);
+                    for (std::size_t c = refiner.childBegin(0, p); c < refiner.childEnd(0, p); ++c)
+                        EXPECT_GE(glm::length(out.position[c] - out.position[h]), discardRadius * 0.9999f)
+                            << "set " << set << ": child " << c << " of " << p << " in the discard ball of "
+                            << h;
+                }
+            }
+        }
+    }
+    std::cout << "[discard space, 100 random sets of 25] " << discarded << " candidates discarded, " << yPairs
+              << " (p, h in Y_p) pairs checked\n";
+    EXPECT_GT(discarded, 50u);
 }
 
 // Levels stay separated (SPEC 1, 4, 8) and L_p is eq. 12 beyond the first level, where P(l) is no

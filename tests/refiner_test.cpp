@@ -1441,6 +1441,22 @@ TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
     ASSERT_FALSE(repeatedResult.ok());
     EXPECT_NE(repeatedResult.error().message.find("points 12 and 31 coincide"), std::string::npos)
         << repeatedResult.error().message;
+    // Distinct points too close to tell apart at the set's scale (fuzz_refine: 1e-43 apart, near the
+    // origin, in a set of unit size, whose segment points got radii of 0): only at 2^-62 of the
+    // scale; the same pair 1e-12 apart, a millionth of a float's precision at 1, is fine.
+    for (const float apart : {1e-43f, 1e-30f, 1e-12f}) {
+        PointSet close = valid;
+        close.position[7] = glm::vec3(0.0f);
+        close.position[40] = glm::vec3(apart, 0.0f, 0.0f);
+        const auto closeResult = validateForRefinement(close);
+        if (apart > 1e-15f) {
+            EXPECT_TRUE(closeResult.ok()) << apart;
+            continue;
+        }
+        ASSERT_FALSE(closeResult.ok()) << apart;
+        EXPECT_NE(closeResult.error().message.find("points 7 and 40 are"), std::string::npos)
+            << closeResult.error().message;
+    }
 
     PointSet noNormals = valid;
     noNormals.normal.clear();

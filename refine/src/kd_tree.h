@@ -11,17 +11,26 @@
 
 namespace pnsplat {
 
-struct KdCloud {
+// The positions as nanoflann reads them, with coordinates and distances in T.
+template <typename T>
+struct KdCloudIn {
     std::span<const glm::vec3> points;
     std::size_t kdtree_get_point_count() const { return points.size(); }
-    float kdtree_get_pt(std::size_t i, std::size_t dim) const { return points[i][static_cast<int>(dim)]; }
+    T kdtree_get_pt(std::size_t i, std::size_t dim) const { return points[i][static_cast<int>(dim)]; }
     template <class Box>
     bool kdtree_get_bbox(Box&) const {
         return false;
     }
 };
 
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, KdCloud>, KdCloud, 3,
-                                                   std::uint32_t>;
+template <typename T>
+using KdTreeIn = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<T, KdCloudIn<T>>,
+                                                     KdCloudIn<T>, 3, std::uint32_t>;
+using KdCloud = KdCloudIn<float>;
+using KdTree = KdTreeIn<float>;
+// Distances in double precision: they stay apart where single precision's squares underflow
+// (validateForRefinement).
+using KdCloudDouble = KdCloudIn<double>;
+using KdTreeDouble = KdTreeIn<double>;
 
 } // namespace pnsplat

@@ -45,6 +45,7 @@
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
 
+#include "kd_tree.h"
 #include "pnsplat/refine/hierarchy.h"
 #include "pnsplat/refine/huge_pages.h"
 #include "pnsplat/refine/neighbourhood.h"
@@ -450,6 +451,15 @@ int scaleExponent(const PointSet& points, float size) {
     const int wanted = -rlim;
     if (wanted < 0) return std::max(wanted, std::min(0, std::numeric_limits<float>::min_exponent - 1 - std::ilogb(smallest)));
     return std::min(wanted, std::max(0, kLargestScaledExponent - (largest > 0.0f ? std::ilogb(largest) : 0)));
+}
+
+// r_lim of a level (see the top of this file): the kLargeQuantile quantile of its radii, found by
+// reordering `radii`, a copy.
+template <typename Radii>
+float radiusLimitOf(Radii& radii) {
+    const auto k = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(radii.size() - 1));
+    std::nth_element(radii.begin(), radii.begin() + static_cast<std::ptrdiff_t>(k), radii.end());
+    return radii[k];
 }
 
 // Multiplies every position and radius by `factor`, a power of two (exact).
@@ -1208,16 +1218,14 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
 
     // Colouring (see the top of this file), and the level's scale.
     HugePageVector<float> sortedRadii = points.radius;
-    const auto quantileIndex = static_cast<std::size_t>(kLargeQuantile * static_cast<float>(count - 1));
-    std::nth_element(sortedRadii.begin(), sortedRadii.begin() + static_cast<std::ptrdiff_t>(quantileIndex),
-                     sortedRadii.end());
+    const float unscaledLimit = radiusLimitOf(sortedRadii);
     const Bounds bounds = boundsOf(points.position);
-    const int exponent = scaleExponent(points, std::min(sortedRadii[quantileIndex], bounds.extent()));
+    const int exponent = scaleExponent(points, std::min(unscaledLimit, bounds.extent()));
     const float scale = std::ldexp(1.0f, exponent);
     if (exponent != 0) scalePoints(points, scale, pool);
     const glm::vec3 lo = bounds.lo * scale; // exact, as the points'
     const float extent = bounds.extent() * scale;
-    const float radiusLimit = sortedRadii[quantileIndex] * scale;
+    const float radiusLimit = unscaledLimit * scale;
     const float targetRadius = options.targetRadius * scale;
 
     levelRadius = points.radius;
@@ -1499,6 +1507,53 @@ std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const 
     return refineDownTo(refiner, rims.fillTarget, kHoleFillingLevels, progress);
 }
 
+namespace {
+
+// Choice: distinct points too close to tell apart at the first level's scale count as coincident
+// too. A level runs scaled by 2^e (scaleExponent), and two points closer than 2^-62 there have a
+// squared distance below single precision's normal range: the new points between them got radii
+// of 0 (fuzz_refine: points 1e-43 apart near the origin, in a set of unit size). Distinct floats of
+// magnitude at least 2^24·`separation` (or one of them 0) differ by at least an ulp, 2^-24 of their
+// magnitude, so such a pair agrees exactly wherever one of its points has a larger coordinate, and
+// that point has a nonzero coordinate below it. Only those points are looked up, among the points
+// with a coordinate below it (a k-d tree in double precision); a set without them costs one pass.
+// The pair with the smallest first index, or nothing.
+std::optional<CoincidentPair> findTooClose(const PointSet& points, double separation) {
+    const double small = 0x1p24 * separation;
+    const auto below = [&](float c) { return std::abs(double{c}) < small; };
+    std::vector<std::uint32_t> candidates; // a coordinate below `small`
+    std::vector<glm::vec3> positions;
+    bool anyQuery = false;
+    for (std::uint32_t i = 0; i < points.size(); ++i) {
+        const glm::vec3 x = points.position[i];
+        if (!below(x.x) && !below(x.y) && !below(x.z)) continue;
+        candidates.push_back(i);
+        positions.push_back(x);
+        anyQuery = anyQuery || (below(x.x) && x.x != 0.0f) || (below(x.y) && x.y != 0.0f) ||
+                   (below(x.z) && x.z != 0.0f);
+    }
+    if (!anyQuery) return std::nullopt;
+    const KdCloudDouble cloud{positions};
+    KdTreeDouble tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    tree.buildIndex();
+    std::optional<CoincidentPair> found;
+    for (std::uint32_t k = 0; k < candidates.size(); ++k) {
+        const glm::dvec3 x(positions[k]);
+        std::uint32_t index[2];
+        double distance2[2];
+        const std::size_t n = tree.knnSearch(&x.x, 2, index, distance2);
+        for (std::size_t m = 0; m < n; ++m) {
+            if (index[m] == k || !(distance2[m] < separation * separation)) continue;
+            const std::size_t a = candidates[k], b = candidates[index[m]];
+            const CoincidentPair pair{std::min(a, b), std::max(a, b)};
+            if (!found || pair.first < found->first) found = pair;
+        }
+    }
+    return found;
+}
+
+} // namespace
+
 Result<void> validateForRefinement(const PointSet& points) {
     if (points.empty()) return Error{"the point set is empty"};
     if (!points.hasRadius()) return Error{"the point set has no radii"};
@@ -1527,12 +1582,22 @@ Result<void> validateForRefinement(const PointSet& points) {
         }
     }
     // Cell keys and Morton codes divide by the extent of the set.
-    if (!std::isfinite(boundsOf(points.position).extent()))
+    const float extent = boundsOf(points.position).extent();
+    if (!std::isfinite(extent))
         return Error{"the points span more than single precision holds (coordinates of both signs beyond 1.7e38)"};
     // Two copies of a point would each insert the same new points (removeCoincident merges them).
     if (const auto pair = findCoincident(points))
         return Error{"points " + std::to_string(pair->first) + " and " + std::to_string(pair->second) +
                      " coincide: the refinement needs distinct positions"};
+    std::vector<float> radii(points.radius.begin(), points.radius.end());
+    const int exponent = scaleExponent(points, std::min(radiusLimitOf(radii), extent));
+    if (const auto pair = findTooClose(points, std::ldexp(1.0, -62 - exponent)))
+        return Error{
+            fmt::format("points {} and {} are {:.3g} apart, too close to tell apart at the set's scale "
+                        "(squared distances in single precision)",
+                        pair->first, pair->second,
+                        glm::distance(glm::dvec3(points.position[pair->first]),
+                                      glm::dvec3(points.position[pair->second])))};
     return {};
 }
 

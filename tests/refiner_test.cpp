@@ -834,10 +834,14 @@ TEST(RefinerLocal, NoCandidateIsInsertedIntoTheDiscardSpace) {
 // longer the input: every point inserted at the transition 1 -> 2 of a closed random torus (no
 // boundary segments) is cog + φ, with the exact-derivative normal, of a triangle (p, a, b) of its
 // parent p and two points a, b of P(1) within the wider second look (1.5 r_p). A fan that took in
-// a point of P(2), or a candidate computed otherwise, leaves points unexplained. Also for the
-// faster variants, whose centroid candidates are smoothed when inserted (variant 4).
+// a point of P(2), or a candidate computed otherwise, leaves points unexplained. Its colour is the
+// mean of the three corners' (SPEC 2, rounded to nearest). Also for the faster variants, whose
+// centroid candidates are smoothed when inserted (variant 4).
 TEST(RefinerLocal, EveryNewPointIsThePnCentreOfATriangleOfItsParentsLevel) {
-    const PointSet input = withRadii(sampleTorusRandom(1500, 1.0f, 0.4f, 11));
+    PointSet input = withRadii(sampleTorusRandom(1500, 1.0f, 0.4f, 11));
+    std::mt19937_64 rng(1125);
+    for (std::size_t i = 0; i < input.size(); ++i)
+        input.colour.emplace_back(rng() % 256, rng() % 256, rng() % 256);
     for (const RefineOptions& variant : {RefineOptions{}, RefineOptions::fast()}) {
         Refiner refiner(input, options(variant));
         ASSERT_EQ(refiner.refineLevel().boundarySegments, 0u);
@@ -863,9 +867,12 @@ TEST(RefinerLocal, EveryNewPointIsThePnCentreOfATriangleOfItsParentsLevel) {
                                                             out.position[j], out.normal[j]);
                         const glm::vec3 e =
                             centreOfGravity(x, out.position[i], out.position[j]) + smoothingDisplacement(t);
+                        const glm::uvec3 colourSum =
+                            glm::uvec3(out.colour[p]) + glm::uvec3(out.colour[i]) + glm::uvec3(out.colour[j]);
                         found = glm::length(e - out.position[c]) < 1e-5f * radius[p] &&
                                 glm::dot(centreNormal(t, out.normal[p], out.normal[i], out.normal[j]),
-                                         out.normal[c]) > 1.0f - 1e-5f;
+                                         out.normal[c]) > 1.0f - 1e-5f &&
+                                out.colour[c] == glm::u8vec3((colourSum + glm::uvec3(1)) / 3u);
                     }
                 }
                 explained += found;

@@ -830,6 +830,116 @@ TEST(RefinerLocal, NoCandidateIsInsertedIntoTheDiscardSpace) {
     EXPECT_GT(discarded, 50u);
 }
 
+// SPEC 4 steps 4 and 5, replayed: the first point refined in a level starts from an empty N'_p
+// (nothing is inserted yet, so Y_p and D_p are empty too), and its children must be exactly the
+// candidates that the selection loop of step 5 takes, in its order, written out here from the SPEC on the
+// library's primitives (the fan of filterFuzzy, cog + φ, the curved angle): the first candidate
+// into the empty N'_p; then, while a gap of N'_p has a curved angle of at least θc and a candidate
+// inside it, the candidate of the widest such gap that maximises the smaller of the two angles it
+// splits the gap into. Choices of the refiner, stated in refiner.cpp: angles around n_p in the
+// tangent plane; a candidate competes only if both parts are at least θc/8. 200 random sets of 40
+// points on the unit sphere, radii 1 (each set fits one colour cell, refined in storage order, so
+// point 0 goes first).
+TEST(RefinerLocal, FirstPointTakesTheCandidatesOfTheSelectionLoop) {
+    constexpr float kRadius = 1.0f;
+    constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
+    const auto sweep = [&](float a, float b) { return b >= a ? b - a : b - a + kTwoPi; };
+    RefineOptions noBoundaries = options();
+    noBoundaries.boundaries = false;
+    std::mt19937_64 rng(25);
+    std::size_t sets = 0, matched = 0, children = 0;
+    for (int set = 0; set < 200; ++set) {
+        PointSet input;
+        for (int i = 0; i < 40; ++i) {
+            const glm::vec3 x = test::randomUnit(rng);
+            input.position.push_back(x);
+            input.normal.push_back(x);
+        }
+        input.radius.assign(input.size(), kRadius);
+        Refiner refiner(input, noBoundaries);
+        refiner.refineLevel();
+        const PointSet& out = refiner.points();
+        const glm::vec3 x = out.position[0], n = out.normal[0];
+        const TangentFrame frame(n);
+        NeighbourSet fan;
+        for (std::uint32_t i = 1; i < refiner.levelEnd(0); ++i)
+            if (glm::length(out.position[i] - x) < kRadius &&
+                validNeighbours(x, n, out.position[i], out.normal[i]))
+                fan.push(i, out.position[i], out.normal[i]);
+        NeighbourhoodScratch scratch;
+        filterFuzzy(x, n, FuzzyParams{}, fan, scratch);
+        struct Member {
+            glm::vec3 position, normal;
+            float angle;
+        };
+        std::vector<Member> candidates;
+        bool open = false;
+        for (std::size_t a = 0; a < fan.size(); ++a) {
+            const std::size_t b = (a + 1) % fan.size();
+            if (sweep(fan.angle[a], fan.angle[b]) > noBoundaries.thetaB) {
+                open = true;
+                continue;
+            }
+            const PnTriangle t =
+                makePnTriangle(x, n, fan.position[a], fan.normal[a], fan.position[b], fan.normal[b]);
+            const glm::vec3 c =
+                centreOfGravity(x, fan.position[a], fan.position[b]) + smoothingDisplacement(t);
+            candidates.push_back({c, centreNormal(t, n, fan.normal[a], fan.normal[b]), frame.angleOf(c - x)});
+        }
+        if (open || candidates.empty()) continue; // the wider second look is another case
+        ++sets;
+        std::vector<Member> ring{candidates.front()};
+        std::vector<glm::vec3> inserted{candidates.front().position}; // in order
+        std::vector<bool> taken(candidates.size(), false);
+        taken[0] = true;
+        for (;;) {
+            std::sort(ring.begin(), ring.end(),
+                      [](const Member& a, const Member& b) { return a.angle < b.angle; });
+            // Gaps from widest down: the first with a candidate inside it is filled.
+            std::vector<std::pair<float, std::size_t>> gaps;
+            for (std::size_t j = 0; j < ring.size(); ++j) {
+                const Member &a = ring[j], &b = ring[(j + 1) % ring.size()];
+                const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, b.angle);
+                const float value = gapSweep > std::numbers::pi_v<float>
+                                        ? gapSweep
+                                        : curvedAngle(x, a.position, a.normal, b.position, b.normal);
+                if (value >= kThetaC) gaps.emplace_back(value, j);
+            }
+            std::sort(gaps.begin(), gaps.end(),
+                      [](const auto& u, const auto& v) { return u.first > v.first; });
+            std::size_t chosen = candidates.size();
+            for (const auto& [value, j] : gaps) {
+                const float gapSweep =
+                    ring.size() == 1 ? kTwoPi : sweep(ring[j].angle, ring[(j + 1) % ring.size()].angle);
+                float best = -1.0f;
+                for (std::size_t k = 0; k < candidates.size(); ++k) {
+                    if (taken[k]) continue;
+                    const float into = sweep(ring[j].angle, candidates[k].angle);
+                    const float score = std::min(into, gapSweep - into);
+                    if (score >= kThetaC / 8.0f && score > best) best = score, chosen = k;
+                }
+                if (chosen < candidates.size()) break;
+            }
+            if (chosen == candidates.size()) break;
+            taken[chosen] = true;
+            ring.push_back(candidates[chosen]);
+            inserted.push_back(candidates[chosen].position);
+        }
+        // A point's children are stored in the order it inserted them.
+        const std::size_t begin = refiner.childBegin(0, 0), end = refiner.childEnd(0, 0);
+        children += end - begin;
+        bool same = end - begin == inserted.size();
+        for (std::size_t k = 0; same && k < inserted.size(); ++k)
+            same = glm::length(out.position[begin + k] - inserted[k]) < 1e-5f;
+        matched += same;
+        EXPECT_TRUE(same) << "set " << set << ": " << end - begin << " children, the loop takes "
+                          << inserted.size();
+    }
+    std::cout << "[selection loop, first point of 200 random sphere sets] " << matched << " of " << sets
+              << " closed fans match (" << children << " children)\n";
+    EXPECT_GT(sets, 150u);
+}
+
 // Levels stay separated (SPEC 1, 4, 8) and L_p is eq. 12 beyond the first level, where P(l) is no
 // longer the input: every point inserted at the transition 1 -> 2 of a closed random torus (no
 // boundary segments) is cog + φ, with the exact-derivative normal, of a triangle (p, a, b) of its

@@ -149,9 +149,12 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     std::vector<Candidate> candidates;
     PhaseTimes times;
     std::vector<std::uint32_t> inReach; // the candidates within reach of the point being refined
+    std::span<const NearbyPoint> reachableFrom; // the candidates inReach indexes (collectNeighbourhood)
+    std::size_t reachable = 0;                  // the entries of inReach in use
     std::vector<NearbyPoint> nearest; // the maxNeighbours nearest, for an oversized neighbourhood
     BlockArena<NewPoint> arena;       // the points this worker inserts, cell after cell
-    std::size_t inserted = 0, discarded = 0, retried = 0, beyondBound = 0, boundaryInserted = 0, capped = 0;
+    std::size_t inserted = 0, discarded = 0, retried = 0, beyondBound = 0, coincident = 0,
+                boundaryInserted = 0, capped = 0;
 };
 
 // Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
@@ -570,6 +573,15 @@ private:
     bool withinConvergenceBound(std::uint32_t p, glm::vec3 q) const {
         return kRadiusMargin * glm::length(q - points.position[p]) <= kCBetaMax * levelRadius[p];
     }
+    // Whether q is the position of a point near the point being refined: of P(l) within its reach
+    // (collectNeighbourhood), or of N'_p or Y_p.
+    static bool coincidesWithNearby(glm::vec3 q, const WorkerScratch& s) {
+        for (std::size_t j = 0; j < s.reachable; ++j)
+            if (s.reachableFrom[s.inReach[j]].position == q) return true;
+        const auto at = [&](const RingMember& m) { return m.position == q; };
+        return std::any_of(s.ring.begin(), s.ring.end(), at) ||
+               std::any_of(s.outer.begin(), s.outer.end(), at);
+    }
     // Appends np to `cell`, refined by the worker of `s`; returns its index in the cell.
     std::uint32_t store(std::uint32_t cell, const NewPoint& np, WorkerScratch& s) {
         s.arena.append(cellBase[cell], cellCount[cell], np);
@@ -703,6 +715,8 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
         s.inReach[inReach] = static_cast<std::uint32_t>(k);
         inReach += static_cast<std::size_t>(glm::dot(d, d) < reach2) & static_cast<std::size_t>(candidates[k].index != p);
     }
+    s.reachableFrom = candidates;
+    s.reachable = inReach;
     for (std::size_t j = 0; j < inReach; ++j) {
         const NearbyPoint& candidate = candidates[s.inReach[j]];
         const std::uint32_t i = candidate.index;
@@ -1173,6 +1187,17 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             if (profile) interpolationSeconds += secondsSince(ti);
             continue;
         }
+        // Choice: a point that would coincide with one of P(l) is not inserted. The fuzzy filter
+        // can drop p's own child of the previous level from its fan (normals far apart, as in
+        // noisy scans), and the fan triangle that made that child then makes it again: one such
+        // duplicate in the nefertiti's 214,257 points, and in a quarter of small sets with normals
+        // tilted by up to 50° (fuzz_refine: its radius then collapsed to 0). Such a point lies
+        // within p's reach, where the points of P(l) were just scanned (collectNeighbourhood).
+        if (coincidesWithNearby(np.position, s)) {
+            ++s.coincident;
+            if (profile) interpolationSeconds += secondsSince(ti);
+            continue;
+        }
         const std::uint32_t local = store(cell, np, s);
         ++s.inserted;
         RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
@@ -1309,7 +1334,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     for (WorkerScratch& s : scratch) {
         s.arena.clear();
         s.times = {};
-        s.inserted = s.discarded = s.retried = s.beyondBound = s.boundaryInserted = s.capped = 0;
+        s.inserted = s.discarded = s.retried = s.beyondBound = s.coincident = s.boundaryInserted = s.capped =
+            0;
         s.columnsOf = kNoCell;
     }
     // A cell's points find their surroundings together, from the grid; a large point alone,
@@ -1398,6 +1424,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         stats.discarded += s.discarded;
         stats.retried += s.retried;
         stats.beyondBound += s.beyondBound;
+        stats.coincident += s.coincident;
         stats.cappedNeighbourhoods += s.capped;
         stats.boundaryInserted += s.boundaryInserted;
         stats.phases.neighbourhood += s.times.neighbourhood;

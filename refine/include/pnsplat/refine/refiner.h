@@ -96,6 +96,7 @@ struct LevelStats {
     std::size_t discarded = 0;       // candidates that fell in the discard space
     std::size_t retried = 0;         // points whose fan was open and was searched again wider
     std::size_t beyondBound = 0;     // candidates not inserted: farther than c_β,max · r (SPEC 4)
+    std::size_t coincident = 0;      // candidates not inserted: at the position of a point of P(l)
     std::size_t cappedNeighbourhoods = 0; // neighbourhoods cut to the maxNeighbours nearest
     std::size_t boundaryInserted = 0; // points inserted on boundary and crease segments (section 6)
     std::size_t boundarySegments = 0; // boundary and crease segments after this level

@@ -190,6 +190,10 @@ void expectInterpolatesAfterLevels(const PointSet& input, const std::string& nam
         std::cout << "[" << name << "] after " << levels << " level(s): " << refiner.points().size()
                   << " points, input points changed: " << bad << " of " << input.size() << "\n";
         EXPECT_EQ(bad, 0u) << name << " after " << levels << " levels";
+        // Nor is any point inserted twice (RefinerRobustness).
+        const auto pair = findCoincident(refiner.points());
+        EXPECT_FALSE(pair.has_value())
+            << name << ": points " << pair->first << " and " << pair->second << " coincide";
     }
 }
 

@@ -890,7 +890,7 @@ TEST(RefinerLocal, FirstPointTakesTheCandidatesOfTheSelectionLoop) {
                 centreOfGravity(x, fan.position[a], fan.position[b]) + smoothingDisplacement(t);
             candidates.push_back({c, centreNormal(t, n, fan.normal[a], fan.normal[b]), frame.angleOf(c - x)});
         }
-        if (open || candidates.empty()) continue; // the wider second look is another case
+        if (open || fan.size() < 2 || candidates.empty()) continue; // the wider second look is another case
         ++sets;
         std::vector<Member> ring{candidates.front()};
         std::vector<glm::vec3> inserted{candidates.front().position}; // in order
@@ -1598,14 +1598,21 @@ TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
     EXPECT_NE(repeatedResult.error().message.find("points 12 and 31 coincide"), std::string::npos)
         << repeatedResult.error().message;
     // Distinct points too close to tell apart at the set's scale (fuzz_refine: 1e-43 apart, near the
-    // origin, in a set of unit size, whose segment points got radii of 0): only at 2^-62 of the
-    // scale; the same pair 1e-12 apart, a millionth of a float's precision at 1, is fine.
-    for (const float apart : {1e-43f, 1e-30f, 1e-12f}) {
+    // origin, in a set of unit size, whose segment points got radii of 0): closer than 2^-63 at the
+    // scale the first level runs at (here 1), near the origin or away from it; 2^-63 itself and 1e-12
+    // (a hundred-thousandth of a float's precision at 1) are fine.
+    const float limit = std::ldexp(1.0f, -63);
+    const glm::vec3 away(0.5f, 0.25f, 0.0f);
+    for (const auto& [where, apart, accepted] :
+         {std::tuple{glm::vec3(0.0f), 1e-43f, false}, std::tuple{glm::vec3(0.0f), 1e-30f, false},
+          std::tuple{glm::vec3(0.0f), std::nextafter(limit, 0.0f), false},
+          std::tuple{glm::vec3(0.0f), limit, true}, std::tuple{glm::vec3(0.0f), 1e-12f, true},
+          std::tuple{away, std::ldexp(1.0f, -70), false}}) {
         PointSet close = valid;
-        close.position[7] = glm::vec3(0.0f);
-        close.position[40] = glm::vec3(apart, 0.0f, 0.0f);
+        close.position[7] = where;
+        close.position[40] = where + glm::vec3(0.0f, 0.0f, apart);
         const auto closeResult = validateForRefinement(close);
-        if (apart > 1e-15f) {
+        if (accepted) {
             EXPECT_TRUE(closeResult.ok()) << apart;
             continue;
         }
@@ -1613,6 +1620,22 @@ TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
         EXPECT_NE(closeResult.error().message.find("points 7 and 40 are"), std::string::npos)
             << closeResult.error().message;
     }
+    // The rule follows the scale: the same sphere scaled by 2^-40 with a pair 2^-100 apart (2^-60 at
+    // the scale it runs at) is fine, 2^-110 apart is not; a flat patch at z = 0 (every point with a
+    // zero coordinate) with one tiny coordinate is fine.
+    for (const auto& [apart, accepted] : {std::pair{-100, true}, std::pair{-110, false}}) {
+        PointSet small = valid;
+        for (glm::vec3& x : small.position) x *= std::ldexp(1.0f, -40);
+        for (float& r : small.radius) r *= std::ldexp(1.0f, -40);
+        small.position[7] = glm::vec3(0.0f);
+        small.position[40] = glm::vec3(std::ldexp(1.0f, apart), 0.0f, 0.0f);
+        EXPECT_EQ(validateForRefinement(small).ok(), accepted) << "2^" << apart;
+    }
+    PointSet flat = valid;
+    for (glm::vec3& x : flat.position) x.z = 0.0f;
+    flat.position[7].z = 1e-30f;
+    const auto flatResult = validateForRefinement(flat);
+    EXPECT_TRUE(flatResult.ok()) << flatResult.error().message;
 
     PointSet noNormals = valid;
     noNormals.normal.clear();

@@ -573,9 +573,10 @@ private:
     bool withinConvergenceBound(std::uint32_t p, glm::vec3 q) const {
         return kRadiusMargin * glm::length(q - points.position[p]) <= kCBetaMax * levelRadius[p];
     }
-    // Whether q is the position of a point near the point being refined: of P(l) within its reach
-    // (collectNeighbourhood), or of N'_p or Y_p.
-    static bool coincidesWithNearby(glm::vec3 q, const WorkerScratch& s) {
+    // Whether q is the position of the point x being refined or of a point near it: of P(l) within
+    // its reach (the last collectNeighbourhood), or of N'_p or Y_p.
+    static bool coincidesWithNearby(glm::vec3 q, glm::vec3 x, const WorkerScratch& s) {
+        if (q == x) return true;
         for (std::size_t j = 0; j < s.reachable; ++j)
             if (s.reachableFrom[s.inReach[j]].position == q) return true;
         const auto at = [&](const RingMember& m) { return m.position == q; };
@@ -1187,13 +1188,15 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             if (profile) interpolationSeconds += secondsSince(ti);
             continue;
         }
-        // Choice: a point that would coincide with one of P(l) is not inserted. The fuzzy filter
-        // can drop p's own child of the previous level from its fan (normals far apart, as in
-        // noisy scans), and the fan triangle that made that child then makes it again: one such
-        // duplicate in the nefertiti's 214,257 points, and in a quarter of small sets with normals
-        // tilted by up to 50° (fuzz_refine: its radius then collapsed to 0). Such a point lies
-        // within p's reach, where the points of P(l) were just scanned (collectNeighbourhood).
-        if (coincidesWithNearby(np.position, s)) {
+        // Choice: a point that would coincide with p or a point near it (of P(l) within reach, of
+        // N'_p or of Y_p) is not inserted. The fuzzy filter can drop p's own child of the previous
+        // level from its fan (normals far apart, as in noisy scans), and the fan triangle that
+        // made that child then makes it again: one such duplicate in the nefertiti's 214,257
+        // points, and in a quarter of small sets with normals tilted by up to 50° (fuzz_refine: its
+        // radius then collapsed to 0). Such a point lies within p's reach, where the points of
+        // P(l) were just scanned (collectNeighbourhood); with centroid candidates (variant 4) a
+        // twin in Y_p can escape D_p, which is measured on the centroid.
+        if (coincidesWithNearby(np.position, x, s)) {
             ++s.coincident;
             if (profile) interpolationSeconds += secondsSince(ti);
             continue;
@@ -1225,6 +1228,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         }
         points.radius[p] = kRadiusMargin * newRadius;
     }
+    s.reachable = 0; // reachableFrom may point into storage that the next point reuses
     childRange[p] = ChildRange{cell, firstChild, cellCount[cell] - firstChild};
     refined[p] = 1;
     if (profile) {
@@ -1537,34 +1541,36 @@ std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const 
 namespace {
 
 // Choice: distinct points too close to tell apart at the first level's scale count as coincident
-// too. A level runs scaled by 2^e (scaleExponent), and two points closer than 2^-62 there have a
-// squared distance below single precision's normal range: the new points between them got radii
-// of 0 (fuzz_refine: points 1e-43 apart near the origin, in a set of unit size). Distinct floats of
-// magnitude at least 2^24·`separation` (or one of them 0) differ by at least an ulp, 2^-24 of their
-// magnitude, so such a pair agrees exactly wherever one of its points has a larger coordinate, and
-// that point has a nonzero coordinate below it. Only those points are looked up, among the points
-// with a coordinate below it (a k-d tree in double precision); a set without them costs one pass.
-// The pair with the smallest first index, or nothing.
+// too. A level runs scaled by 2^e (scaleExponent), and two points closer than 2^-63 there have a
+// squared distance below single precision's smallest normal, 2^-126: the new points between them
+// got radii of 0 (fuzz_refine: points 1e-43 apart near the origin, in a set of unit size).
+// Let S = 2^24·`separation`. Where two such points differ in a coordinate, both values lie below S:
+// distinct floats at or above S in magnitude are an ulp, at least 2^-24 of their magnitude, apart;
+// and a float at or above S and one below it are at least the gap below the power of two between
+// them apart, which is no less. So one of the two has a nonzero coordinate below S (it is looked
+// up), and the other a coordinate below S (it is in the k-d tree, in double precision, of the
+// points with one). A set without such points costs one pass. A pair (the one found from the
+// looked-up point of smallest index), or nothing.
 std::optional<CoincidentPair> findTooClose(const PointSet& points, double separation) {
     const double small = 0x1p24 * separation;
     const auto below = [&](float c) { return std::abs(double{c}) < small; };
     std::vector<std::uint32_t> candidates; // a coordinate below `small`
     std::vector<glm::vec3> positions;
-    bool anyQuery = false;
+    std::vector<std::uint32_t> queries; // a nonzero one: entries of `candidates`
     for (std::uint32_t i = 0; i < points.size(); ++i) {
         const glm::vec3 x = points.position[i];
         if (!below(x.x) && !below(x.y) && !below(x.z)) continue;
+        const auto tiny = [&](float c) { return c != 0.0f && below(c); };
+        if (tiny(x.x) || tiny(x.y) || tiny(x.z))
+            queries.push_back(static_cast<std::uint32_t>(candidates.size()));
         candidates.push_back(i);
         positions.push_back(x);
-        anyQuery = anyQuery || (below(x.x) && x.x != 0.0f) || (below(x.y) && x.y != 0.0f) ||
-                   (below(x.z) && x.z != 0.0f);
     }
-    if (!anyQuery) return std::nullopt;
+    if (queries.empty()) return std::nullopt;
     const KdCloudDouble cloud{positions};
     KdTreeDouble tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     tree.buildIndex();
-    std::optional<CoincidentPair> found;
-    for (std::uint32_t k = 0; k < candidates.size(); ++k) {
+    for (const std::uint32_t k : queries) {
         const glm::dvec3 x(positions[k]);
         std::uint32_t index[2];
         double distance2[2];
@@ -1572,11 +1578,10 @@ std::optional<CoincidentPair> findTooClose(const PointSet& points, double separa
         for (std::size_t m = 0; m < n; ++m) {
             if (index[m] == k || !(distance2[m] < separation * separation)) continue;
             const std::size_t a = candidates[k], b = candidates[index[m]];
-            const CoincidentPair pair{std::min(a, b), std::max(a, b)};
-            if (!found || pair.first < found->first) found = pair;
+            return CoincidentPair{std::min(a, b), std::max(a, b)};
         }
     }
-    return found;
+    return std::nullopt;
 }
 
 } // namespace
@@ -1618,7 +1623,7 @@ Result<void> validateForRefinement(const PointSet& points) {
                      " coincide: the refinement needs distinct positions"};
     std::vector<float> radii(points.radius.begin(), points.radius.end());
     const int exponent = scaleExponent(points, std::min(radiusLimitOf(radii), extent));
-    if (const auto pair = findTooClose(points, std::ldexp(1.0, -62 - exponent)))
+    if (const auto pair = findTooClose(points, std::ldexp(1.0, -63 - exponent)))
         return Error{
             fmt::format("points {} and {} are {:.3g} apart, too close to tell apart at the set's scale "
                         "(squared distances in single precision)",

@@ -96,7 +96,8 @@ struct LevelStats {
     std::size_t discarded = 0;       // candidates that fell in the discard space
     std::size_t retried = 0;         // points whose fan was open and was searched again wider
     std::size_t beyondBound = 0;     // candidates not inserted: farther than c_β,max · r (SPEC 4)
-    std::size_t coincident = 0;      // candidates not inserted: at the position of a point of P(l)
+    std::size_t coincident = 0;      // candidates not inserted: at the position of p or a point near it
+                                     // (of P(l) within reach, of N'_p or of Y_p)
     std::size_t cappedNeighbourhoods = 0; // neighbourhoods cut to the maxNeighbours nearest
     std::size_t boundaryInserted = 0; // points inserted on boundary and crease segments (section 6)
     std::size_t boundarySegments = 0; // boundary and crease segments after this level
@@ -206,7 +207,8 @@ inline constexpr float kMinRadius = 1.1e-19f;
 inline constexpr float kMaxRadius = 1e18f;
 
 // Checks that a point set can be refined: non-empty, finite, unit normals, radii within
-// [kMinRadius, kMaxRadius], distinct positions (removeCoincident).
+// [kMinRadius, kMaxRadius], distinct positions (removeCoincident), and no two closer than 2^-63 at
+// the scale the first level runs at (squared distances in single precision).
 Result<void> validateForRefinement(const PointSet& points);
 
 } // namespace pnsplat

@@ -60,6 +60,13 @@ RefineOptions options(RefineOptions o = {}) {
     return o;
 }
 
+// The full method without boundary segments (section 6), for cases about fan candidates alone.
+RefineOptions withoutBoundaries() {
+    RefineOptions o = options();
+    o.boundaries = false;
+    return o;
+}
+
 // Refines until the set has at least `target` points (at most maxLevels levels); returns the
 // number of levels built.
 unsigned refineUntil(Refiner& refiner, std::size_t target, unsigned maxLevels = 12) {
@@ -795,8 +802,7 @@ TEST(RefinerBoundaries, FlatLatticeRowsGetPointsAtTheThirdsOfEverySegment) {
 TEST(RefinerLocal, NoCandidateIsInsertedIntoTheDiscardSpace) {
     const TangentFrame plane(glm::normalize(glm::vec3(-1.0f, 0.5f, 2.0f)));
     constexpr float kRadius = 0.5f;
-    RefineOptions noBoundaries = options();
-    noBoundaries.boundaries = false;
+    const RefineOptions noBoundaries = withoutBoundaries();
     std::mt19937_64 rng(20261125);
     std::size_t discarded = 0, yPairs = 0;
     for (int set = 0; set < 100; ++set) {
@@ -848,8 +854,7 @@ TEST(RefinerLocal, FirstPointTakesTheCandidatesOfTheSelectionLoop) {
     constexpr float kRadius = 1.0f;
     constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
     const auto sweep = [&](float a, float b) { return b >= a ? b - a : b - a + kTwoPi; };
-    RefineOptions noBoundaries = options();
-    noBoundaries.boundaries = false;
+    const RefineOptions noBoundaries = withoutBoundaries();
     std::mt19937_64 rng(25);
     std::size_t sets = 0, matched = 0, children = 0;
     for (int set = 0; set < 200; ++set) {
@@ -900,21 +905,22 @@ TEST(RefinerLocal, FirstPointTakesTheCandidatesOfTheSelectionLoop) {
             std::sort(ring.begin(), ring.end(),
                       [](const Member& a, const Member& b) { return a.angle < b.angle; });
             // Gaps from widest down: the first with a candidate inside it is filled.
-            std::vector<std::pair<float, std::size_t>> gaps;
+            struct Gap {
+                float value, sweep;
+                std::size_t after; // the ring member the gap follows
+            };
+            std::vector<Gap> gaps;
             for (std::size_t j = 0; j < ring.size(); ++j) {
                 const Member &a = ring[j], &b = ring[(j + 1) % ring.size()];
                 const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, b.angle);
                 const float value = gapSweep > std::numbers::pi_v<float>
                                         ? gapSweep
                                         : curvedAngle(x, a.position, a.normal, b.position, b.normal);
-                if (value >= kThetaC) gaps.emplace_back(value, j);
+                if (value >= kThetaC) gaps.push_back({value, gapSweep, j});
             }
-            std::sort(gaps.begin(), gaps.end(),
-                      [](const auto& u, const auto& v) { return u.first > v.first; });
+            std::sort(gaps.begin(), gaps.end(), [](const Gap& u, const Gap& v) { return u.value > v.value; });
             std::size_t chosen = candidates.size();
-            for (const auto& [value, j] : gaps) {
-                const float gapSweep =
-                    ring.size() == 1 ? kTwoPi : sweep(ring[j].angle, ring[(j + 1) % ring.size()].angle);
+            for (const auto& [value, gapSweep, j] : gaps) {
                 float best = -1.0f;
                 for (std::size_t k = 0; k < candidates.size(); ++k) {
                     if (taken[k]) continue;
@@ -1909,8 +1915,7 @@ TEST(RefinerCreases, ParallelCreaseNormalsGiveFinitePoints) {
     // crease neighbours, and make no segments (boundaries off: the roof's rim would make some).
     for (std::size_t i = 0; i < roof.size(); ++i)
         if (roof.isCrease(i)) roof.crease[i] = roof.normal[i];
-    RefineOptions noBoundaries = options();
-    noBoundaries.boundaries = false;
+    const RefineOptions noBoundaries = withoutBoundaries();
     Refiner flat(roof, noBoundaries);
     const LevelStats stats = flat.refineLevel();
     EXPECT_EQ(stats.boundarySegments, 0u);

@@ -915,8 +915,8 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
         glm::vec3 nb = points.normal[b], nbc = creaseOf(b);
         glm::vec3 c1, c2;
         if (segments[segment].crease) {
-            const float leg = glm::length(pb - x) / 3.0f;
             const glm::vec3 chord = pb - x;
+            const float leg = glm::length(chord) / 3.0f;
             const float chord2 = glm::dot(chord, chord);
             const glm::vec3 along = chord2 >= std::numeric_limits<float>::min() ? chord * (1.0f / std::sqrt(chord2)) : glm::vec3(0.0f);
             const auto directionAt = [&](glm::vec3 first, glm::vec3 second) {
@@ -924,8 +924,8 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
                 return d == glm::vec3(0.0f) ? along : d;
             };
             glm::vec3 ta = directionAt(n, nc), tb = directionAt(nb, nbc);
-            if (glm::dot(ta, pb - x) < 0.0f) ta = -ta;
-            if (glm::dot(tb, pb - x) < 0.0f) tb = -tb;
+            if (glm::dot(ta, chord) < 0.0f) ta = -ta;
+            if (glm::dot(tb, chord) < 0.0f) tb = -tb;
             c1 = x + leg * ta;
             c2 = pb - leg * tb;
             if (glm::dot(n, nb) + glm::dot(nc, nbc) < glm::dot(n, nbc) + glm::dot(nc, nb)) std::swap(nb, nbc);

@@ -163,15 +163,16 @@ TEST(CliHelp, ProgramAndSubcommandsPrintTheirOptions) {
     const std::vector<Case> cases = {
         {"--help", {"refine", "eval", "bench", "render", "diff"}},
         {"render --help",
-         {"--output", "--width", "--height", "--camera", "--orbit", "--fov", "--refine-levels", "--fill-hole", "--path",
-          "--device"}},
+         {"--output", "--width", "--height", "--camera", "--orbit", "--fov", "--refine-levels", "--fill-hole",
+          "--path", "--device"}},
         {"diff --help", {"--heatmap", "--max-rmse"}},
         {"bench render --help", {"--sizes", "--splat-pixels", "--repeat", "--output"}},
         {"refine --help",
          {"--output", "--levels", "--target-points", "--threads", "--fast", "--neighbourhood",
           "--no-smoothing", "--euclidean-geodesic", "--plain-angle", "--centroid-candidates", "--fill-hole"}},
         {"eval --help",
-         {"--reference", "--input", "--output", "--flat-normals", "sphere:R", "torus:R,r", "uniformity_cv", "holes"}},
+         {"--reference", "--input", "--output", "--flat-normals", "sphere:R", "torus:R,r", "uniformity_cv",
+          "holes"}},
         {"bench --help", {"refine"}},
         {"bench refine --help", {"--sphere-points", "--target-points", "--repeat", "--output"}},
     };
@@ -276,7 +277,8 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
     const PointSet sphere = sampleSphereUniform(3000, 1.0f);
     PointSet holed;
     for (std::size_t i = 0; i < sphere.size(); ++i)
-        if (glm::length(sphere.position[i] - glm::vec3(0.0f, 0.0f, 1.0f)) >= 0.7f) holed.appendFrom(sphere, i);
+        if (glm::length(sphere.position[i] - glm::vec3(0.0f, 0.0f, 1.0f)) >= 0.7f)
+            holed.appendFrom(sphere, i);
     const fs::path in = dir / "holed.ply", out = dir / "filled.ply";
     ASSERT_TRUE(writePly(in, holed).ok());
     const RunResult r = run("refine --fill-hole 0,0,1,0.7 " + quote(in) + " -l 2 -o " + quote(out));
@@ -286,13 +288,16 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
     auto filled = readPly(out);
     ASSERT_TRUE(filled.ok()) << filled.error().message;
     std::size_t inside = 0;
-    for (const glm::vec3& x : filled->points.position) inside += glm::length(x - glm::vec3(0.0f, 0.0f, 1.0f)) < 0.56f;
+    for (const glm::vec3& x : filled->points.position)
+        inside += glm::length(x - glm::vec3(0.0f, 0.0f, 1.0f)) < 0.56f;
     EXPECT_GT(inside, 1000u); // measured 2,325; 12 with the uniform levels first
 
-    for (const std::string holes : {"0,0,1", "0,0,1 --fill-hole 0.7", "0,0,1,0.7,2", "0,0,1,0", "0,0,1,-1", "0,0,1,nan",
-                                    "0,0,1,x", "0,,1,0.7", "0,0,9,0.7", "0,0,1,0.7 --fill-hole 0,0,-1,0.3"}) {
+    for (const std::string holes :
+         {"0,0,1", "0,0,1 --fill-hole 0.7", "0,0,1,0.7,2", "0,0,1,0", "0,0,1,-1", "0,0,1,nan", "0,0,1,x",
+          "0,,1,0.7", "0,0,9,0.7", "0,0,1,0.7 --fill-hole 0,0,-1,0.3"}) {
         SCOPED_TRACE(holes);
-        const RunResult bad = run("refine " + quote(in) + " -l 1 --fill-hole " + holes + " -o " + quote(dir / "bad.ply"));
+        const RunResult bad =
+            run("refine " + quote(in) + " -l 1 --fill-hole " + holes + " -o " + quote(dir / "bad.ply"));
         std::cout << "[refine --fill-hole " << holes << "] exit " << bad.exitCode << ": " << bad.err;
         EXPECT_TRUE(failsCleanly(bad, Usage::Allowed));
         EXPECT_FALSE(fs::exists(dir / "bad.ply"));
@@ -304,9 +309,10 @@ TEST(CliRefine, EstimatesMissingNormals) {
     const TempDir dir;
     const PointSet sphere = sampleSphereUniform(600, 1.0f);
     std::ostringstream text;
-    text << "ply\nformat ascii 1.0\nelement vertex 600\nproperty float x\nproperty float y\nproperty float z\n"
-         << "end_header\n"
-         << std::setprecision(9);
+    text
+        << "ply\nformat ascii 1.0\nelement vertex 600\nproperty float x\nproperty float y\nproperty float z\n"
+        << "end_header\n"
+        << std::setprecision(9);
     for (const glm::vec3& x : sphere.position) text << x.x << " " << x.y << " " << x.z << "\n";
     const fs::path in = dir / "positions.ply", out = dir / "refined.ply";
     writeText(in, text.str());
@@ -326,8 +332,8 @@ TEST(CliRefine, EstimatesMissingNormals) {
         inward += agreement < 0.0 ? 1 : 0;
         worst = std::min(worst, agreement);
     }
-    std::cout << "    " << points.size() << " points, inward normals " << inward << ", worst cosine to the true normal "
-              << worst << "\n";
+    std::cout << "    " << points.size() << " points, inward normals " << inward
+              << ", worst cosine to the true normal " << worst << "\n";
     EXPECT_EQ(inward, 0u);
     EXPECT_GT(worst, std::cos(5.0 * std::numbers::pi / 180.0));
 }
@@ -428,11 +434,11 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
          headerAscii(3) + "0.5 0.5 0.5 0 0 1\n0.5 0.5 0.5 0 0 1\n0.5 0.5 0.5 0 0 1\n"},
         // Squared distances overflow (1e60) or underflow (1e-60) in single precision: no radius.
         {"coordinates beyond single precision",
-         headerAscii(4) + "0 0 0 0 0 1\n1e30 0 0 0 0 1\n0 1e30 0 0 0 1\n1e30 1e30 0 0 0 1\n", Usage::NotAllowed,
-         "no radius can be estimated"},
+         headerAscii(4) + "0 0 0 0 0 1\n1e30 0 0 0 0 1\n0 1e30 0 0 0 1\n1e30 1e30 0 0 0 1\n",
+         Usage::NotAllowed, "no radius can be estimated"},
         {"coordinates below single precision",
-         headerAscii(4) + "0 0 0 0 0 1\n1e-30 0 0 0 0 1\n0 1e-30 0 0 0 1\n1e-30 1e-30 0 0 0 1\n", Usage::NotAllowed,
-         "no radius can be estimated"},
+         headerAscii(4) + "0 0 0 0 0 1\n1e-30 0 0 0 0 1\n0 1e-30 0 0 0 1\n1e-30 1e-30 0 0 0 1\n",
+         Usage::NotAllowed, "no radius can be estimated"},
         {"negative radius",
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
@@ -449,7 +455,8 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
         EXPECT_FALSE(fs::exists(out));
         EXPECT_EQ(dir.entries(), before) << "files left behind";
         EXPECT_NE(r.err.find(in.string()), std::string::npos) << "the message names the file: " << r.err;
-        EXPECT_NE(r.err.find(c.says), std::string::npos) << "the message says \"" << c.says << "\": " << r.err;
+        EXPECT_NE(r.err.find(c.says), std::string::npos)
+            << "the message says \"" << c.says << "\": " << r.err;
         fs::remove(in);
     }
 }
@@ -551,7 +558,8 @@ TEST(CliEval, HoleMapMarksTheRemovedCap) {
     const PointSet& m = read->points;
     ASSERT_TRUE(m.hasColour() && m.hasRadius());
     ASSERT_GT(m.size(), withoutCap.size() + 14000); // about 9 % of 200,000 samples
-    std::cout << "[eval --hole-map, sphere without its cap] " << m.size() - withoutCap.size() << " holes marked\n";
+    std::cout << "[eval --hole-map, sphere without its cap] " << m.size() - withoutCap.size()
+              << " holes marked\n";
     for (std::size_t i = 0; i < withoutCap.size(); ++i) {
         ASSERT_EQ(m.position[i], withoutCap.position[i]);
         ASSERT_EQ(m.colour[i], glm::u8vec3(200, 200, 200));
@@ -572,20 +580,21 @@ TEST(CliEval, HoleMapMarksTheRemovedCap) {
     EXPECT_FALSE(fs::exists(report));
 }
 
-
 // The refinement benchmark on a tiny case: every configuration, the phase split and the speed-up.
 TEST(CliBench, RefineWritesEveryConfiguration) {
     const TempDir dir;
     const fs::path out = dir / "bench.json";
-    const RunResult r = run("bench refine --sphere-points 200 --target-points 4000 --repeat 1 -o " + quote(out));
+    const RunResult r =
+        run("bench refine --sphere-points 200 --target-points 4000 --repeat 1 -o " + quote(out));
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::string json = readText(out);
-    for (const char* key : {"\"benchmark\": \"refine\"", "\"two_thread_speedup\": {\"full\": ", "\"name\": \"full\"",
-                            "\"name\": \"fast (all variants)\"", "\"name\": \"variant 1 euclidean geodesic\"",
-                            "\"name\": \"variant 2 plain angle\"", "\"name\": \"variant 3 fuzzy neighbourhood\"",
-                            "\"name\": \"variant 4 centroid candidates\"", "\"phase_share\": {\"neighbourhood\": ",
-                            "\"page_faults_median\": ", "\"full_one_thread_by_processor\": {\"0\": ",
-                            "\"two_thread_ideal_speedup\": "})
+    for (const char* key :
+         {"\"benchmark\": \"refine\"", "\"two_thread_speedup\": {\"full\": ", "\"name\": \"full\"",
+          "\"name\": \"fast (all variants)\"", "\"name\": \"variant 1 euclidean geodesic\"",
+          "\"name\": \"variant 2 plain angle\"", "\"name\": \"variant 3 fuzzy neighbourhood\"",
+          "\"name\": \"variant 4 centroid candidates\"",
+          "\"phase_share\": {\"neighbourhood\": ", "\"page_faults_median\": ",
+          "\"full_one_thread_by_processor\": {\"0\": ", "\"two_thread_ideal_speedup\": "})
         EXPECT_NE(json.find(key), std::string::npos) << key << " missing from " << json;
     std::size_t runs = 0;
     for (std::size_t at = json.find("\"points_per_second_median\""); at != std::string::npos;
@@ -623,13 +632,15 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
         {"empty set", headerAscii(0), ""},
         {"truncated", headerAscii(4) + "0 0 0 0 0 1\n1 0", ""},
         {"zero-sized image", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--width 0"},
-        {"eye on the target", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--camera 1,1,1,1,1,1,0,1,0"},
+        {"eye on the target", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n",
+         "--camera 1,1,1,1,1,1,0,1,0"},
         {"extent beyond single precision", // with radii: the estimate would fail first
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
          "-3e38 0 0 0 0 1 1\n3e38 0 0 0 0 1 1\n0 3e38 0 0 0 1 1\n",
          "", "bounding sphere overflows"},
-        {"coincident points", headerAscii(3) + "1 2 3 0 0 1\n1 2 3 0 0 1\n1 2 3 0 0 1\n", "", "1 distinct position"},
+        {"coincident points", headerAscii(3) + "1 2 3 0 0 1\n1 2 3 0 0 1\n1 2 3 0 0 1\n", "",
+         "1 distinct position"},
         {"three numbers for a hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
          "--fill-hole 1,2,3", "expected X,Y,Z,R"},
         {"a point inside the hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
@@ -642,7 +653,8 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
         std::cout << "[render, " << c.name << "] exit " << r.exitCode << ": " << r.err;
         EXPECT_TRUE(r.exited && r.exitCode != 0);
         EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
-        EXPECT_NE(r.err.find(c.says), std::string::npos) << "the message says \"" << c.says << "\": " << r.err;
+        EXPECT_NE(r.err.find(c.says), std::string::npos)
+            << "the message says \"" << c.says << "\": " << r.err;
         EXPECT_FALSE(fs::exists(out));
         fs::remove(in);
     }
@@ -656,7 +668,8 @@ TEST(CliRender, CameraInsideOrLookingAwayRenders) {
     const TempDir dir;
     for (const std::string camera : {"0,0,0,0,0,-1,0,1,0", "0,0,5,0,0,10,0,1,0"}) {
         const fs::path out = dir / "out.png";
-        const RunResult r = run("render --width 32 --height 32 --validation --camera " + camera + " -o " + quote(out));
+        const RunResult r =
+            run("render --width 32 --height 32 --validation --camera " + camera + " -o " + quote(out));
         EXPECT_TRUE(r.exited && r.exitCode == 0) << camera << ": " << r.err;
         EXPECT_TRUE(fs::exists(out));
     }

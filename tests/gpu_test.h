@@ -25,7 +25,7 @@ inline engine::Context* gpuContext() {
 }
 
 class GpuTest : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override {
         ASSERT_NE(gpuContext(), nullptr);
         messagesBefore_ = gpuContext()->validationMessages();
@@ -39,8 +39,8 @@ protected:
     engine::Context& context() { return *gpuContext(); }
 
     // Renders `points` (normals and radii filled) with `settings` from `camera`; fails the test on error.
-    engine::RgbaImage render(const PointSet& points, const engine::RenderSettings& settings, const engine::Camera& camera,
-                             engine::FrameStats* stats = nullptr) {
+    engine::RgbaImage render(const PointSet& points, const engine::RenderSettings& settings,
+                             const engine::Camera& camera, engine::FrameStats* stats = nullptr) {
         auto scene = engine::SplatScene::create(context(), points);
         EXPECT_TRUE(scene.ok()) << scene.error().message;
         if (!scene) return {};
@@ -52,7 +52,7 @@ protected:
         return image ? std::move(image).value() : engine::RgbaImage{};
     }
 
-private:
+  private:
     std::uint32_t messagesBefore_ = 0;
 };
 

@@ -27,7 +27,9 @@ using test::uniform01;
 
 constexpr std::uint32_t kNoParent = 0xffffffffu;
 
-glm::vec3 randomInCube(std::mt19937_64& rng) { return {uniform(rng, 0, 1), uniform(rng, 0, 1), uniform(rng, 0, 1)}; }
+glm::vec3 randomInCube(std::mt19937_64& rng) {
+    return {uniform(rng, 0, 1), uniform(rng, 0, 1), uniform(rng, 0, 1)};
+}
 glm::vec3 randomInBall(std::mt19937_64& rng, float radius) {
     for (;;) {
         const glm::vec3 v(uniform(rng, -1, 1), uniform(rng, -1, 1), uniform(rng, -1, 1));
@@ -38,13 +40,14 @@ glm::vec3 randomInBall(std::mt19937_64& rng, float radius) {
 // A hierarchy and the data it was built from.
 struct Synthetic {
     std::vector<glm::vec3> positions;
-    std::vector<std::uint32_t> parent;                    // kNoParent for roots
-    std::vector<std::uint32_t> level;                     // block of first appearance
-    std::vector<std::vector<std::uint32_t>> childBegin;   // per transition, as given to addLevel
+    std::vector<std::uint32_t> parent;                  // kNoParent for roots
+    std::vector<std::uint32_t> level;                   // block of first appearance
+    std::vector<std::vector<std::uint32_t>> childBegin; // per transition, as given to addLevel
 };
 
 // Appends one level: every point of P(l) gets 0..maxChildren children within `spread` of it.
-void addRandomLevel(Synthetic& s, PointHierarchy& h, std::mt19937_64& rng, std::uint32_t maxChildren, float spread) {
+void addRandomLevel(Synthetic& s, PointHierarchy& h, std::mt19937_64& rng, std::uint32_t maxChildren,
+                    float spread) {
     const auto n = static_cast<std::uint32_t>(s.positions.size());
     const std::uint32_t newLevel = h.levels();
     HugePageVector<std::uint32_t> begin;
@@ -103,7 +106,8 @@ std::size_t checkQuery(const PointHierarchy& h, const Synthetic& s, glm::vec3 ce
     const auto count = static_cast<std::uint32_t>(s.positions.size());
     std::vector<std::uint32_t> visited = v.index;
     std::sort(visited.begin(), visited.end());
-    EXPECT_TRUE(std::adjacent_find(visited.begin(), visited.end()) == visited.end()) << "a point visited twice";
+    EXPECT_TRUE(std::adjacent_find(visited.begin(), visited.end()) == visited.end())
+        << "a point visited twice";
     for (std::size_t k = 0; k < v.index.size(); ++k) {
         const std::uint32_t i = v.index[k];
         EXPECT_LT(i, count);
@@ -119,8 +123,8 @@ std::size_t checkQuery(const PointHierarchy& h, const Synthetic& s, glm::vec3 ce
     }
     for (std::uint32_t i : visited)
         if (glm::length(s.positions[i] - centre) < radius) visitedInside.push_back(i);
-    EXPECT_EQ(visitedInside, inside) << "centre " << centre.x << " " << centre.y << " " << centre.z << " radius "
-                                     << radius;
+    EXPECT_EQ(visitedInside, inside) << "centre " << centre.x << " " << centre.y << " " << centre.z
+                                     << " radius " << radius;
     // Bounds nest (checked separately), so no ancestor prunes a point whose own sphere meets the
     // ball: the visited set is exactly the brute-force set.
     EXPECT_EQ(visited, meets);
@@ -366,7 +370,8 @@ TEST(PointHierarchy, BoxQueriesMatchBruteForce) {
     std::vector<PointHierarchy::StackEntry> stack;
     std::size_t nonEmpty = 0;
     for (int q = 0; q < 300; ++q) {
-        const glm::vec3 a = randomInCube(rng), b = a + glm::vec3(uniform(rng, 0, 0.1), uniform(rng, 0, 0.1), uniform(rng, 0, 0.1));
+        const glm::vec3 a = randomInCube(rng),
+                        b = a + glm::vec3(uniform(rng, 0, 0.1), uniform(rng, 0, 0.1), uniform(rng, 0, 0.1));
         const float margin = q % 7 == 0 ? 0.0f : uniform(rng, 0.0, 0.08);
         std::vector<std::uint32_t> visited;
         h.queryBox(a, b, margin, stack, [&](std::uint32_t i, float d2) {
@@ -382,7 +387,8 @@ TEST(PointHierarchy, BoxQueriesMatchBruteForce) {
             const glm::vec3 d = s.positions[i] - glm::clamp(s.positions[i], a, b);
             if (glm::dot(d, d) <= margin * margin) {
                 ++within;
-                EXPECT_TRUE(std::binary_search(visited.begin(), visited.end(), i)) << "query " << q << " point " << i;
+                EXPECT_TRUE(std::binary_search(visited.begin(), visited.end(), i))
+                    << "query " << q << " point " << i;
             }
         }
         nonEmpty += within > 0;

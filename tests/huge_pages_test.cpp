@@ -51,7 +51,8 @@ TEST(BlockArena, RunsStayContiguousAcrossBlocks) {
         std::vector<std::uint32_t> lengths;
         std::size_t total = 0;
         for (std::uint32_t run = 0; total < 600000; ++run) {
-            const auto length = static_cast<std::uint32_t>(run % 50 == 49 ? 200000 + rng() % 1000 : rng() % 300);
+            const auto length =
+                static_cast<std::uint32_t>(run % 50 == 49 ? 200000 + rng() % 1000 : rng() % 300);
             Item* base = arena.open();
             for (std::uint32_t k = 0; k < length; ++k) arena.append(base, k, Item{run, k, {}});
             runs.push_back(base);

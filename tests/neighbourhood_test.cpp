@@ -33,13 +33,14 @@ using test::uniform01;
 constexpr double kPi = std::numbers::pi;
 constexpr float kPiF = std::numbers::pi_v<float>;
 
-
 glm::vec3 polar(double radius, double degrees, float z = 0.0f) {
     const double a = degrees * kPi / 180.0;
     return glm::vec3(static_cast<float>(radius * std::cos(a)), static_cast<float>(radius * std::sin(a)), z);
 }
 
-std::vector<std::uint32_t> indices(const NeighbourSet& set) { return set.index; }
+std::vector<std::uint32_t> indices(const NeighbourSet& set) {
+    return set.index;
+}
 
 // The position filterFuzzy measured the badness on for input entry k (the geodesic projection q'_k
 // for Ng, p_k itself for Nf), read back from the public scratch buffers.
@@ -82,7 +83,8 @@ TEST(FuzzyBadness, BothOverloadsAgree) {
         const float w = fuzzyBadness(p, pi, pj, sinThetaF);
         EXPECT_NEAR(w, fuzzyBadness(glm::normalize(pj - p), pi - pj, sinThetaF), 1e-6f) << trial;
         // The formula itself, in double.
-        const double sinAlpha = glm::dot(glm::normalize(glm::dvec3(pj - p)), glm::normalize(glm::dvec3(pi - pj)));
+        const double sinAlpha =
+            glm::dot(glm::normalize(glm::dvec3(pj - p)), glm::normalize(glm::dvec3(pi - pj)));
         const double expected = sinAlpha < -0.5 ? 0.0 : 0.5 * (sinAlpha / 0.5 + 1.0);
         EXPECT_NEAR(w, expected, 1e-5) << trial;
         positive += w > 0.0f;
@@ -252,7 +254,8 @@ TEST(FilterFuzzy, IndependentOfInputOrder) {
                 set.push(reference.set.index[k], reference.set.position[k], reference.set.normal[k]);
             NeighbourhoodScratch scratch;
             filterFuzzy(reference.p, reference.n, params, set, scratch);
-            EXPECT_EQ(indices(set), reference.firstRingByAngle) << "trial " << trial << " geodesic " << geodesic;
+            EXPECT_EQ(indices(set), reference.firstRingByAngle)
+                << "trial " << trial << " geodesic " << geodesic;
         }
     }
 }
@@ -511,8 +514,8 @@ SymmetryResult symmetryRate(const PointSet& points, bool geodesic) {
 
 void report(const std::string& name, const SymmetryResult& r) {
     ::testing::Test::RecordProperty(name, std::to_string(r.rate));
-    std::cout << "symmetry rate " << name << ": " << r.rate << " (" << r.pairs << " pairs, mean |N| " << r.meanSize
-              << ")\n";
+    std::cout << "symmetry rate " << name << ": " << r.rate << " (" << r.pairs << " pairs, mean |N| "
+              << r.meanSize << ")\n";
 }
 
 // Measured (gcc, x86-64): sphere Nf 1.0, Ng 1.0; the thresholds leave a small margin.
@@ -555,8 +558,10 @@ PointSet hexGrid(int rows, int cols, float h, float jitter, std::vector<int>& ri
     const glm::vec3 origin(0.5f, 0.25f, -1.0f);
     for (int r = 0; r < rows; ++r)
         for (int c = 0; c < cols; ++c) {
-            const float x = (static_cast<float>(c) + 0.5f * static_cast<float>(r % 2) + jitter * uniform(rng, -1, 1)) * h;
-            const float y = (static_cast<float>(r) * std::sqrt(3.0f) / 2.0f + jitter * uniform(rng, -1, 1)) * h;
+            const float x =
+                (static_cast<float>(c) + 0.5f * static_cast<float>(r % 2) + jitter * uniform(rng, -1, 1)) * h;
+            const float y =
+                (static_cast<float>(r) * std::sqrt(3.0f) / 2.0f + jitter * uniform(rng, -1, 1)) * h;
             points.position.push_back(origin + x * u + y * v);
             points.normal.push_back(normal);
             ringDepth.push_back(std::min({r, rows - 1 - r, c, cols - 1 - c}));
@@ -597,12 +602,16 @@ void checkHexRadii(float jitter) {
     EXPECT_GT(interior, 300);
 }
 
-TEST(EstimateRadii, JitteredHexagonalGridInteriorRadiusJustAboveFirstRing) { checkHexRadii(0.02f); }
+TEST(EstimateRadii, JitteredHexagonalGridInteriorRadiusJustAboveFirstRing) {
+    checkHexRadii(0.02f);
+}
 
 // Regression for the same cause: on an exact hexagonal grid the points at 2h straight behind a
 // first-ring neighbour survived the Nf filter and interior radii came out as 2h instead of just
 // above h.
-TEST(EstimateRadii, HexagonalGridInteriorRadiusJustAboveSpacing) { checkHexRadii(0.0f); }
+TEST(EstimateRadii, HexagonalGridInteriorRadiusJustAboveSpacing) {
+    checkHexRadii(0.0f);
+}
 
 TEST(EstimateRadii, IndependentOfThreadCount) {
     PointSet a = sampleTorusRandom(3000, 1.0f, 0.4f, 11);

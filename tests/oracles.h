@@ -22,7 +22,7 @@ namespace pnsplat::test {
 inline const double kConvergenceBound = (5.0 / 6.0 + 5.0 / 6.0 + std::sqrt(1.0 + 4.0 / 9.0)) / 3.0;
 
 template <typename T>
-    requires std::is_trivially_copyable_v<T>
+requires std::is_trivially_copyable_v<T>
 bool sameBits(const T& a, const T& b) {
     return std::memcmp(&a, &b, sizeof(T)) == 0;
 }

@@ -22,10 +22,10 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "oracles.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
-#include "oracles.h"
 #include "test_data.h"
 
 namespace pnsplat {
@@ -37,7 +37,7 @@ namespace fs = std::filesystem;
 
 // A fresh folder under the system's temporary folder, removed with everything in it.
 class PlyTest : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override {
         static std::atomic<int> counter{0};
         dir_ = fs::temp_directory_path() /
@@ -63,7 +63,8 @@ protected:
 
     std::vector<std::string> entries() const {
         std::vector<std::string> names;
-        for (const auto& entry : fs::directory_iterator(dir_)) names.push_back(entry.path().filename().string());
+        for (const auto& entry : fs::directory_iterator(dir_))
+            names.push_back(entry.path().filename().string());
         return names;
     }
 
@@ -72,7 +73,7 @@ protected:
 
 // Bytes of a binary body in either byte order.
 class Bytes {
-public:
+  public:
     explicit Bytes(bool bigEndian) : bigEndian_(bigEndian) {}
 
     template <typename T>
@@ -86,7 +87,7 @@ public:
     }
     const std::string& str() const { return data_; }
 
-private:
+  private:
     bool bigEndian_;
     std::string data_;
 };
@@ -120,7 +121,8 @@ PointSet randomPoints(std::size_t n, bool withRadius, bool withColour, unsigned 
     for (std::size_t i = 0; i < n; ++i) {
         glm::vec3 p(coordinate(rng), coordinate(rng), coordinate(rng));
         // Awkward values for the shortest-representation printer.
-        if (i == 0) p = glm::vec3(std::numeric_limits<float>::max(), std::numeric_limits<float>::denorm_min(), -0.0f);
+        if (i == 0)
+            p = glm::vec3(std::numeric_limits<float>::max(), std::numeric_limits<float>::denorm_min(), -0.0f);
         if (i == 1) p = glm::vec3(1e-30f, -3.4e38f, 0.1f);
         glm::vec3 normal;
         do {
@@ -131,7 +133,8 @@ PointSet randomPoints(std::size_t n, bool withRadius, bool withColour, unsigned 
         points.normal.push_back(normal);
         if (withRadius) points.radius.push_back(i == 2 ? 0.0f : radius(rng));
         if (withColour)
-            points.colour.emplace_back(static_cast<std::uint8_t>(byte(rng)), static_cast<std::uint8_t>(byte(rng)),
+            points.colour.emplace_back(static_cast<std::uint8_t>(byte(rng)),
+                                       static_cast<std::uint8_t>(byte(rng)),
                                        static_cast<std::uint8_t>(byte(rng)));
     }
     return points;
@@ -165,19 +168,20 @@ TEST_P(PlyRoundTrip, IsBitExact) {
     EXPECT_EQ(entries(), std::vector<std::string>{"round.ply"}); // no temporary file left
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Formats, PlyRoundTrip,
-    ::testing::Values(RoundTripCase{PlyFormat::BinaryLittleEndian, false, false},
-                      RoundTripCase{PlyFormat::BinaryLittleEndian, true, false},
-                      RoundTripCase{PlyFormat::BinaryLittleEndian, false, true},
-                      RoundTripCase{PlyFormat::BinaryLittleEndian, true, true},
-                      RoundTripCase{PlyFormat::Ascii, false, false}, RoundTripCase{PlyFormat::Ascii, true, false},
-                      RoundTripCase{PlyFormat::Ascii, false, true}, RoundTripCase{PlyFormat::Ascii, true, true}),
-    [](const ::testing::TestParamInfo<RoundTripCase>& testInfo) {
-        const RoundTripCase& c = testInfo.param;
-        return std::string(c.format == PlyFormat::Ascii ? "Ascii" : "Binary") + (c.radius ? "Radius" : "") +
-               (c.colour ? "Colour" : "");
-    });
+INSTANTIATE_TEST_SUITE_P(Formats, PlyRoundTrip,
+                         ::testing::Values(RoundTripCase{PlyFormat::BinaryLittleEndian, false, false},
+                                           RoundTripCase{PlyFormat::BinaryLittleEndian, true, false},
+                                           RoundTripCase{PlyFormat::BinaryLittleEndian, false, true},
+                                           RoundTripCase{PlyFormat::BinaryLittleEndian, true, true},
+                                           RoundTripCase{PlyFormat::Ascii, false, false},
+                                           RoundTripCase{PlyFormat::Ascii, true, false},
+                                           RoundTripCase{PlyFormat::Ascii, false, true},
+                                           RoundTripCase{PlyFormat::Ascii, true, true}),
+                         [](const ::testing::TestParamInfo<RoundTripCase>& testInfo) {
+                             const RoundTripCase& c = testInfo.param;
+                             return std::string(c.format == PlyFormat::Ascii ? "Ascii" : "Binary") +
+                                    (c.radius ? "Radius" : "") + (c.colour ? "Colour" : "");
+                         });
 
 // parsePly reads bytes in memory as readPly reads the file holding them, and names its `name`
 // in errors.
@@ -284,9 +288,17 @@ TEST_F(PlyTest, AsciiWithShuffledPropertiesExtrasListsAndFaces) {
 TEST_F(PlyTest, BinaryWithListsInVertexAndFacesFirst) {
     Bytes b(false);
     // face: uchar flags, list uchar uint vertex_indices (a quad and a triangle)
-    b.put<std::uint8_t>(1).put<std::uint8_t>(4).put<std::uint32_t>(0).put<std::uint32_t>(1).put<std::uint32_t>(2)
+    b.put<std::uint8_t>(1)
+        .put<std::uint8_t>(4)
+        .put<std::uint32_t>(0)
+        .put<std::uint32_t>(1)
+        .put<std::uint32_t>(2)
         .put<std::uint32_t>(3);
-    b.put<std::uint8_t>(2).put<std::uint8_t>(3).put<std::uint32_t>(3).put<std::uint32_t>(2).put<std::uint32_t>(1);
+    b.put<std::uint8_t>(2)
+        .put<std::uint8_t>(3)
+        .put<std::uint32_t>(3)
+        .put<std::uint32_t>(2)
+        .put<std::uint32_t>(1);
     // vertex: double x, list ushort short junk, float y z, uchar pad, float nx ny nz
     for (int i = 0; i < 4; ++i) {
         b.put<double>(i + 0.5).put<std::uint16_t>(static_cast<std::uint16_t>(i));
@@ -294,17 +306,19 @@ TEST_F(PlyTest, BinaryWithListsInVertexAndFacesFirst) {
         b.put<float>(10.0f * static_cast<float>(i)).put<float>(-1.0f).put<std::uint8_t>(9);
         b.put<float>(0.0f).put<float>(0.0f).put<float>(-3.0f);
     }
-    const std::string header = "ply\nformat binary_little_endian 1.0\n"
-                               "element face 2\nproperty uchar flags\nproperty list uchar uint vertex_indices\n"
-                               "element vertex 4\nproperty double x\nproperty list ushort short junk\n"
-                               "property float y\nproperty float z\nproperty uchar pad\n"
-                               "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+    const std::string header =
+        "ply\nformat binary_little_endian 1.0\n"
+        "element face 2\nproperty uchar flags\nproperty list uchar uint vertex_indices\n"
+        "element vertex 4\nproperty double x\nproperty list ushort short junk\n"
+        "property float y\nproperty float z\nproperty uchar pad\n"
+        "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
     const fs::path path = writeFile("lists.ply", header + b.str());
     const Result<PlyData> read = readPly(path, {.readFaces = true});
     ASSERT_TRUE(read.ok()) << read.error().message;
     ASSERT_EQ(read->points.size(), 4u);
     for (int i = 0; i < 4; ++i) {
-        EXPECT_EQ(read->points.position[i], glm::vec3(static_cast<float>(i) + 0.5f, 10.0f * static_cast<float>(i), -1.0f));
+        EXPECT_EQ(read->points.position[i],
+                  glm::vec3(static_cast<float>(i) + 0.5f, 10.0f * static_cast<float>(i), -1.0f));
         EXPECT_EQ(read->points.normal[i], glm::vec3(0.0f, 0.0f, -1.0f));
     }
     const std::vector<glm::u32vec3> expected = {{0, 1, 2}, {0, 2, 3}, {3, 2, 1}};
@@ -313,7 +327,7 @@ TEST_F(PlyTest, BinaryWithListsInVertexAndFacesFirst) {
 
 TEST_F(PlyTest, BigEndianWithMixedTypes) {
     Bytes b(true);
-    b.put<std::int32_t>(-7).put<double>(0.25).put<float>(1e-3f);           // x (int), y (double), z
+    b.put<std::int32_t>(-7).put<double>(0.25).put<float>(1e-3f);            // x (int), y (double), z
     b.put<float>(3.0f).put<float>(4.0f).put<float>(0.0f);                   // normal, to be normalised
     b.put<float>(1.0f).put<float>(0.5f).put<float>(0.0f).put<float>(0.75f); // float colour, radius
     b.put<std::int32_t>(65536).put<double>(-1e10).put<float>(-2.0f);
@@ -342,19 +356,21 @@ TEST_F(PlyTest, BigEndianWithMixedTypes) {
 }
 
 TEST_F(PlyTest, IntegerColoursAreClampedAndPartialColourIgnored) {
-    const fs::path wide = writeFile("wide.ply", "ply\nformat ascii 1.0\nelement vertex 1\n"
-                                                "property float x\nproperty float y\nproperty float z\n"
-                                                "property float nx\nproperty float ny\nproperty float nz\n"
-                                                "property ushort red\nproperty short green\nproperty int blue\n"
-                                                "end_header\n0 0 0 1 0 0 1000 -5 77\n");
+    const fs::path wide =
+        writeFile("wide.ply", "ply\nformat ascii 1.0\nelement vertex 1\n"
+                              "property float x\nproperty float y\nproperty float z\n"
+                              "property float nx\nproperty float ny\nproperty float nz\n"
+                              "property ushort red\nproperty short green\nproperty int blue\n"
+                              "end_header\n0 0 0 1 0 0 1000 -5 77\n");
     const Result<PlyData> read = readPly(wide);
     ASSERT_TRUE(read.ok()) << read.error().message;
     EXPECT_EQ(read->points.colour.at(0), glm::u8vec3(255, 0, 77));
 
-    const fs::path partial = writeFile("partial.ply", "ply\nformat ascii 1.0\nelement vertex 1\n"
-                                                      "property float x\nproperty float y\nproperty float z\n"
-                                                      "property float nx\nproperty float ny\nproperty float nz\n"
-                                                      "property uchar red\nend_header\n0 0 0 1 0 0 9\n");
+    const fs::path partial =
+        writeFile("partial.ply", "ply\nformat ascii 1.0\nelement vertex 1\n"
+                                 "property float x\nproperty float y\nproperty float z\n"
+                                 "property float nx\nproperty float ny\nproperty float nz\n"
+                                 "property uchar red\nend_header\n0 0 0 1 0 0 9\n");
     const Result<PlyData> partialRead = readPly(partial);
     ASSERT_TRUE(partialRead.ok()) << partialRead.error().message;
     EXPECT_FALSE(partialRead->points.hasColour());
@@ -402,7 +418,8 @@ TEST_F(PlyTest, NormalsMayBeAbsentWhenNotRequired) {
 }
 
 TEST_F(PlyTest, NormalsAreNormalised) {
-    const fs::path path = writeFile("normals.ply", asciiHeader(3) + "0 0 0 0 0 2\n0 0 0 3 4 0\n0 0 0 1e-9 0 0\n");
+    const fs::path path =
+        writeFile("normals.ply", asciiHeader(3) + "0 0 0 0 0 2\n0 0 0 3 4 0\n0 0 0 1e-9 0 0\n");
     const Result<PlyData> read = readPly(path);
     ASSERT_TRUE(read.ok()) << read.error().message;
     for (const glm::vec3& n : read->points.normal) EXPECT_NEAR(glm::length(n), 1.0f, 1e-6f);
@@ -430,18 +447,20 @@ std::vector<BadFile> badFiles() {
     std::string hugeHeader = "ply\nformat ascii 1.0\n";
     while (hugeHeader.size() < 70 * 1024) hugeHeader += "comment padding padding padding padding padding\n";
     hugeHeader += "element vertex 1\n" + vertexProps + "end_header\n0 0 0 0 0 1\n";
-    const std::string radiusHeader = "ply\nformat ascii 1.0\nelement vertex 1\n" + vertexProps +
-                                     "property float radius\nend_header\n";
+    const std::string radiusHeader =
+        "ply\nformat ascii 1.0\nelement vertex 1\n" + vertexProps + "property float radius\nend_header\n";
     const std::string faceHeader = "ply\nformat binary_little_endian 1.0\nelement vertex 1\n" + vertexProps +
                                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
-    const std::string asciiFaceHeader = "ply\nformat ascii 1.0\nelement vertex 3\n" + vertexProps +
-                                        "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    const std::string asciiFaceHeader =
+        "ply\nformat ascii 1.0\nelement vertex 3\n" + vertexProps +
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
     const std::string threeRows = "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n";
     return {
         {"Empty", "", "empty file"},
         {"NotPly", "hello world\n", "not a PLY file"},
         {"BinaryGarbage", std::string("\x7f\x45LF\0\0\0", 8), "not a PLY file"},
-        {"UnknownFormat", "ply\nformat binary_middle_endian 1.0\nelement vertex 1\nend_header\n", "unknown format"},
+        {"UnknownFormat", "ply\nformat binary_middle_endian 1.0\nelement vertex 1\nend_header\n",
+         "unknown format"},
         {"BadVersion", "ply\nformat ascii 2.0\nend_header\n", "version"},
         {"NoFormat", "ply\nelement vertex 1\n" + vertexProps + "end_header\n0 0 0 0 0 1\n", "no format"},
         {"TwoFormats", "ply\nformat ascii 1.0\nformat ascii 1.0\nend_header\n", "second format"},
@@ -451,37 +470,50 @@ std::vector<BadFile> badFiles() {
         {"OverflowingCount", "ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\nend_header\n",
          "non-negative"},
         {"UnknownType", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n", "type"},
-        {"PropertyBeforeElement", "ply\nformat ascii 1.0\nproperty float x\nend_header\n", "before any element"},
-        {"ShortPropertyLine", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float\nend_header\n", "property"},
-        {"BadListLine", "ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar x\nend_header\n", "property"},
+        {"PropertyBeforeElement", "ply\nformat ascii 1.0\nproperty float x\nend_header\n",
+         "before any element"},
+        {"ShortPropertyLine", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float\nend_header\n",
+         "property"},
+        {"BadListLine", "ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar x\nend_header\n",
+         "property"},
         {"FloatListCount", "ply\nformat ascii 1.0\nelement vertex 1\nproperty list float int x\nend_header\n",
          "count type"},
-        {"DuplicateProperty", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float x\n"
-                              "end_header\n", "same name"},
-        {"DuplicateElement", "ply\nformat ascii 1.0\nelement vertex 1\nelement vertex 1\nend_header\n", "same name"},
+        {"DuplicateProperty",
+         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float x\n"
+         "end_header\n",
+         "same name"},
+        {"DuplicateElement", "ply\nformat ascii 1.0\nelement vertex 1\nelement vertex 1\nend_header\n",
+         "same name"},
         {"UnknownKeyword", "ply\nformat ascii 1.0\nelephant vertex 1\nend_header\n", "unknown keyword"},
         {"NoEndHeader", "ply\nformat ascii 1.0\nelement vertex 1\n" + vertexProps, "no end_header"},
-        {"NoEndHeaderBinary", "ply\nformat binary_little_endian 1.0\nelement vertex 1\n" + vertexProps + goodRow,
-         "no end_header"},
+        {"NoEndHeaderBinary",
+         "ply\nformat binary_little_endian 1.0\nelement vertex 1\n" + vertexProps + goodRow, "no end_header"},
         {"HugeHeader", hugeHeader, "64 KiB"},
         {"NoVertexElement", "ply\nformat ascii 1.0\nelement face 0\nend_header\n", "no vertex element"},
-        {"MissingX", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float y\nproperty float z\n"
-                     "property float nx\nproperty float ny\nproperty float nz\nend_header\n1 2 0 0 1\n", "'x'"},
-        {"MissingNz", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                      "property float z\nproperty float nx\nproperty float ny\nend_header\n1 2 3 0 1\n", "'nz'"},
-        {"ListCoordinate", "ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar float x\n"
-                           "property float y\nproperty float z\n"
-                           "property float nx\nproperty float ny\nproperty float nz\nend_header\n1 1 2 3 0 0 1\n",
+        {"MissingX",
+         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float y\nproperty float z\n"
+         "property float nx\nproperty float ny\nproperty float nz\nend_header\n1 2 0 0 1\n",
+         "'x'"},
+        {"MissingNz",
+         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+         "property float z\nproperty float nx\nproperty float ny\nend_header\n1 2 3 0 1\n",
+         "'nz'"},
+        {"ListCoordinate",
+         "ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar float x\n"
+         "property float y\nproperty float z\n"
+         "property float nx\nproperty float ny\nproperty float nz\nend_header\n1 1 2 3 0 0 1\n",
          "is a list"},
         {"NoPoints", asciiHeader(0), "no points"},
-        {"TruncatedBinary", binary + goodRow + goodRow.substr(0, 10), "truncated binary data (vertex 1 of 2)"},
+        {"TruncatedBinary", binary + goodRow + goodRow.substr(0, 10),
+         "truncated binary data (vertex 1 of 2)"},
         {"TruncatedBinaryEmptyBody", binary, "truncated binary data (vertex 0 of 2)"},
         {"TruncatedAscii", ascii + "1 2 3 0 0 1\n1 2 3 0 0\n", "truncated ascii data (vertex 1 of 2)"},
         {"NonNumericAscii", ascii + "1 2 3 0 0 1\n1 two 3 0 0 1\n", "bad number 'two'"},
         {"AsciiTrailingJunk", ascii + "1 2 3 0 0 1\n1 2x 3 0 0 1\n", "bad number"},
         {"AsciiIntegerOutOfRange",
          "ply\nformat ascii 1.0\nelement vertex 1\n" + vertexProps +
-             "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n0 0 0 0 0 1 300 0 0\n",
+             "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n0 0 0 0 0 1 300 0 "
+             "0\n",
          "bad number '300'"},
         {"AsciiFloatInIntegerField",
          "ply\nformat ascii 1.0\nelement vertex 1\nproperty short x\nproperty float y\nproperty float z\n"
@@ -494,29 +526,33 @@ std::vector<BadFile> badFiles() {
          "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty float y\nproperty float z\n"
          "property float nx\nproperty float ny\nproperty float nz\nend_header\n1e300 0 0 0 0 1\n",
          "non-finite coordinate"},
-        {"BinaryNanCoordinate", binary + goodRow + binaryBody({{1, nan, 3, 0, 0, 1}}), "non-finite coordinate"},
+        {"BinaryNanCoordinate", binary + goodRow + binaryBody({{1, nan, 3, 0, 0, 1}}),
+         "non-finite coordinate"},
         {"BinaryInfNormal", binary + goodRow + binaryBody({{1, 2, 3, inf, 0, 1}}), "non-finite normal"},
-        {"BinaryNanNormal", binary + binaryBody({{1, 2, 3, 0, nan, 1}}) + goodRow, "non-finite normal at vertex 0"},
+        {"BinaryNanNormal", binary + binaryBody({{1, 2, 3, 0, nan, 1}}) + goodRow,
+         "non-finite normal at vertex 0"},
         {"ZeroNormal", ascii + "1 2 3 0 0 1\n1 2 3 0 0 0\n", "zero-length normal at vertex 1"},
         {"TinyNormal", ascii + "1 2 3 1e-13 0 0\n1 2 3 0 0 1\n", "zero-length normal at vertex 0"},
         {"NegativeRadius", radiusHeader + "0 0 0 0 0 1 -0.5\n", "radius"},
         {"InfiniteRadius", radiusHeader + "0 0 0 0 0 1 inf\n", "radius"},
         {"NanRadius", radiusHeader + "0 0 0 0 0 1 nan\n", "radius"},
-        {"AbsurdBinaryCount", binaryHeader(0).replace(binaryHeader(0).find("vertex 0"), 8, "vertex 4000000000000") +
-                                  goodRow,
+        {"AbsurdBinaryCount",
+         binaryHeader(0).replace(binaryHeader(0).find("vertex 0"), 8, "vertex 4000000000000") + goodRow,
          "truncated binary data (vertex 1 of 4000000000000)"},
         {"MaximalBinaryCount",
-         binaryHeader(0).replace(binaryHeader(0).find("vertex 0"), 8, "vertex 18446744073709551615") + goodRow,
+         binaryHeader(0).replace(binaryHeader(0).find("vertex 0"), 8, "vertex 18446744073709551615") +
+             goodRow,
          "truncated binary data"},
-        {"AbsurdAsciiCount", asciiHeader(0).replace(asciiHeader(0).find("vertex 0"), 8, "vertex 999999999999") +
-                                 "0 0 0 0 0 1\n",
+        {"AbsurdAsciiCount",
+         asciiHeader(0).replace(asciiHeader(0).find("vertex 0"), 8, "vertex 999999999999") + "0 0 0 0 0 1\n",
          "truncated ascii data (vertex element of 999999999999 rows"},
         {"AbsurdFaceCount",
          "ply\nformat binary_little_endian 1.0\nelement vertex 1\n" + vertexProps +
-             "element face 18446744073709551615\nproperty list uchar int vertex_indices\nend_header\n" + goodRow +
-             "\x03",
+             "element face 18446744073709551615\nproperty list uchar int vertex_indices\nend_header\n" +
+             goodRow + "\x03",
          "truncated binary data (face element of 18446744073709551615 rows"},
-        {"HugeBinaryList", faceHeader + goodRow + Bytes(false).put<std::uint8_t>(200).put<std::int32_t>(0).str(),
+        {"HugeBinaryList",
+         faceHeader + goodRow + Bytes(false).put<std::uint8_t>(200).put<std::int32_t>(0).str(),
          "truncated binary data (face 0 of 1)"},
         {"NegativeBinaryList",
          "ply\nformat binary_little_endian 1.0\nelement vertex 1\n" + vertexProps +
@@ -525,12 +561,20 @@ std::vector<BadFile> badFiles() {
         {"HugeAsciiList", asciiFaceHeader + threeRows + "4000000000 0 1 2\n", "bad number"},
         {"LongAsciiList",
          "ply\nformat ascii 1.0\nelement vertex 3\n" + vertexProps +
-             "element face 1\nproperty list uint int vertex_indices\nend_header\n" + threeRows + "4000000000 0 1 2\n",
+             "element face 1\nproperty list uint int vertex_indices\nend_header\n" + threeRows +
+             "4000000000 0 1 2\n",
          "truncated ascii data (face 0 of 1)"},
-        {"FaceIndexOutOfRange", faceHeader + goodRow + Bytes(false).put<std::uint8_t>(3).put<std::int32_t>(0)
-                                                           .put<std::int32_t>(0).put<std::int32_t>(1).str(),
+        {"FaceIndexOutOfRange",
+         faceHeader + goodRow +
+             Bytes(false)
+                 .put<std::uint8_t>(3)
+                 .put<std::int32_t>(0)
+                 .put<std::int32_t>(0)
+                 .put<std::int32_t>(1)
+                 .str(),
          "refers to vertex 1 but there are only 1 vertices", true},
-        {"NegativeFaceIndex", asciiFaceHeader + threeRows + "3 0 -1 2\n", "invalid vertex index in face 0", true},
+        {"NegativeFaceIndex", asciiFaceHeader + threeRows + "3 0 -1 2\n", "invalid vertex index in face 0",
+         true},
         {"TwoVertexFace", asciiFaceHeader + threeRows + "2 0 1\n", "fewer than 3 vertices in face 0", true},
         {"FaceWithoutIndexList",
          "ply\nformat ascii 1.0\nelement vertex 3\n" + vertexProps +
@@ -554,7 +598,9 @@ TEST_P(PlyBadFile, IsRejectedWithOneLineNamingTheFile) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Cases, PlyBadFile, ::testing::ValuesIn(badFiles()),
-                         [](const ::testing::TestParamInfo<BadFile>& testInfo) { return std::string(testInfo.param.name); });
+                         [](const ::testing::TestParamInfo<BadFile>& testInfo) {
+                             return std::string(testInfo.param.name);
+                         });
 
 TEST_F(PlyTest, MissingFileIsAnError) {
     const fs::path path = file("does-not-exist.ply");
@@ -601,7 +647,8 @@ TEST_F(PlyTest, WriteIntoMissingDirectoryFailsAndLeavesNothing) {
 
 TEST_F(PlyTest, WriteOverADirectoryFailsAndRemovesTheTemporaryFile) {
     fs::create_directory(file("taken.ply"));
-    const Result<void> written = writePly(file("taken.ply"), randomPoints(10, true, false, 3u), PlyFormat::Ascii);
+    const Result<void> written =
+        writePly(file("taken.ply"), randomPoints(10, true, false, 3u), PlyFormat::Ascii);
     ASSERT_FALSE(written.ok());
     EXPECT_NE(written.error().message.find("taken.ply"), std::string::npos);
     EXPECT_EQ(entries(), std::vector<std::string>{"taken.ply"});
@@ -612,7 +659,8 @@ TEST_F(PlyTest, WriteIntoReadOnlyDirectoryFails) {
     const fs::path sub = file("readonly");
     fs::create_directory(sub);
     fs::permissions(sub, fs::perms::owner_read | fs::perms::owner_exec);
-    if (std::ofstream(sub / "probe").is_open()) GTEST_SKIP() << "permissions are not enforced for this user (root?)";
+    if (std::ofstream(sub / "probe").is_open())
+        GTEST_SKIP() << "permissions are not enforced for this user (root?)";
     const Result<void> written = writePly(sub / "out.ply", randomPoints(10, false, false, 3u));
     ASSERT_FALSE(written.ok());
     EXPECT_NE(written.error().message.find("out.ply"), std::string::npos);
@@ -662,25 +710,28 @@ TEST_F(PlyTest, SecondNormalsWithAndWithoutFlag) {
     const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                                "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
                                "property float nx2\nproperty float ny2\nproperty float nz2\n";
-    const Result<PlyData> unflagged = readPly(writeFile("a.ply", header + "end_header\n0 0 0 0 0 1 0 0 0\n"
-                                                                          "1 0 0 0 0 1 0 0 1\n2 0 0 0 0 1 1 0 0\n"));
+    const Result<PlyData> unflagged =
+        readPly(writeFile("a.ply", header + "end_header\n0 0 0 0 0 1 0 0 0\n"
+                                            "1 0 0 0 0 1 0 0 1\n2 0 0 0 0 1 1 0 0\n"));
     ASSERT_TRUE(unflagged.ok()) << unflagged.error().message;
     EXPECT_FALSE(unflagged->points.isCrease(0));
     EXPECT_FALSE(unflagged->points.isCrease(1));
     EXPECT_TRUE(unflagged->points.isCrease(2));
     EXPECT_EQ(unflagged->points.crease[2], glm::vec3(1, 0, 0));
 
-    const Result<PlyData> flagged = readPly(writeFile("b.ply", header + "property uchar crease\nend_header\n"
-                                                                        "0 0 0 0 0 1 0 1 0 0\n1 0 0 0 0 1 0 1 0 1\n"
-                                                                        "2 0 0 0 0 1 0 0 1 2\n"));
+    const Result<PlyData> flagged =
+        readPly(writeFile("b.ply", header + "property uchar crease\nend_header\n"
+                                            "0 0 0 0 0 1 0 1 0 0\n1 0 0 0 0 1 0 1 0 1\n"
+                                            "2 0 0 0 0 1 0 0 1 2\n"));
     ASSERT_TRUE(flagged.ok()) << flagged.error().message;
     EXPECT_FALSE(flagged->points.isCrease(0)); // flag 0: its n2 is ignored
     EXPECT_TRUE(flagged->points.isCrease(1));
     EXPECT_TRUE(flagged->points.isCrease(2)); // a corner: n2 = n is still its second normal
 
-    const Result<PlyData> bad = readPly(writeFile("c.ply", header + "property uchar crease\nend_header\n"
-                                                                    "0 0 0 0 0 1 0 0 0 1\n1 0 0 0 0 1 0 1 0 0\n"
-                                                                    "2 0 0 0 0 1 0 1 0 0\n"));
+    const Result<PlyData> bad =
+        readPly(writeFile("c.ply", header + "property uchar crease\nend_header\n"
+                                            "0 0 0 0 0 1 0 0 0 1\n1 0 0 0 0 1 0 1 0 0\n"
+                                            "2 0 0 0 0 1 0 1 0 0\n"));
     ASSERT_FALSE(bad.ok());
     EXPECT_NE(bad.error().message.find("crease normal"), std::string::npos) << bad.error().message;
 }
@@ -731,17 +782,28 @@ TEST_F(PlyTest, FandiskCreasePointsHaveTwoNormals) {
 // level of refinement, or is rejected by validateForRefinement, without a crash or a hang (the
 // sanitizer suites run this too).
 std::string mutate(std::string bytes, std::mt19937_64& rng) {
-    const auto pick = [&](std::size_t n) { return n == 0 ? std::size_t{0} : static_cast<std::size_t>(rng() % n); };
-    static const std::array<const char*, 8> kNumbers = {"0", "1", "-1", "4294967295", "99999999999", "1e38", "nan", "3"};
+    const auto pick = [&](std::size_t n) {
+        return n == 0 ? std::size_t{0} : static_cast<std::size_t>(rng() % n);
+    };
+    static const std::array<const char*, 8> kNumbers = {"0",           "1",    "-1",  "4294967295",
+                                                        "99999999999", "1e38", "nan", "3"};
     static const std::string kChars = "\n 0123456789-+.e\t\r";
     const int operations = 1 + static_cast<int>(rng() % 4);
     for (int k = 0; k < operations && !bytes.empty(); ++k) {
         const std::size_t at = pick(bytes.size());
         switch (rng() % 6) {
-        case 0: bytes[at] = static_cast<char>(bytes[at] ^ (1 << (rng() % 8))); break;
-        case 1: bytes[at] = static_cast<char>(rng() & 0xff); break;
-        case 2: bytes[at] = kChars[pick(kChars.size())]; break;
-        case 3: bytes.resize(at); break;
+        case 0:
+            bytes[at] = static_cast<char>(bytes[at] ^ (1 << (rng() % 8)));
+            break;
+        case 1:
+            bytes[at] = static_cast<char>(rng() & 0xff);
+            break;
+        case 2:
+            bytes[at] = kChars[pick(kChars.size())];
+            break;
+        case 3:
+            bytes.resize(at);
+            break;
         case 4: {
             const std::size_t from = pick(bytes.size()), length = 1 + pick(64); // in this order
             bytes.insert(at, bytes.substr(from, length));
@@ -752,7 +814,8 @@ std::string mutate(std::string bytes, std::mt19937_64& rng) {
             const std::size_t headerEnd = std::min(bytes.find("end_header"), bytes.size());
             std::vector<std::size_t> digits;
             for (std::size_t i = 0; i < headerEnd; ++i)
-                if (std::isdigit(static_cast<unsigned char>(bytes[i])) && (i == 0 || bytes[i - 1] == ' ')) digits.push_back(i);
+                if (std::isdigit(static_cast<unsigned char>(bytes[i])) && (i == 0 || bytes[i - 1] == ' '))
+                    digits.push_back(i);
             if (digits.empty()) break;
             const std::size_t begin = digits[pick(digits.size())];
             std::size_t end = begin;
@@ -817,7 +880,8 @@ TEST_F(PlyTest, MutatedFilesAreReadConsistentlyOrRejectedWithOneLine) {
             ++refined;
         }
     }
-    std::cout << "    mutants: " << read << " read (" << refined << " refined), " << rejected << " rejected\n";
+    std::cout << "    mutants: " << read << " read (" << refined << " refined), " << rejected
+              << " rejected\n";
     EXPECT_GT(read, 0u);
     EXPECT_GT(rejected, 0u);
     EXPECT_GT(refined, 0u);

@@ -27,8 +27,6 @@ using test::uniform01;
 
 constexpr double kPi = std::numbers::pi;
 
-
-
 double angleDeg(glm::vec3 a, glm::vec3 b) {
     const glm::dvec3 da(a), db(b);
     return std::atan2(glm::length(glm::cross(da, db)), glm::dot(da, db)) * 180.0 / kPi;
@@ -59,8 +57,9 @@ Triangle sphereTriangle(std::mt19937_64& rng, double minDeg, double maxDeg) {
     for (int k = 0; k < 3; ++k) {
         const double theta = (minDeg + (maxDeg - minDeg) * uniform01(rng)) * kPi / 180.0;
         const double phi = phase + 2.0 * kPi * k / 3.0 + 0.3 * (uniform01(rng) - 0.5);
-        const glm::dvec3 dir = glm::dvec3(c) * std::cos(theta) +
-                               (glm::dvec3(u) * std::cos(phi) + glm::dvec3(v) * std::sin(phi)) * std::sin(theta);
+        const glm::dvec3 dir =
+            glm::dvec3(c) * std::cos(theta) +
+            (glm::dvec3(u) * std::cos(phi) + glm::dvec3(v) * std::sin(phi)) * std::sin(theta);
         t.p[k] = glm::vec3(glm::normalize(dir));
         t.n[k] = t.p[k];
     }
@@ -185,9 +184,9 @@ TEST(PnTriangle, PatchNormalInterpolatesCornerNormals) {
         const glm::vec3 face = glm::normalize(glm::cross(t.p[1] - t.p[0], t.p[2] - t.p[0]));
         // One-sided differences from each corner along its two edges (barycentric (u, v)).
         struct CornerCase {
-            float u, v;          // the corner
-            float du1, dv1;      // towards the next corner
-            float du2, dv2;      // towards the previous corner
+            float u, v;     // the corner
+            float du1, dv1; // towards the next corner
+            float du2, dv2; // towards the previous corner
         };
         const CornerCase cases[3] = {{1, 0, -h, h, -h, 0}, {0, 1, 0, -h, h, -h}, {0, 0, 0, h, h, 0}};
         for (int k = 0; k < 3; ++k) {
@@ -198,7 +197,8 @@ TEST(PnTriangle, PatchNormalInterpolatesCornerNormals) {
             glm::vec3 n(glm::normalize(glm::cross(e1, e2)));
             if (glm::dot(n, t.n[k]) < 0.0f) n = -n;
             worst = std::max(worst, angleDeg(n, t.n[k]));
-            flatFaceDeviation = std::min(flatFaceDeviation, std::min(angleDeg(face, t.n[k]), angleDeg(-face, t.n[k])));
+            flatFaceDeviation =
+                std::min(flatFaceDeviation, std::min(angleDeg(face, t.n[k]), angleDeg(-face, t.n[k])));
         }
     }
     EXPECT_LT(worst, 0.2);
@@ -222,7 +222,8 @@ TEST(SmoothingOperator, EqualsPatchCentreAndMeanOfEdgeControlPoints) {
         const glm::vec3 mean = (pn.b210 + pn.b120 + pn.b021 + pn.b012 + pn.b102 + pn.b201) / 6.0f;
         EXPECT_LT(glm::length(pNew - centre), 2e-6f) << trial;
         EXPECT_LT(glm::length(pNew - mean), 2e-6f) << trial;
-        worstSmoothingVsCentroid = std::max(worstSmoothingVsCentroid, static_cast<double>(glm::length(pNew - cog)));
+        worstSmoothingVsCentroid =
+            std::max(worstSmoothingVsCentroid, static_cast<double>(glm::length(pNew - cog)));
         // On the unit sphere the new point is pushed outwards from the flat centroid.
         EXPECT_GT(glm::length(pNew), glm::length(cog)) << trial;
     }
@@ -262,7 +263,8 @@ TEST(CentreNormal, PaperTangentsAgreeOnFlatTriangles) {
         for (int k = 0; k < 3; ++k) {
             const double phi = 2.0 * kPi * k / 3.0 + 0.5 * uniform01(rng);
             const float r = uniform(rng, 0.5, 1.5);
-            t.p[k] = origin + r * (static_cast<float>(std::cos(phi)) * u + static_cast<float>(std::sin(phi)) * v);
+            t.p[k] =
+                origin + r * (static_cast<float>(std::cos(phi)) * u + static_cast<float>(std::sin(phi)) * v);
             t.n[k] = normal;
         }
         const PnTriangle pn = t.pn();
@@ -284,10 +286,11 @@ TEST(CentreNormal, SphereTriangleGivesRadialNormalNearTheSphere) {
         const PnTriangle pn = t.pn();
         const glm::vec3 pNew = centreOfGravity(t.p[0], t.p[1], t.p[2]) + smoothingDisplacement(pn);
         const glm::vec3 n = centreNormal(pn, t.n[0], t.n[1], t.n[2]);
-        const double edge = std::max({glm::length(t.p[1] - t.p[0]), glm::length(t.p[2] - t.p[1]),
-                                      glm::length(t.p[0] - t.p[2])});
+        const double edge = std::max(
+            {glm::length(t.p[1] - t.p[0]), glm::length(t.p[2] - t.p[1]), glm::length(t.p[0] - t.p[2])});
         worstAngle = std::max(worstAngle, angleDeg(n, pNew));
-        worstDistance = std::max(worstDistance, std::abs(static_cast<double>(glm::length(pNew)) - 1.0) / edge);
+        worstDistance =
+            std::max(worstDistance, std::abs(static_cast<double>(glm::length(pNew)) - 1.0) / edge);
     }
     std::cout << "sphere triangles (5-15 deg): worst normal error " << worstAngle << " deg, worst distance "
               << worstDistance << " edge lengths\n";
@@ -316,10 +319,12 @@ TEST(CentreNormal, CollinearSliverFallsBackToMeanNormal) {
 // by fuzz_refine): the mean normal, of unit length, where the division by a denormal length gave
 // normals up to 15 % off, and by an infinite one zero. Normals that cancel: the first corner's.
 TEST(CentreNormal, TinyPatchGivesAUnitNormal) {
-    const glm::vec3 n0 = glm::normalize(glm::vec3(0.1f, 0.0f, 1.0f)), n1 = glm::normalize(glm::vec3(0.0f, 0.2f, 1.0f));
+    const glm::vec3 n0 = glm::normalize(glm::vec3(0.1f, 0.0f, 1.0f)),
+                    n1 = glm::normalize(glm::vec3(0.0f, 0.2f, 1.0f));
     const glm::vec3 n2 = glm::normalize(glm::vec3(-0.1f, -0.1f, 1.0f));
     for (const float side : {1e-8f, 1e-10f, 1e-12f, 1e-20f, 1e9f, 1e10f, 1e15f}) {
-        const PnTriangle pn = makePnTriangle(glm::vec3(0.0f), n0, glm::vec3(side, 0.0f, 0.0f), n1, glm::vec3(0.0f, side, 0.0f), n2);
+        const PnTriangle pn = makePnTriangle(glm::vec3(0.0f), n0, glm::vec3(side, 0.0f, 0.0f), n1,
+                                             glm::vec3(0.0f, side, 0.0f), n2);
         const glm::vec3 n = centreNormal(pn, n0, n1, n2);
         EXPECT_NEAR(glm::length(n), 1.0f, 1e-6f) << side;
         EXPECT_GT(n.z, 0.9f) << side;
@@ -431,14 +436,16 @@ TEST(CurvedAngle, CurvedCaseIsAtLeastThePlainAngle) {
     // A hand-made curved case: p at the pole, p0 and p1 at 40° latitude distance, 90° apart.
     const auto onSphere = [](double polar, double azimuth) {
         return glm::vec3(static_cast<float>(std::sin(polar) * std::cos(azimuth)),
-                         static_cast<float>(std::sin(polar) * std::sin(azimuth)), static_cast<float>(std::cos(polar)));
+                         static_cast<float>(std::sin(polar) * std::sin(azimuth)),
+                         static_cast<float>(std::cos(polar)));
     };
     const glm::vec3 p = onSphere(0.0, 0.0);
-    const glm::vec3 p0 = onSphere(40.0 * kPi / 180.0, -kPi / 4.0), p1 = onSphere(40.0 * kPi / 180.0, kPi / 4.0);
+    const glm::vec3 p0 = onSphere(40.0 * kPi / 180.0, -kPi / 4.0),
+                    p1 = onSphere(40.0 * kPi / 180.0, kPi / 4.0);
     const float curved = curvedAngle(p, p0, p0, p1, p1);
     const float plain = angleAt(p, p0, p1);
-    std::cout << "curved angle, pole case: curved " << curved << " plain " << plain << " rad; random max excess "
-              << largestExcess << " rad\n";
+    std::cout << "curved angle, pole case: curved " << curved << " plain " << plain
+              << " rad; random max excess " << largestExcess << " rad\n";
     EXPECT_GT(curved, plain + 0.01f);
     EXPECT_GT(largestExcess, 0.01);
 }
@@ -454,7 +461,8 @@ TEST(CurvedAngle, UnlessSmallIsExactOrZeroOnlyBelowARightAngle) {
         tangents(centre, u, v);
         const double theta = polarDeg * kPi / 180.0, phi = 2.0 * kPi * uniform01(rng);
         return glm::vec3(glm::normalize(glm::dvec3(centre) * std::cos(theta) +
-                                        (glm::dvec3(u) * std::cos(phi) + glm::dvec3(v) * std::sin(phi)) * std::sin(theta)));
+                                        (glm::dvec3(u) * std::cos(phi) + glm::dvec3(v) * std::sin(phi)) *
+                                            std::sin(theta)));
     };
     const auto referenceAngle = [](glm::vec3 o, glm::vec3 a, glm::vec3 b) {
         const glm::dvec3 u = glm::normalize(glm::dvec3(a - o)), v = glm::normalize(glm::dvec3(b - o));
@@ -489,15 +497,15 @@ TEST(CurvedAngle, UnlessSmallIsExactOrZeroOnlyBelowARightAngle) {
             }
             ++skipped;
             const EdgeControls e = edgeControlPoints(sp0, n0, sp1, n1);
-            const double reference =
-                referenceAngle(sp, sp0, e.ab) + referenceAngle(sp, e.ab, e.ba) + referenceAngle(sp, e.ba, sp1);
+            const double reference = referenceAngle(sp, sp0, e.ab) + referenceAngle(sp, e.ab, e.ba) +
+                                     referenceAngle(sp, e.ba, sp1);
             EXPECT_LT(reference, 89.001 * kPi / 180.0) << trial;
             EXPECT_LT(curved, kPi / 2.0) << trial;
             if (reference > 87.0 * kPi / 180.0) ++skippedAbove87;
         }
-        std::cout << "scale " << scale << ": curved angle shortcut: " << skipped << " surely below a right angle ("
-                  << skippedAbove87 << " from 87°), " << exact << " measured; plain angle: " << plainSkipped << " and "
-                  << plainExact << "\n";
+        std::cout << "scale " << scale << ": curved angle shortcut: " << skipped
+                  << " surely below a right angle (" << skippedAbove87 << " from 87°), " << exact
+                  << " measured; plain angle: " << plainSkipped << " and " << plainExact << "\n";
         EXPECT_GT(skipped, 400);
         EXPECT_GT(skippedAbove87, 20);
         EXPECT_GT(exact, 400);
@@ -525,7 +533,8 @@ TEST(ValidNeighbours, HandMadeCases) {
     EXPECT_FALSE(validNeighbours(p0, z, glm::vec3(0.0f, 0.0f, -0.01f), minusZ));
     EXPECT_FALSE(validNeighbours(p0, z, glm::vec3(0.001f, 0.0f, -0.01f), minusZ));
     EXPECT_FALSE(validNeighbours(p0, z, glm::vec3(0.5f, 0.2f, -0.01f), minusZ));
-    EXPECT_FALSE(validNeighbours(p0, z, glm::vec3(0.001f, 0.0f, -0.01f), glm::normalize(glm::vec3(0.05f, 0.0f, -1.0f))));
+    EXPECT_FALSE(validNeighbours(p0, z, glm::vec3(0.001f, 0.0f, -0.01f),
+                                 glm::normalize(glm::vec3(0.05f, 0.0f, -1.0f))));
 }
 
 TEST(ValidNeighbours, ConeOfHalfAngleHalfTheNormalAngle) {
@@ -545,11 +554,13 @@ TEST(ValidNeighbours, ConeOfHalfAngleHalfTheNormalAngle) {
         const double half = gammaDeg / 2.0;
         for (double scale : {0.01, 1.0, 100.0}) {
             const float s = static_cast<float>(scale);
-            EXPECT_TRUE(validNeighbours(p0, n0, p0 + s * direction(half + 1.0), n1)) << gammaDeg << " " << scale;
+            EXPECT_TRUE(validNeighbours(p0, n0, p0 + s * direction(half + 1.0), n1))
+                << gammaDeg << " " << scale;
             EXPECT_TRUE(validNeighbours(p0, n0, p0 + s * direction(180.0 - half - 1.0), n1)) << gammaDeg;
             EXPECT_TRUE(validNeighbours(p0, n0, p0 + s * direction(90.0), n1)) << gammaDeg;
             if (half >= 1.0) {
-                EXPECT_FALSE(validNeighbours(p0, n0, p0 + s * direction(half - 1.0), n1)) << gammaDeg << " " << scale;
+                EXPECT_FALSE(validNeighbours(p0, n0, p0 + s * direction(half - 1.0), n1))
+                    << gammaDeg << " " << scale;
                 EXPECT_FALSE(validNeighbours(p0, n0, p0 + s * direction(180.0 - half + 1.0), n1)) << gammaDeg;
             }
         }

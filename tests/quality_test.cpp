@@ -23,9 +23,9 @@ using test::randomUnit;
 using test::uniform;
 using test::uniform01;
 
-
 glm::vec3 randomVec(std::mt19937_64& rng, float scale) {
-    return scale * glm::vec3(static_cast<float>(2.0 * uniform01(rng) - 1.0), static_cast<float>(2.0 * uniform01(rng) - 1.0),
+    return scale * glm::vec3(static_cast<float>(2.0 * uniform01(rng) - 1.0),
+                             static_cast<float>(2.0 * uniform01(rng) - 1.0),
                              static_cast<float>(2.0 * uniform01(rng) - 1.0));
 }
 
@@ -33,7 +33,8 @@ glm::vec3 randomVec(std::mt19937_64& rng, float scale) {
 glm::vec3 rotate(glm::vec3 v, glm::vec3 axis, double degrees) {
     const glm::dvec3 dv(v), k(axis);
     const double a = degrees * std::numbers::pi / 180.0;
-    return glm::vec3(dv * std::cos(a) + glm::cross(k, dv) * std::sin(a) + k * glm::dot(k, dv) * (1.0 - std::cos(a)));
+    return glm::vec3(dv * std::cos(a) + glm::cross(k, dv) * std::sin(a) +
+                     k * glm::dot(k, dv) * (1.0 - std::cos(a)));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -93,8 +94,8 @@ TEST(TriangleMeshIndex, MatchesBruteForceOverAllTriangles) {
         // The same float computation per triangle: equal, not just close.
         ASSERT_EQ(hit.distanceSquared, brute);
         const glm::u32vec3 t = triangles[hit.triangle];
-        const glm::vec3 fromBary =
-            hit.barycentric.x * positions[t.x] + hit.barycentric.y * positions[t.y] + hit.barycentric.z * positions[t.z];
+        const glm::vec3 fromBary = hit.barycentric.x * positions[t.x] + hit.barycentric.y * positions[t.y] +
+                                   hit.barycentric.z * positions[t.z];
         EXPECT_LT(glm::length(fromBary - hit.point), 1e-6f);
     }
 }
@@ -116,7 +117,8 @@ Cube makeCube() {
             const glm::vec3 u = axes[(axis + 1) % 3];
             const glm::vec3 v = sign * axes[(axis + 2) % 3]; // u x v = n: counter-clockwise seen from outside
             const auto base = static_cast<std::uint32_t>(cube.vertices.size());
-            for (const glm::vec2 c : {glm::vec2(-1, -1), glm::vec2(1, -1), glm::vec2(1, 1), glm::vec2(-1, 1)}) {
+            for (const glm::vec2 c :
+                 {glm::vec2(-1, -1), glm::vec2(1, -1), glm::vec2(1, 1), glm::vec2(-1, 1)}) {
                 cube.vertices.position.push_back(n + c.x * u + c.y * v);
                 cube.vertices.normal.push_back(n);
             }
@@ -134,16 +136,19 @@ Cube makeCube() {
 TEST(MeshReference, FlatNormalsAreTheClosestTrianglesOwn) {
     PointSet corners;
     for (int k = 0; k < 8; ++k)
-        corners.position.push_back(glm::vec3(k & 1 ? 1.0f : -1.0f, k & 2 ? 1.0f : -1.0f, k & 4 ? 1.0f : -1.0f));
+        corners.position.push_back(
+            glm::vec3(k & 1 ? 1.0f : -1.0f, k & 2 ? 1.0f : -1.0f, k & 4 ? 1.0f : -1.0f));
     // Faces as corner quads, counter-clockwise seen from outside.
-    const std::uint32_t quads[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+    const std::uint32_t quads[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                                       {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
     std::vector<glm::u32vec3> triangles;
     for (const auto& q : quads) {
         triangles.push_back({q[0], q[1], q[2]});
         triangles.push_back({q[0], q[2], q[3]});
     }
     const Reference ref = meshReference(corners, triangles, "shared-corner cube").value();
-    for (std::size_t k = 0; k < 8; ++k) ASSERT_GT(glm::dot(ref.points.normal[k], ref.points.position[k]), 1.5f);
+    for (std::size_t k = 0; k < 8; ++k)
+        ASSERT_GT(glm::dot(ref.points.normal[k], ref.points.position[k]), 1.5f);
     PointSet refined;
     const glm::vec3 axes[3] = {glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)};
     for (const glm::vec3 axis : axes)
@@ -158,8 +163,8 @@ TEST(MeshReference, FlatNormalsAreTheClosestTrianglesOwn) {
     flat.flatNormals = true;
     const QualityReport smooth = evaluateQuality(refined, ref, nullptr, interpolated);
     const QualityReport faces = evaluateQuality(refined, ref, nullptr, flat);
-    std::cout << "[shared-corner cube] normal error over the faces: interpolated " << smooth.normalErrorMeanDeg
-              << " deg, flat " << faces.normalErrorMeanDeg << " deg\n";
+    std::cout << "[shared-corner cube] normal error over the faces: interpolated "
+              << smooth.normalErrorMeanDeg << " deg, flat " << faces.normalErrorMeanDeg << " deg\n";
     EXPECT_GT(smooth.normalErrorMeanDeg, 10.0);
     EXPECT_LT(faces.normalErrorMaxDeg, 1e-4);
     EXPECT_EQ(faces.distanceMax, smooth.distanceMax); // distances are the same either way
@@ -189,13 +194,15 @@ TEST(MeshReference, CubeDistancesReproduceKnownOffsets) {
         for (const float s : {-0.4f, 0.0f, 0.3f})
             for (const float t : {-0.25f, 0.2f})
                 for (const float offset : offsets) {
-                    const glm::vec3 p = cube.faceNormal[f] * (1.0f + offset) + s * cube.faceU[f] + t * cube.faceV[f];
+                    const glm::vec3 p =
+                        cube.faceNormal[f] * (1.0f + offset) + s * cube.faceU[f] + t * cube.faceV[f];
                     refined.position.push_back(p);
                     refined.normal.push_back(cube.faceNormal[f]);
                     expected.push_back(std::abs(offset));
                     const TriangleMeshIndex::Hit hit = index.closest(p);
                     EXPECT_NEAR(std::sqrt(hit.distanceSquared), std::abs(offset), 1e-6f);
-                    EXPECT_EQ(glm::dot(ref.points.normal[ref.triangles[hit.triangle].x], cube.faceNormal[f]), 1.0f);
+                    EXPECT_EQ(glm::dot(ref.points.normal[ref.triangles[hit.triangle].x], cube.faceNormal[f]),
+                              1.0f);
                 }
     double sum = 0.0, sum2 = 0.0, max = 0.0;
     for (const float e : expected) {
@@ -248,7 +255,8 @@ TEST(SphereEval, PushedOutByOnePercentGivesRmsOnePercent) {
     PointSet refined = sampleSphereUniform(20000, 2.0f);
     for (glm::vec3& p : refined.position) p *= 1.01f;
     const Reference ref = parseReference("sphere:2").value();
-    const QualityReport report = evaluateQuality(refined, ref, nullptr, {.threads = 2, .analyticSamples = 50000});
+    const QualityReport report =
+        evaluateQuality(refined, ref, nullptr, {.threads = 2, .analyticSamples = 50000});
     EXPECT_NEAR(report.distanceRms, 0.01 * R, 1e-5);
     EXPECT_NEAR(report.distanceMean, 0.01 * R, 1e-5);
     EXPECT_NEAR(report.distanceMax, 0.01 * R, 1e-5);
@@ -267,24 +275,24 @@ TEST(SphereEval, NormalsRotatedByTenDegreesGiveTenDegrees) {
         const glm::vec3 axis = glm::normalize(glm::cross(n, glm::normalize(randomVec(rng, 1.0f))));
         refined.normal[i] = rotate(n, axis, 10.0);
     }
-    const QualityReport report =
-        evaluateQuality(refined, parseReference("sphere:1").value(), nullptr, {.threads = 2, .analyticSamples = 20000});
+    const QualityReport report = evaluateQuality(refined, parseReference("sphere:1").value(), nullptr,
+                                                 {.threads = 2, .analyticSamples = 20000});
     EXPECT_NEAR(report.normalErrorMeanDeg, 10.0, 1e-3);
     EXPECT_NEAR(report.normalErrorP95Deg, 10.0, 1e-3);
     EXPECT_LT(report.distanceMax, 1e-6);
 
     // Flipped normals count as 180 degrees: orientation matters.
     for (glm::vec3& n : refined.normal) n = -n;
-    const QualityReport flipped =
-        evaluateQuality(refined, parseReference("sphere:1").value(), nullptr, {.threads = 2, .analyticSamples = 20000});
+    const QualityReport flipped = evaluateQuality(refined, parseReference("sphere:1").value(), nullptr,
+                                                  {.threads = 2, .analyticSamples = 20000});
     EXPECT_NEAR(flipped.normalErrorMeanDeg, 170.0, 1e-3);
 
     // A crease point is measured by the closer of its two normals: with the exact normal as its
     // second one, every point's error is 0.
     const PointSet exact = sampleSphereRandom(5000, 1.0f, 99);
     refined.crease = exact.normal;
-    const QualityReport creased =
-        evaluateQuality(refined, parseReference("sphere:1").value(), nullptr, {.threads = 2, .analyticSamples = 20000});
+    const QualityReport creased = evaluateQuality(refined, parseReference("sphere:1").value(), nullptr,
+                                                  {.threads = 2, .analyticSamples = 20000});
     EXPECT_LT(creased.normalErrorMaxDeg, 1e-2);
 }
 
@@ -326,8 +334,8 @@ TEST(SphereEval, RemovedPatchReportsHoles) {
         }
     }
     std::cout << "[sphere without its cap] " << report.holeReferencePoints << " holes, " << gaps
-              << " gaps; off-surface up to z = " << highestOffSurface << " (rim 0.8, hole distance " << rimReach
-              << ")\n";
+              << " gaps; off-surface up to z = " << highestOffSurface << " (rim 0.8, hole distance "
+              << rimReach << ")\n";
     EXPECT_EQ(gaps, static_cast<std::size_t>(std::lround(report.holesTangential * 200000.0)));
     EXPECT_GT(gaps, report.holePoints.size() * 9 / 10);
     EXPECT_LT(highestOffSurface, 0.8f + rimReach);
@@ -338,8 +346,8 @@ TEST(SphereEval, RemovedPatchReportsHoles) {
 TEST(SphereEval, LiftedSurfaceHolesAreOffSurfaceNotGaps) {
     PointSet lifted = sampleSphereUniform(20000, 1.0f);
     for (glm::vec3& p : lifted.position) p *= 1.08f;
-    const QualityReport report =
-        evaluateQuality(lifted, parseReference("sphere:1").value(), nullptr, {.threads = 2, .analyticSamples = 20000});
+    const QualityReport report = evaluateQuality(lifted, parseReference("sphere:1").value(), nullptr,
+                                                 {.threads = 2, .analyticSamples = 20000});
     ASSERT_LT(2.0 * report.spacingMean, 0.08); // the lift is beyond the hole distance
     EXPECT_EQ(report.holeReferencePoints, 20000u);
     EXPECT_EQ(report.holesTangential, 0.0);
@@ -466,9 +474,9 @@ TEST(ParseReference, AnalyticSyntaxAndErrors) {
     EXPECT_EQ(torus->surface->R, 1.0f);
     EXPECT_EQ(torus->surface->r, 0.25f);
 
-    for (const char* bad : {"sphere:", "sphere:0", "sphere:-1", "sphere:abc", "sphere:1x", "sphere:inf", "sphere:nan",
-                            "torus:", "torus:1", "torus:1,", "torus:0.2,0.5", "torus:1,1", "torus:1,0", "torus:1,0.2,3",
-                            "spehre:1", "no-such-file.ply"}) {
+    for (const char* bad : {"sphere:", "sphere:0", "sphere:-1", "sphere:abc", "sphere:1x", "sphere:inf",
+                            "sphere:nan", "torus:", "torus:1", "torus:1,", "torus:0.2,0.5", "torus:1,1",
+                            "torus:1,0", "torus:1,0.2,3", "spehre:1", "no-such-file.ply"}) {
         const Result<Reference> r = parseReference(bad);
         ASSERT_FALSE(r.ok()) << bad;
         EXPECT_FALSE(r.error().message.empty());
@@ -484,10 +492,11 @@ TEST(Json, StableKeysAndEscaping) {
     report.distanceRms = 0.5;
     report.uniformityCv = std::numeric_limits<double>::quiet_NaN();
     const std::string json = toJson(report);
-    for (const char* key : {"\"points\": 12", "\"reference\": \"dir\\\\with \\\"quotes\\\".ply\"", "\"distance\": {",
-                            "\"mean\":", "\"rms\": 0.5", "\"max\":", "\"mean_rel\":", "\"rms_rel\":", "\"max_rel\":",
-                            "\"normal_error_deg\": {", "\"p95\":", "\"uniformity_cv\": null", "\"holes\":",
-                            "\"input_preserved\": null", "\"input_missing\": null"})
+    for (const char* key :
+         {"\"points\": 12", "\"reference\": \"dir\\\\with \\\"quotes\\\".ply\"", "\"distance\": {",
+          "\"mean\":", "\"rms\": 0.5", "\"max\":", "\"mean_rel\":", "\"rms_rel\":", "\"max_rel\":",
+          "\"normal_error_deg\": {", "\"p95\":", "\"uniformity_cv\": null",
+          "\"holes\":", "\"input_preserved\": null", "\"input_missing\": null"})
         EXPECT_NE(json.find(key), std::string::npos) << key << " in " << json;
     EXPECT_EQ(json.front(), '{');
     EXPECT_EQ(json.back(), '}');

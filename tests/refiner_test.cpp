@@ -244,7 +244,8 @@ Comparison compareWithBaseline(const PointSet& input, const Reference& ref, bool
     refineLevels(baseline, c.levels);
     if (evenOutAfter) {
         c.evenOutLevels = static_cast<unsigned>(evenOut(full, kEvenOutFactor, kEvenOutMaxLevels).size());
-        c.baselineEvenOutLevels = static_cast<unsigned>(evenOut(baseline, kEvenOutFactor, kEvenOutMaxLevels).size());
+        c.baselineEvenOutLevels =
+            static_cast<unsigned>(evenOut(baseline, kEvenOutFactor, kEvenOutMaxLevels).size());
     }
     c.full = evaluateQuality(full.points(), ref, &input, evalOptions());
     c.baseline = evaluateQuality(baseline.points(), ref, &input, evalOptions());
@@ -344,8 +345,8 @@ TEST(RefinerEvenOut, SplitsBoundarySegmentsLongerThanTheTarget) {
     std::size_t onSegments = 0;
     for (const LevelStats& l : levels) onSegments += l.boundaryInserted;
     std::cout << "[cap, 2 levels] target " << target << ", longest segment " << longestBefore << " -> "
-              << refiner.longestSegment() << " after " << levels.size() << " evening-out level(s), " << onSegments
-              << " points inserted on segments\n";
+              << refiner.longestSegment() << " after " << levels.size() << " evening-out level(s), "
+              << onSegments << " points inserted on segments\n";
     ASSERT_GT(longestBefore, target); // the case at hand
     EXPECT_LE(refiner.longestSegment(), target);
     EXPECT_LE(std::ranges::max(refiner.points().radius), target);
@@ -481,7 +482,8 @@ TEST(HoleFilling, RimRuleOnHandMadePoints) {
 }
 
 TEST(HoleFilling, BadHolesAreErrorsAndChangeNothing) {
-    const PointSet points = pointsWithRadii({{glm::vec3(1.5f, 0.0f, 0.0f), 1.0f}, {glm::vec3(0.0f, 1.5f, 0.0f), 1.0f}});
+    const PointSet points =
+        pointsWithRadii({{glm::vec3(1.5f, 0.0f, 0.0f), 1.0f}, {glm::vec3(0.0f, 1.5f, 0.0f), 1.0f}});
     const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
     const struct {
         Hole hole;
@@ -506,8 +508,8 @@ TEST(HoleFilling, BadHolesAreErrorsAndChangeNothing) {
 
 // Hole filling as `pnsplat refine --fill-hole` does it: the holes filled, then `levels` uniform
 // levels.
-Refiner refineFillingHole(PointSet input, const Hole& hole, bool enlarge, std::size_t maxNeighbours, unsigned levels,
-                          unsigned threads = kThreads) {
+Refiner refineFillingHole(PointSet input, const Hole& hole, bool enlarge, std::size_t maxNeighbours,
+                          unsigned levels, unsigned threads = kThreads) {
     RefineOptions o = options();
     o.threads = threads;
     o.maxNeighbours = maxNeighbours;
@@ -535,7 +537,7 @@ std::size_t pointsInside(const PointSet& points, const Hole& hole) {
 // without the enlarged radii the hole stays open (its rim is a boundary), and with the default
 // neighbourhood bound the rim points see only their own side of it. The same for 1 and 2 threads.
 struct HoleFill {
-    std::size_t inside = 0;   // points within 0.8 R of the hole's centre
+    std::size_t inside = 0; // points within 0.8 R of the hole's centre
     std::size_t points = 0;
     double maxDistance = 0.0; // of the points inside, to the unit sphere
     double holes = 0.0;       // share of the sphere's samples not covered (evaluateQuality)
@@ -566,8 +568,9 @@ TEST(HoleFilling, SphereHoleIsFilledNearTheSphere) {
     const HoleFill open = fillSphereHole(false, kHoleFillingMaxNeighbours);
     const HoleFill bounded = fillSphereHole(true, kMaxNeighbours);
     const auto print = [](const char* name, const HoleFill& f) {
-        std::cout << "    " << name << ": " << f.points << " points, " << f.inside << " inside the hole (max distance to the sphere "
-                  << f.maxDistance << "), holes " << 100.0 * f.holes << " %\n";
+        std::cout << "    " << name << ": " << f.points << " points, " << f.inside
+                  << " inside the hole (max distance to the sphere " << f.maxDistance << "), holes "
+                  << 100.0 * f.holes << " %\n";
     };
     print("filled", filled);
     print("radii not enlarged", open);
@@ -594,8 +597,14 @@ TEST(HoleFilling, DataHolesAreFilled) {
         Hole hole;
         std::size_t minInside; // about 0.8 times the points measured inside the filled hole
     };
-    for (const Case& c : {Case{"igea-4000-uniform-hole.ply", "igea-mesh.ply", {{0.002176f, 0.012023f, -0.04599f}, 0.02346f}, 330},
-                          Case{"bunny-3500-random-hole.ply", "bunny-mesh.ply", {{0.019996f, 0.120682f, 0.03262f}, 0.02502f}, 70}}) {
+    for (const Case& c : {Case{"igea-4000-uniform-hole.ply",
+                               "igea-mesh.ply",
+                               {{0.002176f, 0.012023f, -0.04599f}, 0.02346f},
+                               330},
+                          Case{"bunny-3500-random-hole.ply",
+                               "bunny-mesh.ply",
+                               {{0.019996f, 0.120682f, 0.03262f}, 0.02502f},
+                               70}}) {
         PNSPLAT_REQUIRE_DATA(c.file);
         PNSPLAT_REQUIRE_DATA(c.mesh);
         auto data = readPly(test::dataDir() / c.file);
@@ -604,11 +613,13 @@ TEST(HoleFilling, DataHolesAreFilled) {
         const Reference reference = *parseReference((test::dataDir() / c.mesh).string());
         const Refiner open = refineFillingHole(input, c.hole, false, kHoleFillingMaxNeighbours, 1);
         const Refiner filled = refineFillingHole(input, c.hole, true, kHoleFillingMaxNeighbours, 1);
-        const std::size_t inside[2] = {pointsInside(open.points(), c.hole), pointsInside(filled.points(), c.hole)};
+        const std::size_t inside[2] = {pointsInside(open.points(), c.hole),
+                                       pointsInside(filled.points(), c.hole)};
         const double holes[2] = {evaluateQuality(open.points(), reference, &input).holesTangential,
                                  evaluateQuality(filled.points(), reference, &input).holesTangential};
-        std::cout << "    " << c.file << ": inside the hole " << inside[0] << " -> " << inside[1] << " points, holes (tangential) "
-                  << 100.0 * holes[0] << " % -> " << 100.0 * holes[1] << " %\n";
+        std::cout << "    " << c.file << ": inside the hole " << inside[0] << " -> " << inside[1]
+                  << " points, holes (tangential) " << 100.0 * holes[0] << " % -> " << 100.0 * holes[1]
+                  << " %\n";
         // Measured: 421 and 90 points inside; holes 6.9 % -> 0.7 % (igea: the fill is smooth where
         // the true surface has a knot of hair) and 3.3 % -> 0.16 % (bunny).
         EXPECT_EQ(inside[0], 0u) << c.file;
@@ -1010,8 +1021,8 @@ TEST(RefinerLocal, EveryNewPointIsThePnCentreOfATriangleOfItsParentsLevel) {
 
 // `beyondBoundExpected`: whether candidates beyond c_β,max·r may come up (LevelStats::beyondBound;
 // the wider second look only), otherwise none must.
-void expectRadiiShrink(const PointSet& input, unsigned levels, const std::string& name, double maxViolationShare,
-                       bool beyondBoundExpected = true) {
+void expectRadiiShrink(const PointSet& input, unsigned levels, const std::string& name,
+                       double maxViolationShare, bool beyondBoundExpected = true) {
     Refiner refiner(input, options());
     std::cout << std::setprecision(6) << "[" << name << "] c_beta,max = " << kConvergenceBound << "\n";
     for (unsigned l = 0; l < levels; ++l) {
@@ -1091,8 +1102,9 @@ void expectSameForThreadCounts(const PointSet& input, unsigned levels, const std
         evenOut(refiner, kEvenOutFactor, kEvenOutMaxLevels); // as the tools do
         outputs.push_back(std::move(refiner).takePoints());
     }
-    std::cout << "[" << name << ", " << levels << " levels, evened out] points for 1/2/8 threads: " << outputs[0].size()
-              << " / " << outputs[1].size() << " / " << outputs[2].size() << "; bitwise identical: "
+    std::cout << "[" << name << ", " << levels
+              << " levels, evened out] points for 1/2/8 threads: " << outputs[0].size() << " / "
+              << outputs[1].size() << " / " << outputs[2].size() << "; bitwise identical: "
               << (samePointSets(outputs[0], outputs[1]) && samePointSets(outputs[0], outputs[2]) ? "yes"
                                                                                                  : "NO")
               << "\n";
@@ -1159,8 +1171,8 @@ TEST(RefinerScale, PowersOfTwoGiveTheSameBitsScaled) {
         PointSet back = std::move(refiner).takePoints();
         for (glm::vec3& x : back.position) x /= factor;
         for (float& r : back.radius) r /= factor;
-        EXPECT_TRUE(samePointSets(back, expected)) << "scaled by 2^" << exponent << ": " << back.size() << " points, "
-                                                   << expected.size() << " unscaled";
+        EXPECT_TRUE(samePointSets(back, expected)) << "scaled by 2^" << exponent << ": " << back.size()
+                                                   << " points, " << expected.size() << " unscaled";
     }
     // A coordinate near the smallest normal float limits how far a level scales down: it would
     // lose bits as a denormal (found by fuzz_refine, a radius of 2e6 beside a coordinate of 2e-38).
@@ -1463,7 +1475,8 @@ TEST(RefinerNeighbourhood, OversizedRadiiAreCutToTheNearestAndCounted) {
     }
 
     Refiner ordinary(withRadii(sampleSphereUniform(1000, 1.0f)), options());
-    for (int level = 0; level < 4; ++level) EXPECT_EQ(ordinary.refineLevel().cappedNeighbourhoods, 0u) << level;
+    for (int level = 0; level < 4; ++level)
+        EXPECT_EQ(ordinary.refineLevel().cappedNeighbourhoods, 0u) << level;
 }
 
 // removeCoincident keeps the first point of each position with all its attributes, in input
@@ -1525,7 +1538,8 @@ TEST(RefinerInput, CompletesAScanOfRepeatedPositionsOnly) {
     EXPECT_EQ(withRadii.radius, scan.radius);
 
     PointSet few = scan;
-    few.position = {glm::vec3(0.0f), glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(0.0f), glm::vec3(1.0f, 0.0f, 0.0f)};
+    few.position = {glm::vec3(0.0f), glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(0.0f),
+                    glm::vec3(1.0f, 0.0f, 0.0f)};
     few.normal.assign(4, glm::vec3(0.0f, 0.0f, 1.0f));
     few.radius.clear();
     const Result<InputCompletion> tooFew = completeInput(few, kThreads);
@@ -1582,14 +1596,16 @@ TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
         outside.radius[9] = radius;
         const auto result = validateForRefinement(outside);
         ASSERT_FALSE(result.ok()) << radius;
-        EXPECT_NE(result.error().message.find("point 9 has a radius of"), std::string::npos) << result.error().message;
+        EXPECT_NE(result.error().message.find("point 9 has a radius of"), std::string::npos)
+            << result.error().message;
     }
     PointSet overflowingExtent = valid;
     overflowingExtent.position[3].x = 3e38f;
     overflowingExtent.position[4].x = -3e38f;
     const auto extentResult = validateForRefinement(overflowingExtent);
     ASSERT_FALSE(extentResult.ok());
-    EXPECT_NE(extentResult.error().message.find("single precision"), std::string::npos) << extentResult.error().message;
+    EXPECT_NE(extentResult.error().message.find("single precision"), std::string::npos)
+        << extentResult.error().message;
 
     PointSet atBounds = valid;
     atBounds.radius[9] = kMinRadius;
@@ -1716,12 +1732,12 @@ TEST(RefinerBoundaries, CapRimIsRefinedAlongItsCurve) {
         const LevelStats second = refiner.refineLevel();
         const LevelStats third = refiner.refineLevel();
         if (withBoundaries) {
-            std::cout << "[cap rim] " << first.boundarySegments << " segments after step 1, " << third.boundarySegments
-                      << " after step 3; points on them: " << first.boundaryInserted << ", "
-                      << second.boundaryInserted << ", " << third.boundaryInserted << "\n";
+            std::cout << "[cap rim] " << first.boundarySegments << " segments after step 1, "
+                      << third.boundarySegments << " after step 3; points on them: " << first.boundaryInserted
+                      << ", " << second.boundaryInserted << ", " << third.boundaryInserted << "\n";
             EXPECT_GT(first.boundarySegments, 20u);
             EXPECT_EQ(first.boundaryInserted, 2 * (first.boundarySegments / 3)); // two per segment
-            EXPECT_EQ(second.boundaryInserted, 0u);                             // even step: segments rest
+            EXPECT_EQ(second.boundaryInserted, 0u);                              // even step: segments rest
             EXPECT_EQ(third.boundaryInserted, 2 * first.boundarySegments);
             EXPECT_EQ(third.boundarySegments, 3 * first.boundarySegments);
         } else {
@@ -1733,8 +1749,8 @@ TEST(RefinerBoundaries, CapRimIsRefinedAlongItsCurve) {
         rim[withBoundaries] = rimDistance(points);
     }
     std::cout << "[cap rim] distance from the true rim to the refined points without/with boundary segments: "
-              << "mean " << rim[0].mean << " / " << rim[1].mean << ", worst " << rim[0].worst << " / " << rim[1].worst
-              << "; new points off the sphere at most " << offSphere << "\n";
+              << "mean " << rim[0].mean << " / " << rim[1].mean << ", worst " << rim[0].worst << " / "
+              << rim[1].worst << "; new points off the sphere at most " << offSphere << "\n";
     // Only part of a sampled rim is detected at the first step (55 potential boundary points, 21
     // segments here: a jagged rim's fan openings often end at points that are not potential
     // boundary points themselves), so the mean improves and the worst spot may stay as it was.
@@ -1803,7 +1819,8 @@ TEST(RefinerCreases, CylinderRimsStaySharp) {
     };
     const auto figures = [](const PointSet& points) {
         Figures f;
-        for (std::size_t i = 0; i < points.size(); ++i) f.maxDistance = std::max(f.maxDistance, cappedCylinderDistance(points.position[i]));
+        for (std::size_t i = 0; i < points.size(); ++i)
+            f.maxDistance = std::max(f.maxDistance, cappedCylinderDistance(points.position[i]));
         // How far the true rims are from the refined points.
         constexpr int kSamples = 720;
         for (int k = 0; k < kSamples; ++k) {
@@ -1811,7 +1828,8 @@ TEST(RefinerCreases, CylinderRimsStaySharp) {
             for (const float z : {-kCylinderHalfHeight, kCylinderHalfHeight}) {
                 const glm::dvec3 q(std::cos(angle), std::sin(angle), z);
                 double nearest = 1e9;
-                for (const glm::vec3& x : points.position) nearest = std::min(nearest, glm::length(glm::dvec3(x) - q));
+                for (const glm::vec3& x : points.position)
+                    nearest = std::min(nearest, glm::length(glm::dvec3(x) - q));
                 f.rimWorst = std::max(f.rimWorst, nearest);
             }
         }
@@ -1827,11 +1845,13 @@ TEST(RefinerCreases, CylinderRimsStaySharp) {
     const Figures s = figures(sharp.points()), r = figures(rounded.points());
     double creaseOffRim = 0;
     for (std::size_t i = 0; i < sharp.points().size(); ++i)
-        if (sharp.points().isCrease(i)) creaseOffRim = std::max(creaseOffRim, rimDistance(sharp.points().position[i]));
-    std::cout << "[cylinder creases] " << input.size() << " -> " << sharp.points().size() << " points; segments "
-              << levels[0].boundarySegments << " after step 1; crease points " << s.creasePoints
-              << ", farthest from its rim " << creaseOffRim << "; max distance to the surface with/without creases "
-              << s.maxDistance << " / " << r.maxDistance << ", worst rim gap " << s.rimWorst << " / " << r.rimWorst << "\n";
+        if (sharp.points().isCrease(i))
+            creaseOffRim = std::max(creaseOffRim, rimDistance(sharp.points().position[i]));
+    std::cout << "[cylinder creases] " << input.size() << " -> " << sharp.points().size()
+              << " points; segments " << levels[0].boundarySegments << " after step 1; crease points "
+              << s.creasePoints << ", farthest from its rim " << creaseOffRim
+              << "; max distance to the surface with/without creases " << s.maxDistance << " / "
+              << r.maxDistance << ", worst rim gap " << s.rimWorst << " / " << r.rimWorst << "\n";
     // Each rim of 48 points is a closed chain of 48 segments; every odd step puts two points on
     // each and triples the segments; even steps leave them.
     EXPECT_EQ(levels[0].boundarySegments, 3u * 96u);
@@ -1877,10 +1897,11 @@ TEST(RefinerCreases, FandiskIsCloserToItsMeshWithCreaseNormals) {
     EXPECT_GE(first.boundarySegments, 3u * 110u);
     std::cout << "[fandisk creases, " << levels << " levels] points " << s.points << " / " << b.points
               << "; mean distance " << s.distanceMeanRel * 100.0 << " / " << b.distanceMeanRel * 100.0
-              << " % of diag, RMS " << s.distanceRmsRel * 100.0 << " / " << b.distanceRmsRel * 100.0 << " %, max "
-              << s.distanceMaxRel * 100.0 << " / " << b.distanceMaxRel * 100.0 << " %, normal mean "
-              << s.normalErrorMeanDeg << " / " << b.normalErrorMeanDeg << " deg, CV " << s.uniformityCv << " / "
-              << b.uniformityCv << ", holes " << s.holes << " / " << b.holes << " (two normals / averaged)\n";
+              << " % of diag, RMS " << s.distanceRmsRel * 100.0 << " / " << b.distanceRmsRel * 100.0
+              << " %, max " << s.distanceMaxRel * 100.0 << " / " << b.distanceMaxRel * 100.0
+              << " %, normal mean " << s.normalErrorMeanDeg << " / " << b.normalErrorMeanDeg << " deg, CV "
+              << s.uniformityCv << " / " << b.uniformityCv << ", holes " << s.holes << " / " << b.holes
+              << " (two normals / averaged)\n";
     EXPECT_TRUE(s.inputPreserved);
     EXPECT_LT(s.distanceMeanRel, 0.7 * b.distanceMeanRel);
     EXPECT_LT(s.distanceRmsRel, 0.9 * b.distanceRmsRel);
@@ -1897,7 +1918,8 @@ TEST(RefinerCreases, ParallelCreaseNormalsGiveFinitePoints) {
     PointSet roof;
     for (int i = -10; i <= 10; ++i) {
         for (int j = -10; j <= 10; ++j) {
-            const float x = 0.1f * static_cast<float>(i), y = 0.1f * static_cast<float>(j) + (i % 2 != 0 ? 0.05f : 0.0f);
+            const float x = 0.1f * static_cast<float>(i),
+                        y = 0.1f * static_cast<float>(j) + (i % 2 != 0 ? 0.05f : 0.0f);
             roof.position.emplace_back(x, y, -std::abs(x) * s / c);
             const glm::vec3 left(-s, 0.0f, c), right(s, 0.0f, c);
             roof.normal.push_back(i < 0 ? left : right);

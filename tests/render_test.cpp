@@ -2,20 +2,20 @@
 // other, golden images that a broken pass fails, culling, and bad input.
 #include <algorithm>
 #include <cmath>
-#include <iostream>
 #include <cstdlib>
 #include <filesystem>
+#include <iostream>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
-#include "test_data.h"
 #include "pnsplat/engine/camera.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
+#include "test_data.h"
 
 namespace pnsplat {
 namespace {
@@ -64,7 +64,8 @@ class PathTest : public GpuTest, public ::testing::WithParamInterface<RenderPath
 // A white disk of radius 1 facing a camera 5 away: its image is the circle of radius
 // (1/5) / tan(20°) · 128 = 70.3 px about the image centre, white inside, background outside.
 TEST_P(PathTest, SingleDiskCoversExactlyItsProjection) {
-    const RgbaImage image = render(disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 255, 255}), small(GetParam()), lookingDownZ(5.0f));
+    const RgbaImage image =
+        render(disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 255, 255}), small(GetParam()), lookingDownZ(5.0f));
     ASSERT_EQ(image.width, 256u);
     const double radiusPx = 0.2 / std::tan(20.0 * 3.14159265358979 / 180.0) * 128.0;
     int inside = 0, outside = 0;
@@ -108,7 +109,8 @@ TEST_P(PathTest, NearerDiskHidesFartherOne) {
 
 // One splat far larger than the screen covers every pixel (no size limit).
 TEST_P(PathTest, HugeSplatCoversTheScreen) {
-    const RgbaImage image = render(disk({0, 0, 0}, {0, 0, 1}, 50.0f, {255, 255, 255}), small(GetParam(), 64, 48), lookingDownZ(2.0f));
+    const RgbaImage image = render(disk({0, 0, 0}, {0, 0, 1}, 50.0f, {255, 255, 255}),
+                                   small(GetParam(), 64, 48), lookingDownZ(2.0f));
     ASSERT_EQ(image.width, 64u);
     for (std::uint32_t y = 0; y < 48; ++y)
         for (std::uint32_t x = 0; x < 64; ++x) ASSERT_GT(image.at(x, y).x, 100) << x << "," << y;
@@ -140,7 +142,8 @@ TEST_P(PathTest, ReusedRendererForgetsTheLastFrame) {
     auto third = (*renderer)->render(*empty, camera);
     ASSERT_TRUE(third.ok());
     for (std::uint32_t y = 0; y < 96; ++y)
-        for (std::uint32_t x = 0; x < 96; ++x) ASSERT_EQ(third->at(x, y), glm::u8vec4(0, 0, 0, 255)) << x << "," << y;
+        for (std::uint32_t x = 0; x < 96; ++x)
+            ASSERT_EQ(third->at(x, y), glm::u8vec4(0, 0, 0, 255)) << x << "," << y;
 }
 
 TEST_P(PathTest, EmptySceneAndCameraLookingAwayGiveBackground) {
@@ -182,7 +185,9 @@ TEST_P(PathTest, BadSettingsAndCamerasAreErrors) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Paths, PathTest, ::testing::Values(RenderPath::Compute, RenderPath::Graphics),
-                         [](const ::testing::TestParamInfo<RenderPath>& p) { return std::string(p.param == RenderPath::Compute ? "Compute" : "Graphics"); });
+                         [](const ::testing::TestParamInfo<RenderPath>& p) {
+                             return std::string(p.param == RenderPath::Compute ? "Compute" : "Graphics");
+                         });
 
 class RenderTest : public GpuTest {};
 
@@ -229,9 +234,8 @@ struct Golden {
 // below this, while every broken pass below exceeds 2.5 times it.
 constexpr double kGoldenRmse = 1.0;
 
-
 class GoldenTest : public GpuTest {
-protected:
+  protected:
     static RenderSettings settings() {
         RenderSettings s;
         s.width = 240;
@@ -253,7 +257,8 @@ protected:
         const std::filesystem::path file = std::filesystem::path(PNSPLAT_GOLDEN_DIR) / (name + ".png");
         const RgbaImage image = render(points, settings(), camera(points));
         ASSERT_GT(image.width, 0u);
-        if (const char* update = std::getenv("PNSPLAT_UPDATE_GOLDEN"); update != nullptr && std::string(update) == "1") {
+        if (const char* update = std::getenv("PNSPLAT_UPDATE_GOLDEN");
+            update != nullptr && std::string(update) == "1") {
             ASSERT_TRUE(engine::writePng(file, image).ok());
             return;
         }
@@ -272,8 +277,9 @@ protected:
         PointSet flipped = points;
         for (auto& n : flipped.normal) n = -n;
         const double flippedNormals = difference(render(flipped, settings(), camera(points)), *golden).rmse;
-        std::cout << "[golden " << name << "] RMSE " << d.rmse << " (tolerance " << kGoldenRmse << "); broken passes: no normalization "
-                  << noNormalization << ", no depth offset " << noDepthOffset << ", flipped normals " << flippedNormals << "\n";
+        std::cout << "[golden " << name << "] RMSE " << d.rmse << " (tolerance " << kGoldenRmse
+                  << "); broken passes: no normalization " << noNormalization << ", no depth offset "
+                  << noDepthOffset << ", flipped normals " << flippedNormals << "\n";
         EXPECT_GT(noNormalization, 2.5 * kGoldenRmse) << "no normalization";
         EXPECT_GT(noDepthOffset, 2.5 * kGoldenRmse) << "no depth offset";
         EXPECT_GT(flippedNormals, 2.5 * kGoldenRmse) << "flipped normals";
@@ -285,7 +291,8 @@ protected:
 TEST_F(GoldenTest, Sphere) {
     PointSet sphere = withRadii(sampleSphereUniform(2000, 1.0f));
     for (const glm::vec3& p : sphere.position)
-        sphere.colour.push_back({static_cast<std::uint8_t>(p.x > 0 ? 230 : 40), static_cast<std::uint8_t>(p.y > 0 ? 200 : 60),
+        sphere.colour.push_back({static_cast<std::uint8_t>(p.x > 0 ? 230 : 40),
+                                 static_cast<std::uint8_t>(p.y > 0 ? 200 : 60),
                                  static_cast<std::uint8_t>(p.z > 0 ? 220 : 50)});
     checkGolden("sphere", sphere);
 }
@@ -329,8 +336,8 @@ TEST_F(GoldenTest, RefinedSparseModelIsCloserToTheDenseRender) {
     const engine::ImageDifference direct = difference(render(input, s, view), truth);
     const engine::ImageDifference refined = difference(render(refiner.points(), s, view), truth);
     std::cout << "[bunny 3500 -> " << refiner.points().size() << " points, " << refiner.levels()
-              << " levels, median splat " << medianDiameter(refiner.points()) << " px] PSNR " << direct.psnr << " -> "
-              << refined.psnr << " dB, SSIM " << direct.ssim << " -> " << refined.ssim << "\n";
+              << " levels, median splat " << medianDiameter(refiner.points()) << " px] PSNR " << direct.psnr
+              << " -> " << refined.psnr << " dB, SSIM " << direct.ssim << " -> " << refined.ssim << "\n";
     EXPECT_LE(medianDiameter(refiner.points()), 2.0f);
     EXPECT_GT(refined.psnr, direct.psnr + 2.0);
     EXPECT_GT(refined.ssim, direct.ssim + 0.02);
@@ -349,7 +356,7 @@ TEST(ImageTest, IdenticalImagesHaveInfinitePsnrAndUnitSsim) {
 
 TEST(ImageTest, KnownDifferenceGivesExactFigures) {
     RgbaImage a(10, 10), b(10, 10);
-    b.pixels[0] = 30; // one channel of one pixel off by 30
+    b.pixels[0] = 30;        // one channel of one pixel off by 30
     b.pixels[4 * 5 + 1] = 2; // another by 2: below the default threshold
     auto d = engine::compareImages(a, b);
     ASSERT_TRUE(d.ok());
@@ -389,7 +396,10 @@ TEST(CameraTest, FrustumAgreesWithSamplingOnTheSphere) {
     };
     const PointSet dirs = sampleSphereUniform(4000, 1.0f);
     std::uint32_t seed = 7;
-    const auto next = [&] { seed = seed * 1664525u + 1013904223u; return float(seed >> 8) / float(1 << 24); };
+    const auto next = [&] {
+        seed = seed * 1664525u + 1013904223u;
+        return float(seed >> 8) / float(1 << 24);
+    };
     for (int k = 0; k < 500; ++k) {
         const glm::vec3 c{(next() - 0.5f) * 12.0f, (next() - 0.5f) * 10.0f, -next() * 12.0f};
         const float r = 0.05f + next();

@@ -32,7 +32,8 @@ std::vector<double> nearestDistances(const PointSet& set) {
     std::vector<double> d(set.size(), 1e300);
     for (std::size_t i = 0; i < set.size(); ++i)
         for (std::size_t j = 0; j < set.size(); ++j)
-            if (i != j) d[i] = std::min(d[i], static_cast<double>(glm::length(set.position[i] - set.position[j])));
+            if (i != j)
+                d[i] = std::min(d[i], static_cast<double>(glm::length(set.position[i] - set.position[j])));
     return d;
 }
 
@@ -184,7 +185,7 @@ TEST(DefaultModel, IrregularButNotPathological) {
     double var = 0.0;
     for (const double x : d) var += (x - mean) * (x - mean);
     const double cv = std::sqrt(var / static_cast<double>(d.size())) / mean;
-    EXPECT_GT(cv, 0.1);  // irregular (a Fibonacci spiral alone is about 0.03)
+    EXPECT_GT(cv, 0.1); // irregular (a Fibonacci spiral alone is about 0.03)
     EXPECT_LT(cv, 0.5);
     EXPECT_GT(*std::min_element(d.begin(), d.end()), 0.3 * mean); // no near-duplicates
 }
@@ -213,12 +214,14 @@ TEST(AnalyticSurface, TorusClosestPointMatchesBruteForce) {
     for (int i = 0; i < nu; ++i)
         for (int j = 0; j < nv; ++j) {
             const double u = 2.0 * kPi * i / nu, v = 2.0 * kPi * j / nv;
-            grid.emplace_back((R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u), r * std::sin(v));
+            grid.emplace_back((R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u),
+                              r * std::sin(v));
         }
     const double gridStep = 2.0 * kPi * (R + r) / nu; // largest spacing between grid points
     const PointSet queries = sampleSphereRandom(60, 1.6f, 11);
     for (std::size_t q = 0; q < queries.size(); ++q) {
-        const glm::vec3 p = queries.position[q] * (0.2f + 0.02f * static_cast<float>(q)); // inside and outside
+        const glm::vec3 p =
+            queries.position[q] * (0.2f + 0.02f * static_cast<float>(q)); // inside and outside
         double brute = 1e300;
         for (const glm::vec3& g : grid) brute = std::min(brute, static_cast<double>(glm::length(g - p)));
         const double exact = torus.distance(p);

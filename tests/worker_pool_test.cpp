@@ -74,15 +74,16 @@ void expectOrderRespected(const TaskGraph& graph, unsigned threads) {
     for (std::uint32_t node = 0; node < graph.size(); ++node) {
         EXPECT_EQ(runs[node].load(), 1) << "node " << node;
         for (std::uint32_t k = graph.successorBegin[node]; k < graph.successorBegin[node + 1]; ++k)
-            EXPECT_LT(end[node].load(), start[graph.successors[k]].load()) << node << " -> " << graph.successors[k];
+            EXPECT_LT(end[node].load(), start[graph.successors[k]].load())
+                << node << " -> " << graph.successors[k];
     }
 }
 
 TEST(WorkerPool, RunGraphRunsNodesOnceAfterTheirPredecessors) {
     for (const unsigned threads : {1u, 2u, 8u}) {
-        expectOrderRespected(randomGraph(400, 0.01, 7), threads);  // sparse: many ready at once
-        expectOrderRespected(randomGraph(200, 0.2, 11), threads);  // dense: long waits
-        expectOrderRespected(randomGraph(300, 0.0, 13), threads);  // no edges
+        expectOrderRespected(randomGraph(400, 0.01, 7), threads); // sparse: many ready at once
+        expectOrderRespected(randomGraph(200, 0.2, 11), threads); // dense: long waits
+        expectOrderRespected(randomGraph(300, 0.0, 13), threads); // no edges
     }
 }
 

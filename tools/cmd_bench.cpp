@@ -92,7 +92,9 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
-double rate(const RunResult& r) { return static_cast<double>(r.generated) / r.seconds; }
+double rate(const RunResult& r) {
+    return static_cast<double>(r.generated) / r.seconds;
+}
 
 // One warm-up run, then args.repeat timed ones.
 std::vector<RunResult> timedRuns(const PointSet& input, const RefineOptions& options, const BenchArgs& args) {
@@ -104,8 +106,8 @@ std::vector<RunResult> timedRuns(const PointSet& input, const RefineOptions& opt
 
 // One configuration's JSON record: generated points per second over the timed runs, page faults,
 // and on one thread the time split per phase.
-std::string benchConfig(const std::string& name, const PointSet& input, RefineOptions options, unsigned threads,
-                         const BenchArgs& args) {
+std::string benchConfig(const std::string& name, const PointSet& input, RefineOptions options,
+                        unsigned threads, const BenchArgs& args) {
     options.threads = threads;
     std::vector<double> rates, faults;
     const std::vector<RunResult> runs = timedRuns(input, options, args);
@@ -116,20 +118,22 @@ std::string benchConfig(const std::string& name, const PointSet& input, RefineOp
     const RunResult& last = runs.back();
     // Page faults are reported because they cost several microseconds each on virtual machines
     // (first touches of the arrays that grow with every level), a sizeable share of a run there.
-    std::string json = fmt::format(R"({{"name": "{}", "threads": {}, "levels": {}, "points_out": {}, "generated": {}, )"
-                                   R"("points_per_second_median": {:.0f}, "points_per_second_min": {:.0f}, "points_per_second_max": {:.0f}, )"
-                                   R"("page_faults_median": {:.0f})",
-                                   name, threads, last.levels, last.generated + input.size(), last.generated, median(rates),
-                                   *std::min_element(rates.begin(), rates.end()), *std::max_element(rates.begin(), rates.end()),
-                                   median(faults));
+    std::string json = fmt::format(
+        R"({{"name": "{}", "threads": {}, "levels": {}, "points_out": {}, "generated": {}, )"
+        R"("points_per_second_median": {:.0f}, "points_per_second_min": {:.0f}, "points_per_second_max": {:.0f}, )"
+        R"("page_faults_median": {:.0f})",
+        name, threads, last.levels, last.generated + input.size(), last.generated, median(rates),
+        *std::min_element(rates.begin(), rates.end()), *std::max_element(rates.begin(), rates.end()),
+        median(faults));
     if (threads == 1) {
         // The split per phase comes from a separate profiled run (timers cost a little).
         options.profile = true;
         const RunResult profiled = refineOnce(input, options, args.targetPoints);
         const PhaseTimes& p = profiled.phases;
         const double sum = p.neighbourhood + p.filtering + p.selection + p.interpolation;
-        json += fmt::format(R"(, "phase_share": {{"neighbourhood": {:.3f}, "filtering": {:.3f}, "selection": {:.3f}, "interpolation": {:.3f}}})",
-                            p.neighbourhood / sum, p.filtering / sum, p.selection / sum, p.interpolation / sum);
+        json += fmt::format(
+            R"(, "phase_share": {{"neighbourhood": {:.3f}, "filtering": {:.3f}, "selection": {:.3f}, "interpolation": {:.3f}}})",
+            p.neighbourhood / sum, p.filtering / sum, p.selection / sum, p.interpolation / sum);
     }
     fmt::print(stderr, "  {:<28} {} thread(s): {:>10.0f} points/s\n", name, threads, median(rates));
     return json + "}";
@@ -153,7 +157,8 @@ double twoThreadSpeedup(const PointSet& input, RefineOptions options, const Benc
 // {"0": rate, "1": rate, ...}; empty where threads cannot be pinned. Virtual machines' processors
 // can differ in speed (the host runs other work): a one-thread figure then depends on where the
 // run lands, and two threads gain at most (r0 + r1) / max(r0, r1) over the faster one.
-std::string ratesByProcessor(const PointSet& input, RefineOptions options, const BenchArgs& args, double& idealSpeedup) {
+std::string ratesByProcessor(const PointSet& input, RefineOptions options, const BenchArgs& args,
+                             double& idealSpeedup) {
     idealSpeedup = 0.0;
 #ifdef __linux__
     cpu_set_t original;
@@ -219,8 +224,10 @@ void runBenchRefine(const BenchArgs& args) {
     const std::string byProcessor = ratesByProcessor(sphere, configs[0].options, args, idealSpeedup);
     fmt::print(stderr, "  2 threads / 1 thread: full {:.2f}, fast {:.2f}\n", fullSpeedup, fastSpeedup);
     if (idealSpeedup > 0.0)
-        fmt::print(stderr, "  full, 1 thread pinned to each processor: {} points/s; two threads can gain at most {:.2f}\n",
-                   byProcessor, idealSpeedup);
+        fmt::print(
+            stderr,
+            "  full, 1 thread pinned to each processor: {} points/s; two threads can gain at most {:.2f}\n",
+            byProcessor, idealSpeedup);
     const std::string json = fmt::format(
         R"({{"benchmark": "refine", "case": "sphere {} uniform points to >= {} points", "cpu": "{}", "hardware_threads": {}, "repeat": {}, )"
         R"("two_thread_speedup": {{"full": {:.3f}, "fast": {:.3f}}}, "full_one_thread_by_processor": {{{}}}, )"
@@ -228,8 +235,8 @@ void runBenchRefine(const BenchArgs& args) {
   {}
 ]}})"
         "\n",
-        args.spherePoints, args.targetPoints, cpuName(), std::thread::hardware_concurrency(), args.repeat, fullSpeedup,
-        fastSpeedup, byProcessor, idealSpeedup, fmt::join(runs, ",\n  "));
+        args.spherePoints, args.targetPoints, cpuName(), std::thread::hardware_concurrency(), args.repeat,
+        fullSpeedup, fastSpeedup, byProcessor, idealSpeedup, fmt::join(runs, ",\n  "));
     writeJson(args.output, json);
 }
 
@@ -247,8 +254,9 @@ struct RenderTiming {
     double gpu() const { return visibility + accumulation + normalization; }
 };
 
-RenderTiming timeRenders(engine::Context& context, const engine::SplatScene& scene, const engine::RenderSettings& settings,
-                         const engine::Camera& camera, unsigned repeat) {
+RenderTiming timeRenders(engine::Context& context, const engine::SplatScene& scene,
+                         const engine::RenderSettings& settings, const engine::Camera& camera,
+                         unsigned repeat) {
     auto renderer = unwrap(engine::SplatRenderer::create(context, settings));
     engine::FrameStats stats;
     unwrap(renderer->render(scene, camera, &stats)); // warm-up
@@ -275,8 +283,8 @@ void runBenchRender(const BenchRenderArgs& args) {
     const engine::Camera camera = engine::frameSphere({{0, 0, 0}, 1.0f}, aspect, fov, 0.0f);
     const float front = glm::length(camera.eye) - 1.0f;
     const float focalPixels = float(args.height) * 0.5f / std::tan(fov * 0.5f);
-    fmt::print(stderr, "bench render: {}x{} on {} ({}), {} timed runs each\n", args.width, args.height, context->deviceName(),
-               context->driverName(), args.repeat);
+    fmt::print(stderr, "bench render: {}x{} on {} ({}), {} timed runs each\n", args.width, args.height,
+               context->deviceName(), context->driverName(), args.repeat);
 
     std::vector<std::string> runs;
     for (std::size_t n : args.sizes) {
@@ -289,7 +297,8 @@ void runBenchRender(const BenchRenderArgs& args) {
         plain.height = args.height;
         plain.path = engine::RenderPath::PlainPoints;
         const RenderTiming baseline = timeRenders(*context, scene, plain, camera, args.repeat);
-        fmt::print(stderr, "  {:>8} splats: plain 1-px points {:.1f} ms (GPU), {:.1f} ms (wall)\n", n, baseline.gpu(), baseline.wall);
+        fmt::print(stderr, "  {:>8} splats: plain 1-px points {:.1f} ms (GPU), {:.1f} ms (wall)\n", n,
+                   baseline.gpu(), baseline.wall);
         for (float pixels : args.splatPixels) {
             for (engine::RenderPath path : {engine::RenderPath::Compute, engine::RenderPath::Graphics}) {
                 engine::RenderSettings settings = plain;
@@ -297,14 +306,18 @@ void runBenchRender(const BenchRenderArgs& args) {
                 settings.radiusScale = pixels / basePixels;
                 const RenderTiming t = timeRenders(*context, scene, settings, camera, args.repeat);
                 const char* name = path == engine::RenderPath::Compute ? "compute" : "graphics";
-                fmt::print(stderr, "  {:>8} splats, {} px, {:<8}: {:.1f} + {:.1f} + {:.1f} ms = {:.1f} ms, ratio to points {:.2f}\n", n,
-                           pixels, name, t.visibility, t.accumulation, t.normalization, t.gpu(), t.gpu() / baseline.gpu());
+                fmt::print(stderr,
+                           "  {:>8} splats, {} px, {:<8}: {:.1f} + {:.1f} + {:.1f} ms = {:.1f} ms, ratio to "
+                           "points {:.2f}\n",
+                           n, pixels, name, t.visibility, t.accumulation, t.normalization, t.gpu(),
+                           t.gpu() / baseline.gpu());
                 runs.push_back(fmt::format(
                     R"({{"splats": {}, "splat_pixels": {}, "path": "{}", "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, )"
                     R"("normalization_ms": {:.2f}, "passes_ms": {:.2f}, "wall_ms": {:.2f}, "splats_per_second": {:.0f}, )"
                     R"("plain_points_ms": {:.2f}, "plain_points_wall_ms": {:.2f}, "ratio_to_plain_points": {:.3f}, "wall_ratio_to_plain_points": {:.3f}}})",
                     n, pixels, name, t.visibility, t.accumulation, t.normalization, t.gpu(), t.wall,
-                    double(n) / (t.gpu() * 1e-3), baseline.gpu(), baseline.wall, t.gpu() / baseline.gpu(), t.wall / baseline.wall));
+                    double(n) / (t.gpu() * 1e-3), baseline.gpu(), baseline.wall, t.gpu() / baseline.gpu(),
+                    t.wall / baseline.wall));
             }
         }
     }
@@ -314,7 +327,8 @@ void runBenchRender(const BenchRenderArgs& args) {
   {}
 ]}})"
         "\n",
-        args.width, args.height, context->deviceName(), context->driverName(), cpuName(), args.repeat, fmt::join(runs, ",\n  "));
+        args.width, args.height, context->deviceName(), context->driverName(), cpuName(), args.repeat,
+        fmt::join(runs, ",\n  "));
     writeJson(args.output, json);
 }
 
@@ -324,9 +338,12 @@ void addBenchCommand(CLI::App& app) {
     CLI::App* bench = app.add_subcommand("bench", "Performance harness (JSON on standard output)");
     bench->require_subcommand(1);
     auto args = std::make_shared<BenchArgs>();
-    CLI::App* refine = bench->add_subcommand("refine", "Points generated per second, full method and faster variants, 1 and 2 threads");
-    refine->add_option("--sphere-points", args->spherePoints, "input: uniform points on the unit sphere")->capture_default_str();
-    refine->add_option("--target-points", args->targetPoints, "refine until at least this many points")->capture_default_str();
+    CLI::App* refine = bench->add_subcommand(
+        "refine", "Points generated per second, full method and faster variants, 1 and 2 threads");
+    refine->add_option("--sphere-points", args->spherePoints, "input: uniform points on the unit sphere")
+        ->capture_default_str();
+    refine->add_option("--target-points", args->targetPoints, "refine until at least this many points")
+        ->capture_default_str();
     refine->add_option("--repeat", args->repeat, "timed runs per configuration (after one warm-up)")
         ->check(CLI::Range(1u, 100u))
         ->capture_default_str();
@@ -335,14 +352,19 @@ void addBenchCommand(CLI::App& app) {
 
     auto renderArgs = std::make_shared<BenchRenderArgs>();
     CLI::App* render = bench->add_subcommand(
-        "render", "Time per pass and splats per second for both paths, against plain 1-pixel points (Vulkan)");
+        "render",
+        "Time per pass and splats per second for both paths, against plain 1-pixel points (Vulkan)");
     render->add_option("--sizes", renderArgs->sizes, "splat counts")->delimiter(',')->capture_default_str();
     render->add_option("--splat-pixels", renderArgs->splatPixels, "splat diameters in pixels")
         ->delimiter(',')
         ->check(CLI::Range(0.1, 256.0))
         ->capture_default_str();
-    render->add_option("--width", renderArgs->width, "image width")->check(CLI::Range(1u, 16384u))->capture_default_str();
-    render->add_option("--height", renderArgs->height, "image height")->check(CLI::Range(1u, 16384u))->capture_default_str();
+    render->add_option("--width", renderArgs->width, "image width")
+        ->check(CLI::Range(1u, 16384u))
+        ->capture_default_str();
+    render->add_option("--height", renderArgs->height, "image height")
+        ->check(CLI::Range(1u, 16384u))
+        ->capture_default_str();
     render->add_option("--repeat", renderArgs->repeat, "timed frames per configuration (after one warm-up)")
         ->check(CLI::Range(1u, 100u))
         ->capture_default_str();

@@ -26,9 +26,10 @@ void runDiff(const DiffArgs& args) {
     if (!args.heatmap.empty()) unwrap(engine::writePng(args.heatmap, d.heatmap));
     // JSON has no infinity: identical images report "psnr": null.
     const std::string psnr = std::isfinite(d.psnr) ? fmt::format("{:.3f}", d.psnr) : "null";
-    fmt::print("{{\"psnr\": {}, \"ssim\": {:.5f}, \"rmse\": {:.4f}, \"differing_share\": {:.6f}, \"width\": {}, "
-               "\"height\": {}}}\n",
-               psnr, d.ssim, d.rmse, d.differingShare, a.width, a.height);
+    fmt::print(
+        "{{\"psnr\": {}, \"ssim\": {:.5f}, \"rmse\": {:.4f}, \"differing_share\": {:.6f}, \"width\": {}, "
+        "\"height\": {}}}\n",
+        psnr, d.ssim, d.rmse, d.differingShare, a.width, a.height);
     if (args.maxRmse >= 0.0 && d.rmse > args.maxRmse)
         throw CommandError(fmt::format("images differ: RMSE {:.4f} exceeds {:.4f}", d.rmse, args.maxRmse));
 }
@@ -37,7 +38,8 @@ void runDiff(const DiffArgs& args) {
 
 void addDiffCommand(CLI::App& app) {
     auto args = std::make_shared<DiffArgs>();
-    CLI::App* cmd = app.add_subcommand("diff", "Compare two images: PSNR, SSIM, RMSE, differing pixels (JSON)");
+    CLI::App* cmd =
+        app.add_subcommand("diff", "Compare two images: PSNR, SSIM, RMSE, differing pixels (JSON)");
     cmd->add_option("a", args->a, "first PNG")->required();
     cmd->add_option("b", args->b, "second PNG")->required();
     cmd->add_option("--heatmap", args->heatmap, "write the per-pixel difference as a heat map PNG");

@@ -9,9 +9,9 @@
 #include <fmt/core.h>
 
 #include "commands.h"
-#include "refine_run.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/quality.h"
+#include "refine_run.h"
 
 namespace pnsplat::tools {
 namespace {
@@ -31,7 +31,8 @@ void writeText(const std::string& path, const std::string& text) {
     if (!file) throw CommandError(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
     const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
     const bool closed = std::fclose(file) == 0;
-    if (!written || !closed) throw CommandError(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
+    if (!written || !closed)
+        throw CommandError(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
 }
 
 // The refined points in grey with the reference points counted as holes among them, in their
@@ -67,43 +68,53 @@ void runEval(const EvalArgs& args) {
         evaluateQuality(refined, reference, args.input.empty() ? nullptr : &input, options);
     if (!args.holeMap.empty()) unwrap(writePly(args.holeMap, holeMap(std::move(refined), report)));
     const std::string json = toJson(report) + "\n";
-    if (args.output.empty()) fmt::print("{}", json);
-    else writeText(args.output, json);
+    if (args.output.empty())
+        fmt::print("{}", json);
+    else
+        writeText(args.output, json);
 }
 
 } // namespace
 
 void addEvalCommand(CLI::App& app) {
     auto args = std::make_shared<EvalArgs>();
-    CLI::App* cmd = app.add_subcommand("eval", "Measure a refined point set against the true surface; print JSON");
+    CLI::App* cmd =
+        app.add_subcommand("eval", "Measure a refined point set against the true surface; print JSON");
     cmd->add_option("REFINED", args->refined, "Refined point set (PLY)")->required();
     cmd->add_option("--reference", args->reference,
                     "True surface: sphere:R | torus:R,r (centred at the origin, torus axis z) | "
                     "DENSE.ply (with faces: a mesh, exact distances; without: reference points)")
         ->required();
-    cmd->add_option("--input", args->input, "The original sparse input (PLY), to check it is kept bit for bit");
+    cmd->add_option("--input", args->input,
+                    "The original sparse input (PLY), to check it is kept bit for bit");
     cmd->add_option("-o,--output", args->output, "Write the JSON report to this file instead of stdout");
-    cmd->add_option("--hole-map", args->holeMap,
-                    "Write a PLY to look at (pnsplat render): the refined points in grey and the reference points "
-                    "counted as holes, red where no refined point is near in their tangent plane either (a gap in "
-                    "the sampling), orange where the refined surface passes off the true one");
-    cmd->add_flag("--flat-normals", args->flatNormals,
-                  "A mesh reference's true normal is the closest triangle's own, not its vertex normals interpolated "
-                  "(CAD parts with sharp edges, whose vertex normals average the faces on both sides)");
-    cmd->add_option("--threads", args->threads, "Worker threads (0 = all hardware threads); results do not depend on it")
+    cmd->add_option(
+        "--hole-map", args->holeMap,
+        "Write a PLY to look at (pnsplat render): the refined points in grey and the reference points "
+        "counted as holes, red where no refined point is near in their tangent plane either (a gap in "
+        "the sampling), orange where the refined surface passes off the true one");
+    cmd->add_flag(
+        "--flat-normals", args->flatNormals,
+        "A mesh reference's true normal is the closest triangle's own, not its vertex normals interpolated "
+        "(CAD parts with sharp edges, whose vertex normals average the faces on both sides)");
+    cmd->add_option("--threads", args->threads,
+                    "Worker threads (0 = all hardware threads); results do not depend on it")
         ->capture_default_str();
     cmd->footer(
         "Metrics (JSON keys), one value per refined point reduced over the set:\n"
-        "  distance          to the true surface: mean, rms, max; *_rel divide by the reference's bbox diagonal\n"
+        "  distance          to the true surface: mean, rms, max; *_rel divide by the reference's bbox "
+        "diagonal\n"
         "  normal_error_deg  angle to the true normal at the closest surface point: mean, p95, max\n"
         "  spacing_mean      mean distance from a refined point to its nearest other refined point\n"
         "  uniformity_cv     std / mean of those nearest-neighbour distances (0 = perfectly even)\n"
         "  holes             share of reference points with no refined point within 2 x spacing_mean\n"
         "  holes_tangential  the same, distances measured in the reference point's tangent plane\n"
-        "  input_preserved   every --input point's position and normal (position alone for an input without normals)\n"
+        "  input_preserved   every --input point's position and normal (position alone for an input without "
+        "normals)\n"
         "                    in the output bit for bit (+ input_missing)\n"
         "True surface: sphere/torus exact (holes use 200k samples); a mesh PLY exact (true normal = vertex\n"
-        "normals interpolated at the closest point, or its face's with --flat-normals; holes use its vertices);\n"
+        "normals interpolated at the closest point, or its face's with --flat-normals; holes use its "
+        "vertices);\n"
         "a points-only PLY approximate\n"
         "(nearest reference point's tangent plane and normal).");
     cmd->callback([args] { runEval(*args); });

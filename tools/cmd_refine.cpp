@@ -8,10 +8,10 @@
 #include <fmt/core.h>
 
 #include "commands.h"
-#include "refine_run.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
+#include "refine_run.h"
 
 namespace pnsplat::tools {
 
@@ -53,7 +53,9 @@ void runRefine(const RefineArgs& args) {
     RefineJob job;
     RefineOptions& options = job.options;
     options = args.fast ? RefineOptions::fast() : RefineOptions{};
-    if (!args.fast) options.neighbourhood = args.neighbourhood == "fuzzy" ? NeighbourhoodKind::Fuzzy : NeighbourhoodKind::Accurate;
+    if (!args.fast)
+        options.neighbourhood =
+            args.neighbourhood == "fuzzy" ? NeighbourhoodKind::Fuzzy : NeighbourhoodKind::Accurate;
     options.euclideanGeodesic |= args.euclideanGeodesic;
     options.plainAngle |= args.plainAngle;
     options.centroidCandidates |= args.centroidCandidates;
@@ -76,60 +78,83 @@ void runRefine(const RefineArgs& args) {
 
     std::string output = args.output;
     if (output.empty())
-        output = (args.input.empty() ? std::string("default") : std::filesystem::path(args.input).stem().string()) + "-refined.ply";
+        output = (args.input.empty() ? std::string("default")
+                                     : std::filesystem::path(args.input).stem().string()) +
+                 "-refined.ply";
     unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
-    const double rate = refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;
-    std::string levelDetail = run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
+    const double rate =
+        refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;
+    std::string levelDetail =
+        run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
     if (!job.holes.empty())
         levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them", job.holes.size(),
                                    run.enlargedRadii, run.holeFillingLevels);
     const std::string distinct =
         run.inputPoints != inputCount ? fmt::format(" ({} distinct)", run.inputPoints) : std::string();
-    fmt::print("{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), {:.3f} s in all -> {}\n",
-               inputName, inputCount, distinct, outputCount, done, levelDetail, refineSeconds, rate, total, output);
+    fmt::print("{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), "
+               "{:.3f} s in all -> {}\n",
+               inputName, inputCount, distinct, outputCount, done, levelDetail, refineSeconds, rate, total,
+               output);
     if (run.cappedNeighbourhoods > 0)
         fmt::print(stderr,
-                   "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and used the {} "
+                   "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and "
+                   "used the {} "
                    "nearest; {}\n",
                    run.cappedNeighbourhoods, run.maxNeighbours, run.maxNeighbours,
-                   job.holes.empty() ? "the radii look too large for the sampling (--estimate-radii replaces them)"
-                                     : "a hole looks too wide for its sampling, and may stay open");
+                   job.holes.empty()
+                       ? "the radii look too large for the sampling (--estimate-radii replaces them)"
+                       : "a hole looks too wide for its sampling, and may stay open");
 }
 
 } // namespace
 
 void addRefineCommand(CLI::App& app) {
     auto args = std::make_shared<RefineArgs>();
-    CLI::App* cmd = app.add_subcommand("refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)");
-    cmd->add_option("input", args->input, "input PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease points; normals and radii "
-                                          "estimated when absent); "
-                                          "omitted: the embedded default model");
+    CLI::App* cmd =
+        app.add_subcommand("refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)");
+    cmd->add_option("input", args->input,
+                    "input PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease "
+                    "points; normals and radii "
+                    "estimated when absent); "
+                    "omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PLY (default: <input>-refined.ply)");
-    auto* levels = cmd->add_option("-l,--levels", args->levels, fmt::format("refinement levels (default {})", kDefaultLevels))
+    auto* levels = cmd->add_option("-l,--levels", args->levels,
+                                   fmt::format("refinement levels (default {})", kDefaultLevels))
                        ->check(CLI::Range(1u, 64u));
-    cmd->add_option("-n,--target-points", args->targetPoints, "refine level by level until at least this many points")
+    cmd->add_option("-n,--target-points", args->targetPoints,
+                    "refine level by level until at least this many points")
         ->check(CLI::PositiveNumber)
         ->excludes(levels);
-    cmd->add_option("--neighbourhood", args->neighbourhood, "one-ring: accurate (Ng, geodesic projection) or fuzzy (Nf)")
+    cmd->add_option("--neighbourhood", args->neighbourhood,
+                    "one-ring: accurate (Ng, geodesic projection) or fuzzy (Nf)")
         ->check(CLI::IsMember({"fuzzy", "accurate"}))
         ->capture_default_str();
-    cmd->add_option("-t,--threads", args->threads, "worker threads (0 = all; output is identical for any count)")
+    cmd->add_option("-t,--threads", args->threads,
+                    "worker threads (0 = all; output is identical for any count)")
         ->capture_default_str();
     cmd->add_flag("--fast", args->fast, "all four faster variants of the paper (section 7) at once");
-    cmd->add_flag("--euclidean-geodesic", args->euclideanGeodesic, "variant 1: Euclidean distance for the geodesic distance");
+    cmd->add_flag("--euclidean-geodesic", args->euclideanGeodesic,
+                  "variant 1: Euclidean distance for the geodesic distance");
     cmd->add_flag("--plain-angle", args->plainAngle, "variant 2: plain angle for the curved angle");
-    cmd->add_flag("--centroid-candidates", args->centroidCandidates, "variant 4: smooth only the candidates inserted");
-    cmd->add_flag("--no-smoothing", args->noSmoothing, "baseline: insert plain centroids (no PN displacement)");
-    cmd->add_option("--theta-f", args->thetaFDegrees, "fuzzy-plane tolerance in degrees")->check(CLI::Range(1.0, 89.0))->capture_default_str();
+    cmd->add_flag("--centroid-candidates", args->centroidCandidates,
+                  "variant 4: smooth only the candidates inserted");
+    cmd->add_flag("--no-smoothing", args->noSmoothing,
+                  "baseline: insert plain centroids (no PN displacement)");
+    cmd->add_option("--theta-f", args->thetaFDegrees, "fuzzy-plane tolerance in degrees")
+        ->check(CLI::Range(1.0, 89.0))
+        ->capture_default_str();
     cmd->add_option("--theta-b", args->thetaBDegrees, "boundary gap threshold in degrees, (120, 180]")
         ->check(CLI::Range(120.001, 180.0))
         ->capture_default_str();
-    cmd->add_option("--even-out", args->evenOut,
-                    fmt::format("after the levels, refine the points whose radius is above this multiple of the median until none "
-                                "is (at most {} more levels, a few percent more points; 0 = off, {} suits irregular inputs): "
-                                "fills their sparse patches. Not for inputs with undetected openings, which it fills further",
-                                kEvenOutMaxLevels, kEvenOutFactor))
+    cmd->add_option(
+           "--even-out", args->evenOut,
+           fmt::format(
+               "after the levels, refine the points whose radius is above this multiple of the median until "
+               "none "
+               "is (at most {} more levels, a few percent more points; 0 = off, {} suits irregular inputs): "
+               "fills their sparse patches. Not for inputs with undetected openings, which it fills further",
+               kEvenOutMaxLevels, kEvenOutFactor))
         ->check(CLI::Validator(
             [](const std::string& value) {
                 double f = -1.0;

@@ -9,12 +9,12 @@
 #include <fmt/core.h>
 
 #include "commands.h"
-#include "refine_run.h"
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/engine/splat_renderer.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/shapes.h"
+#include "refine_run.h"
 
 namespace pnsplat::tools {
 
@@ -73,8 +73,8 @@ void runRender(const RenderArgs& args) {
         job.holes = parseHoles(args.holes);
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
-        fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount, points.size(), run.levels,
-                   run.seconds);
+        fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount, points.size(),
+                   run.levels, run.seconds);
     }
     if (args.flipNormals)
         for (auto& n : points.normal) n = -n;
@@ -112,21 +112,23 @@ void runRender(const RenderArgs& args) {
     FrameStats stats;
     const RgbaImage image = unwrap(renderer->render(scene, camera, &stats));
     unwrap(writePng(args.output, image));
-    fmt::print("{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
-               "normalization {:.1f} ms -> {}\n",
-               name, stats.splats, stats.splatsDrawn, args.width, args.height, context->deviceName(),
-               settings.path == RenderPath::Compute ? "compute" : "graphics",
-               stats.visibilityMs, stats.accumulationMs, stats.normalizationMs, args.output);
+    fmt::print(
+        "{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
+        "normalization {:.1f} ms -> {}\n",
+        name, stats.splats, stats.splatsDrawn, args.width, args.height, context->deviceName(),
+        settings.path == RenderPath::Compute ? "compute" : "graphics", stats.visibilityMs,
+        stats.accumulationMs, stats.normalizationMs, args.output);
     if (context->validationMessages() > 0)
-        throw CommandError(fmt::format("{} validation message(s); the last: {}", context->validationMessages(),
-                                       context->lastValidationMessage()));
+        throw CommandError(fmt::format("{} validation message(s); the last: {}",
+                                       context->validationMessages(), context->lastValidationMessage()));
 }
 
 } // namespace
 
 void addRenderCommand(CLI::App& app) {
     auto args = std::make_shared<RenderArgs>();
-    CLI::App* cmd = app.add_subcommand("render", "Render a point set offscreen as surface splats into a PNG (Vulkan)");
+    CLI::App* cmd =
+        app.add_subcommand("render", "Render a point set offscreen as surface splats into a PNG (Vulkan)");
     cmd->add_option("input", args->input, "input PLY; omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PNG")->capture_default_str();
     cmd->add_option("--width", args->width, "image width in pixels")->capture_default_str();
@@ -137,14 +139,19 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--orbit", args->orbitDegrees, "turn the framing camera about the vertical axis, degrees")
         ->excludes(camera)
         ->capture_default_str();
-    cmd->add_option("--fov", args->fovDegrees, "vertical field of view, degrees")->check(CLI::Range(1.0, 179.0))->capture_default_str();
-    cmd->add_option("--refine-levels", args->refineLevels, "refine this many levels first (the paper's method)")
+    cmd->add_option("--fov", args->fovDegrees, "vertical field of view, degrees")
+        ->check(CLI::Range(1.0, 179.0))
+        ->capture_default_str();
+    cmd->add_option("--refine-levels", args->refineLevels,
+                    "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
     addFillHoleOption(*cmd, args->holes);
-    cmd->add_option("--path", args->path, "compute (atomics), graphics (raster pipeline), or auto: compute where the device can")
+    cmd->add_option("--path", args->path,
+                    "compute (atomics), graphics (raster pipeline), or auto: compute where the device can")
         ->check(CLI::IsMember({"auto", "compute", "graphics"}))
         ->capture_default_str();
-    cmd->add_option("--device", args->device, "Vulkan device whose name contains this text (default: a GPU, else lavapipe)");
+    cmd->add_option("--device", args->device,
+                    "Vulkan device whose name contains this text (default: a GPU, else lavapipe)");
     cmd->add_option("--background", args->background, "background colour r,g,b in [0, 1]")
         ->delimiter(',')
         ->expected(3)
@@ -152,7 +159,8 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--radius-scale", args->radiusScale, "splat radius as a multiple of the point radius")
         ->check(CLI::Range(0.01, 100.0))
         ->capture_default_str();
-    cmd->add_flag("--validation", args->validation, "load the Vulkan validation layer; any message fails the command");
+    cmd->add_flag("--validation", args->validation,
+                  "load the Vulkan validation layer; any message fails the command");
     cmd->add_flag("--flip-normals", args->flipNormals, "negate every normal (shows why orientation matters)");
     cmd->callback([args] { runRender(*args); });
 }

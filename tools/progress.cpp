@@ -7,11 +7,16 @@
 
 namespace pnsplat::tools {
 
-ProgressBar::ProgressBar(std::string label) : label_(std::move(label)), enabled_(isatty(STDERR_FILENO) != 0) {}
+ProgressBar::ProgressBar(std::string label)
+    : label_(std::move(label)), enabled_(isatty(STDERR_FILENO) != 0) {}
 
-ProgressBar::~ProgressBar() { finish(); }
+ProgressBar::~ProgressBar() {
+    finish();
+}
 
-void ProgressBar::setLabel(std::string label) { label_ = std::move(label); }
+void ProgressBar::setLabel(std::string label) {
+    label_ = std::move(label);
+}
 
 void ProgressBar::update(std::size_t done, std::size_t total) {
     if (!enabled_ || total == 0) return;
@@ -21,7 +26,8 @@ void ProgressBar::update(std::size_t done, std::size_t total) {
     constexpr int kWidth = 30;
     const double fraction = std::min(1.0, static_cast<double>(done) / static_cast<double>(total));
     const int filled = static_cast<int>(fraction * kWidth);
-    fmt::print(stderr, "\r{} [{:=<{}}{: <{}}] {:5.1f}%", label_, "", filled, "", kWidth - filled, 100.0 * fraction);
+    fmt::print(stderr, "\r{} [{:=<{}}{: <{}}] {:5.1f}%", label_, "", filled, "", kWidth - filled,
+               100.0 * fraction);
     std::fflush(stderr);
     drawn_ = true;
 }

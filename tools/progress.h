@@ -8,7 +8,7 @@
 namespace pnsplat::tools {
 
 class ProgressBar {
-public:
+  public:
     explicit ProgressBar(std::string label);
     ~ProgressBar();
     ProgressBar(const ProgressBar&) = delete;
@@ -20,7 +20,7 @@ public:
     // Clears the line.
     void finish();
 
-private:
+  private:
     std::string label_;
     bool enabled_;
     bool drawn_ = false;

@@ -6,11 +6,11 @@
 #include <fmt/core.h>
 
 #include "commands.h"
-#include "progress.h"
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/text.h"
+#include "progress.h"
 
 namespace pnsplat::tools {
 
@@ -26,12 +26,16 @@ Hole parseHole(std::string_view text) {
         std::string_view part = text.substr(begin, end - begin);
         if (part.starts_with('+')) part.remove_prefix(1);
         const std::optional<float> value = parseFloat(part);
-        if (!value || count == 4) count = 5; // not a number, or a fifth one
-        else values[count++] = *value;
+        if (!value || count == 4)
+            count = 5; // not a number, or a fifth one
+        else
+            values[count++] = *value;
         begin = end + 1;
     }
-    if (count != 4) throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
-    if (!(values[3] > 0.0f)) throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text));
+    if (count != 4)
+        throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
+    if (!(values[3] > 0.0f))
+        throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text));
     return Hole{glm::vec3(values[0], values[1], values[2]), values[3]};
 }
 
@@ -44,10 +48,13 @@ std::vector<Hole> parseHoles(const std::vector<std::string>& texts) {
 }
 
 void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes) {
-    cmd.add_option("--fill-hole", holes,
-                   "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: the "
-                   "radii of the points around it are enlarged to span it, and they and the points they insert are "
-                   "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 spacings)")
+    cmd.add_option(
+           "--fill-hole", holes,
+           "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: "
+           "the "
+           "radii of the points around it are enlarged to span it, and they and the points they insert are "
+           "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 "
+           "spacings)")
         ->type_name("X,Y,Z,R")
         ->expected(1)
         ->allow_extra_args(false)
@@ -64,26 +71,31 @@ void completeInput(PointSet& points, unsigned threads, const std::string& inputN
     const Result<InputCompletion> done = pnsplat::completeInput(points, threads, replaceRadii);
     if (!done) throw CommandError(inputName + ": " + done.error().message);
     if (const CoincidentRemoval& removed = done->repeats; removed.points > 0)
-        fmt::print(stderr, "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first){}\n",
-                   inputName, removed.points,
-                   removed.withOtherAttributes > 0
-                       ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
-                                     removed.withOtherAttributes)
-                       : "");
+        fmt::print(
+            stderr,
+            "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first){}\n",
+            inputName, removed.points,
+            removed.withOtherAttributes > 0
+                ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
+                              removed.withOtherAttributes)
+                : "");
     if (done->normalComponents > 0)
         fmt::print(stderr,
-                   "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented along a "
+                   "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented "
+                   "along a "
                    "spanning tree ({} connected part(s), each facing +z at its top)\n",
                    inputName, kNormalNearest, done->normalComponents);
 }
 
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
     if (points.size() < 3)
-        throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
+        throw CommandError(
+            fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
     completeInput(points, job.options.threads, inputName, job.estimateRadii);
     RefineRun run;
     run.inputPoints = points.size();
-    if (auto valid = validateForRefinement(points); !valid) throw CommandError(inputName + ": " + valid.error().message);
+    if (auto valid = validateForRefinement(points); !valid)
+        throw CommandError(inputName + ": " + valid.error().message);
     HoleRims rims;
     if (!job.holes.empty()) {
         auto enlarged = enlargeAroundHoles(points, job.holes);
@@ -109,7 +121,8 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
             ++run.holeFillingLevels;
         }
     }
-    for (unsigned level = 1; level <= job.levels && (job.targetPoints == 0 || refiner.points().size() < job.targetPoints);
+    for (unsigned level = 1;
+         level <= job.levels && (job.targetPoints == 0 || refiner.points().size() < job.targetPoints);
          ++level) {
         bar.setLabel(fmt::format("level {}", level));
         const LevelStats stats = refiner.refineLevel(progress);

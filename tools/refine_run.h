@@ -17,11 +17,11 @@ namespace pnsplat::tools {
 
 struct RefineRun {
     PointSet points;
-    std::size_t inputPoints = 0; // refined from: the input's distinct positions (completeInput)
-    unsigned levels = 0;       // levels run, the hole filling's and evening out's included
-    unsigned evenOutLevels = 0; // adaptive levels of evenOut after them (part of `levels`)
-    unsigned holeFillingLevels = 0; // adaptive levels filling the holes before them (part of `levels`)
-    double seconds = 0.0;      // time spent refining (not estimating radii)
+    std::size_t inputPoints = 0;          // refined from: the input's distinct positions (completeInput)
+    unsigned levels = 0;                  // levels run, the hole filling's and evening out's included
+    unsigned evenOutLevels = 0;           // adaptive levels of evenOut after them (part of `levels`)
+    unsigned holeFillingLevels = 0;       // adaptive levels filling the holes before them (part of `levels`)
+    double seconds = 0.0;                 // time spent refining (not estimating radii)
     std::size_t cappedNeighbourhoods = 0; // over all levels (LevelStats), a sign of radii too large
     std::size_t enlargedRadii = 0;        // rim points of the holes to fill (enlargeAroundHole)
     std::size_t maxNeighbours = 0;        // the bound the neighbourhoods were cut to (RefineOptions)
@@ -52,7 +52,8 @@ PointSet readInput(const std::string& path);
 
 // Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
 // positions dropped and for normals estimated; its errors are a CommandError naming `inputName`.
-void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii = false);
+void completeInput(PointSet& points, unsigned threads, const std::string& inputName,
+                   bool replaceRadii = false);
 
 // Completes the input (completeInput, job.estimateRadii), checks it (CommandError naming
 // `inputName`), then runs the job.

@@ -5,7 +5,8 @@
 namespace pnsplat::engine {
 
 Unique<VkDeviceMemory> allocateMemory(Context& context, const VkMemoryRequirements& requirements,
-                                      VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred, std::uint32_t* type) {
+                                      VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred,
+                                      std::uint32_t* type) {
     VkMemoryAllocateInfo alloc{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
     alloc.allocationSize = requirements.size;
     alloc.memoryTypeIndex = context.memoryType(requirements.memoryTypeBits, required, preferred);
@@ -29,12 +30,21 @@ Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usag
 
     VkMemoryRequirements requirements;
     vkGetBufferMemoryRequirements(device, buffer, &requirements);
-    constexpr VkMemoryPropertyFlags kHost = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    constexpr VkMemoryPropertyFlags kHost =
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
     VkMemoryPropertyFlags required = 0, preferred = 0;
     switch (use) {
-    case MemoryUse::Device: required = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT; break;
-    case MemoryUse::Upload: required = kHost; preferred = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT; break;
-    case MemoryUse::Readback: required = kHost; preferred = VK_MEMORY_PROPERTY_HOST_CACHED_BIT; break;
+    case MemoryUse::Device:
+        required = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+        break;
+    case MemoryUse::Upload:
+        required = kHost;
+        preferred = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+        break;
+    case MemoryUse::Readback:
+        required = kHost;
+        preferred = VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+        break;
     }
     std::uint32_t type = 0;
     result.memory = allocateMemory(context, requirements, required, preferred, &type);

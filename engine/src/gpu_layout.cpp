@@ -16,5 +16,4 @@ static_assert(offsetof(FrameUniforms, background) == 128 && offsetof(FrameUnifor
 static_assert(offsetof(FrameUniforms, rayScale) == 160 && offsetof(FrameUniforms, splat) == 176);
 static_assert(offsetof(FrameUniforms, flags) == 192);
 
-
 } // namespace pnsplat::gpu

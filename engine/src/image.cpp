@@ -37,7 +37,8 @@ Result<RgbaImage> readPng(const std::filesystem::path& path) {
     stbi_uc* data = stbi_load(path.c_str(), &width, &height, &channels, 4);
     if (data == nullptr) {
         const char* reason = stbi_failure_reason();
-        return Error{path.string() + ": cannot read the image (" + (reason != nullptr ? reason : "unknown reason") + ")"};
+        return Error{path.string() + ": cannot read the image (" +
+                     (reason != nullptr ? reason : "unknown reason") + ")"};
     }
     RgbaImage image(static_cast<std::uint32_t>(width), static_cast<std::uint32_t>(height));
     std::copy(data, data + image.pixels.size(), image.pixels.begin());
@@ -53,7 +54,8 @@ std::vector<double> blur(const std::vector<double>& in, std::uint32_t w, std::ui
     constexpr int kRadius = 5;
     constexpr double kSigma = 1.5;
     std::array<double, 2 * kRadius + 1> kernel{};
-    for (int k = -kRadius; k <= kRadius; ++k) kernel[k + kRadius] = std::exp(-0.5 * k * k / (kSigma * kSigma));
+    for (int k = -kRadius; k <= kRadius; ++k)
+        kernel[k + kRadius] = std::exp(-0.5 * k * k / (kSigma * kSigma));
     std::vector<double> tmp(in.size()), out(in.size());
     const auto pass = [&](const std::vector<double>& src, std::vector<double>& dst, bool horizontal) {
         for (std::uint32_t y = 0; y < h; ++y)
@@ -63,7 +65,8 @@ std::vector<double> blur(const std::vector<double>& in, std::uint32_t w, std::ui
                     const long sx = horizontal ? long{x} + k : long{x};
                     const long sy = horizontal ? long{y} : long{y} + k;
                     if (sx < 0 || sy < 0 || sx >= long{w} || sy >= long{h}) continue;
-                    sum += kernel[k + kRadius] * src[static_cast<std::size_t>(sy) * w + static_cast<std::size_t>(sx)];
+                    sum += kernel[k + kRadius] *
+                           src[static_cast<std::size_t>(sy) * w + static_cast<std::size_t>(sx)];
                     weight += kernel[k + kRadius];
                 }
                 dst[std::size_t{y} * w + x] = sum / weight;
@@ -77,7 +80,8 @@ std::vector<double> blur(const std::vector<double>& in, std::uint32_t w, std::ui
 glm::u8vec4 heat(int difference) {
     // Black to red over 0..85, red to yellow over 85..170, yellow to white over 170..255.
     const int d = std::clamp(difference * 3, 0, 765);
-    return {static_cast<std::uint8_t>(std::min(d, 255)), static_cast<std::uint8_t>(std::clamp(d - 255, 0, 255)),
+    return {static_cast<std::uint8_t>(std::min(d, 255)),
+            static_cast<std::uint8_t>(std::clamp(d - 255, 0, 255)),
             static_cast<std::uint8_t>(std::clamp(d - 510, 0, 255)), 255};
 }
 
@@ -85,8 +89,8 @@ glm::u8vec4 heat(int difference) {
 
 Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, int pixelThreshold) {
     if (a.width != b.width || a.height != b.height)
-        return Error{"images differ in size: " + std::to_string(a.width) + "x" + std::to_string(a.height) + " and " +
-                     std::to_string(b.width) + "x" + std::to_string(b.height)};
+        return Error{"images differ in size: " + std::to_string(a.width) + "x" + std::to_string(a.height) +
+                     " and " + std::to_string(b.width) + "x" + std::to_string(b.height)};
     const std::size_t count = std::size_t{a.width} * a.height;
     if (count == 0) return Error{"cannot compare empty images"};
 
@@ -113,7 +117,8 @@ Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, in
     }
     const double mse = squared / (3.0 * double(count));
     result.rmse = std::sqrt(mse);
-    result.psnr = mse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : std::numeric_limits<double>::infinity();
+    result.psnr =
+        mse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : std::numeric_limits<double>::infinity();
     result.differingShare = double(differing) / double(count);
 
     // SSIM with the usual constants C1 = (0.01 · 255)², C2 = (0.03 · 255)².
@@ -124,11 +129,13 @@ Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, in
         ab[i] = la[i] * lb[i];
     }
     const auto ma = blur(la, a.width, a.height), mb = blur(lb, a.width, a.height);
-    const auto saa = blur(aa, a.width, a.height), sbb = blur(bb, a.width, a.height), sab = blur(ab, a.width, a.height);
+    const auto saa = blur(aa, a.width, a.height), sbb = blur(bb, a.width, a.height),
+               sab = blur(ab, a.width, a.height);
     constexpr double kC1 = 6.5025, kC2 = 58.5225;
     double sum = 0.0;
     for (std::size_t i = 0; i < count; ++i) {
-        const double varA = saa[i] - ma[i] * ma[i], varB = sbb[i] - mb[i] * mb[i], cov = sab[i] - ma[i] * mb[i];
+        const double varA = saa[i] - ma[i] * ma[i], varB = sbb[i] - mb[i] * mb[i],
+                     cov = sab[i] - ma[i] * mb[i];
         sum += ((2.0 * ma[i] * mb[i] + kC1) * (2.0 * cov + kC2)) /
                ((ma[i] * ma[i] + mb[i] * mb[i] + kC1) * (varA + varB + kC2));
     }

@@ -45,7 +45,8 @@ struct Image {
     Unique<VkImageView> view;
 };
 
-Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageUsageFlags usage,
+                  VkImageAspectFlags aspect) {
     const VkDevice device = context.device();
     Image result;
     VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
@@ -86,11 +87,13 @@ void bufferBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessF
 
 // One subpass, the given attachments; `dependencies` order it after earlier passes and before
 // later readers.
-Unique<VkRenderPass> createRenderPass(VkDevice device, const std::vector<VkAttachmentDescription>& attachments,
+Unique<VkRenderPass> createRenderPass(VkDevice device,
+                                      const std::vector<VkAttachmentDescription>& attachments,
                                       std::uint32_t colourCount, bool depth,
                                       const std::vector<VkSubpassDependency>& dependencies) {
     std::vector<VkAttachmentReference> colours;
-    for (std::uint32_t i = 0; i < colourCount; ++i) colours.push_back({i, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+    for (std::uint32_t i = 0; i < colourCount; ++i)
+        colours.push_back({i, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
     const VkAttachmentReference depthRef{colourCount, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
     VkSubpassDescription subpass{};
     subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
@@ -109,7 +112,8 @@ Unique<VkRenderPass> createRenderPass(VkDevice device, const std::vector<VkAttac
     return {device, pass, vkDestroyRenderPass};
 }
 
-VkAttachmentDescription attachment(VkFormat format, VkAttachmentLoadOp load, VkImageLayout initial, VkImageLayout final) {
+VkAttachmentDescription attachment(VkFormat format, VkAttachmentLoadOp load, VkImageLayout initial,
+                                   VkImageLayout final) {
     VkAttachmentDescription a{};
     a.format = format;
     a.samples = VK_SAMPLE_COUNT_1_BIT;
@@ -172,12 +176,14 @@ struct SplatRenderer::Impl {
     void ensureRangeCapacity(std::size_t nodes);
     void writeDescriptors(const SplatScene& scene);
     void recordCompute(VkCommandBuffer cmd, int pass, bool cleared);
-    void recordGraphics(VkCommandBuffer cmd, int pass, const std::vector<std::array<std::uint32_t, 2>>& draws);
+    void recordGraphics(VkCommandBuffer cmd, int pass,
+                        const std::vector<std::array<std::uint32_t, 2>>& draws);
     RgbaImage render(const SplatScene& scene, const Camera& camera, FrameStats& stats);
 };
 
 void SplatRenderer::Impl::createCommon() {
-    uniforms = createBuffer(context, sizeof(gpu::FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, MemoryUse::Upload);
+    uniforms = createBuffer(context, sizeof(gpu::FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                            MemoryUse::Upload);
     ensureRangeCapacity(1);
     readback = createBuffer(context, pixelCount() * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUse::Readback);
     if (context.properties().limits.timestampComputeAndGraphics) {
@@ -197,7 +203,8 @@ void SplatRenderer::Impl::createCommon() {
     add(0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
     add(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
     if (compute()) {
-        for (std::uint32_t b = 2; b <= 5; ++b) add(b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER); // ranges, depth, accum, output
+        for (std::uint32_t b = 2; b <= 5; ++b)
+            add(b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER); // ranges, depth, accum, output
     } else if (!plain()) {
         add(2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
         add(3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
@@ -217,8 +224,8 @@ void SplatRenderer::Impl::createCommon() {
     pipelineLayout = Unique<VkPipelineLayout>(device, pipelineLayoutHandle, vkDestroyPipelineLayout);
 
     const std::array<VkDescriptorPoolSize, 3> sizes{{{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                                    {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
-                                                    {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}}};
+                                                     {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
+                                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}}};
     VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     poolInfo.maxSets = 1;
     poolInfo.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
@@ -246,7 +253,8 @@ Unique<VkPipeline> SplatRenderer::Impl::computePipeline(VkShaderModule module) {
 }
 
 void SplatRenderer::Impl::createCompute() {
-    constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+    constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                             VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
     depthBits = createBuffer(context, pixelCount() * 4, kStorage, MemoryUse::Device);
     accum = createBuffer(context, pixelCount() * gpu::kAccumStride * 8, kStorage, MemoryUse::Device);
@@ -254,7 +262,8 @@ void SplatRenderer::Impl::createCompute() {
     const auto visibility = shaderModule(device, k_compute_visibility_comp);
     const auto accumulate = shaderModule(device, k_compute_accumulate_comp);
     const auto normalize = shaderModule(device, k_compute_normalize_comp);
-    pipelines = {computePipeline(visibility.get()), computePipeline(accumulate.get()), computePipeline(normalize.get())};
+    pipelines = {computePipeline(visibility.get()), computePipeline(accumulate.get()),
+                 computePipeline(normalize.get())};
 }
 
 Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineDesc& desc) {
@@ -266,8 +275,10 @@ Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineD
     stages[1] = stages[0];
     stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
     stages[1].module = desc.fragment;
-    VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-    VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+    VkPipelineVertexInputStateCreateInfo vertexInput{
+        VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+    VkPipelineInputAssemblyStateCreateInfo assembly{
+        VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
     assembly.topology = desc.topology;
     const VkViewport viewport{0.0f, 0.0f, float(settings.width), float(settings.height), 0.0f, 1.0f};
     const VkRect2D scissor{{0, 0}, extent()};
@@ -281,9 +292,11 @@ Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineD
     raster.cullMode = VK_CULL_MODE_NONE; // back-facing splats are dropped by the vertex shader
     raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
     raster.lineWidth = 1.0f;
-    VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+    VkPipelineMultisampleStateCreateInfo multisample{
+        VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
     multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-    VkPipelineDepthStencilStateCreateInfo depthState{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+    VkPipelineDepthStencilStateCreateInfo depthState{
+        VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
     depthState.depthTestEnable = desc.depthTest;
     depthState.depthWriteEnable = desc.depthWrite;
     depthState.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
@@ -295,7 +308,8 @@ Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineD
     blend.srcAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
     blend.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
     blend.alphaBlendOp = VK_BLEND_OP_ADD;
-    blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
+                           VK_COLOR_COMPONENT_A_BIT;
     const std::vector<VkPipelineColorBlendAttachmentState> blends(desc.colourCount, blend);
     VkPipelineColorBlendStateCreateInfo blendState{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
     blendState.attachmentCount = desc.colourCount;
@@ -319,54 +333,70 @@ Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineD
 }
 
 void SplatRenderer::Impl::createGraphics() {
-    depth = createImage(context, extent(), kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
-    constexpr VkImageUsageFlags kAccumUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+    depth = createImage(context, extent(), kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                        VK_IMAGE_ASPECT_DEPTH_BIT);
+    constexpr VkImageUsageFlags kAccumUsage =
+        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
     accumColour = createImage(context, extent(), kAccumFormat, kAccumUsage, VK_IMAGE_ASPECT_COLOR_BIT);
     accumNormal = createImage(context, extent(), kAccumFormat, kAccumUsage, VK_IMAGE_ASPECT_COLOR_BIT);
     outputImage = createImage(context, extent(), kOutputFormat,
-                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
+                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                              VK_IMAGE_ASPECT_COLOR_BIT);
 
     VkSamplerCreateInfo samplerInfo{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
     samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_NEAREST;
-    samplerInfo.addressModeU = samplerInfo.addressModeV = samplerInfo.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    samplerInfo.addressModeU = samplerInfo.addressModeV = samplerInfo.addressModeW =
+        VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
     VkSampler samplerHandle = VK_NULL_HANDLE;
     PNSPLAT_VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &samplerHandle));
     sampler = Unique<VkSampler>(device, samplerHandle, vkDestroySampler);
 
-    constexpr VkPipelineStageFlags kTests = VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
-    constexpr VkAccessFlags kDepthRW = VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    constexpr VkPipelineStageFlags kTests =
+        VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    constexpr VkAccessFlags kDepthRW =
+        VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
     // Pass 1: depth only.
-    renderPasses[0] = createRenderPass(
-        device,
-        {attachment(kDepthFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL)},
-        0, true, {{VK_SUBPASS_EXTERNAL, 0, kTests, kTests, kDepthRW, kDepthRW, 0}});
+    renderPasses[0] =
+        createRenderPass(device,
+                         {attachment(kDepthFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED,
+                                     VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL)},
+                         0, true, {{VK_SUBPASS_EXTERNAL, 0, kTests, kTests, kDepthRW, kDepthRW, 0}});
     // Pass 2: two float targets, depth read (after pass 1; the targets after the last frame's pass 3).
     renderPasses[1] = createRenderPass(
         device,
-        {attachment(kAccumFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
-         attachment(kAccumFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
-         attachment(kDepthFormat, VK_ATTACHMENT_LOAD_OP_LOAD, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+        {attachment(kAccumFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+         attachment(kAccumFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+         attachment(kDepthFormat, VK_ATTACHMENT_LOAD_OP_LOAD,
+                    VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
                     VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL)},
         2, true,
         {{VK_SUBPASS_EXTERNAL, 0, kTests | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
-          kTests | VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+          kTests | VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+          VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
           kDepthRW | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, 0},
-         {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
-          VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, 0}});
+         {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+          VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+          VK_ACCESS_SHADER_READ_BIT, 0}});
     // Pass 3: the 8-bit output, then copied to the read-back buffer.
-    renderPasses[2] = createRenderPass(
-        device,
-        {attachment(kOutputFormat, VK_ATTACHMENT_LOAD_OP_DONT_CARE, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL)},
-        1, false,
-        {{VK_SUBPASS_EXTERNAL, 0, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
-          VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-          VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, 0},
-         {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-          VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT, 0}});
+    renderPasses[2] =
+        createRenderPass(device,
+                         {attachment(kOutputFormat, VK_ATTACHMENT_LOAD_OP_DONT_CARE,
+                                     VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL)},
+                         1, false,
+                         {{VK_SUBPASS_EXTERNAL, 0,
+                           VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                           VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                           VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, 0},
+                          {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                           VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                           VK_ACCESS_TRANSFER_READ_BIT, 0}});
 
     const std::array<std::vector<VkImageView>, 3> views{
-        {{depth.view.get()}, {accumColour.view.get(), accumNormal.view.get(), depth.view.get()}, {outputImage.view.get()}}};
+        {{depth.view.get()},
+         {accumColour.view.get(), accumNormal.view.get(), depth.view.get()},
+         {outputImage.view.get()}}};
     for (int k = 0; k < 3; ++k) {
         VkFramebufferCreateInfo info{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
         info.renderPass = renderPasses[k].get();
@@ -386,20 +416,27 @@ void SplatRenderer::Impl::createGraphics() {
     const auto fullscreenVert = shaderModule(device, k_fullscreen_vert);
     const auto normalizeFrag = shaderModule(device, k_graphics_normalize_frag);
     constexpr VkPrimitiveTopology kTriangles = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-    pipelines = {graphicsPipeline({kTriangles, splatVert.get(), visibilityFrag.get(), renderPasses[0].get(), 0, true, true, false}),
-                 graphicsPipeline({kTriangles, splatVert.get(), accumulateFrag.get(), renderPasses[1].get(), 2, true, false, true}),
-                 graphicsPipeline({kTriangles, fullscreenVert.get(), normalizeFrag.get(), renderPasses[2].get(), 1, false, false, false})};
+    pipelines = {graphicsPipeline({kTriangles, splatVert.get(), visibilityFrag.get(), renderPasses[0].get(),
+                                   0, true, true, false}),
+                 graphicsPipeline({kTriangles, splatVert.get(), accumulateFrag.get(), renderPasses[1].get(),
+                                   2, true, false, true}),
+                 graphicsPipeline({kTriangles, fullscreenVert.get(), normalizeFrag.get(),
+                                   renderPasses[2].get(), 1, false, false, false})};
 }
 
 void SplatRenderer::Impl::createPlainPoints() {
-    depth = createImage(context, extent(), kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
+    depth = createImage(context, extent(), kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                        VK_IMAGE_ASPECT_DEPTH_BIT);
     outputImage = createImage(context, extent(), kOutputFormat,
-                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
-    constexpr VkPipelineStageFlags kStages = VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT |
+                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                              VK_IMAGE_ASPECT_COLOR_BIT);
+    constexpr VkPipelineStageFlags kStages = VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT |
+                                             VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT |
                                              VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
     renderPasses[0] = createRenderPass(
         device,
-        {attachment(kOutputFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+        {attachment(kOutputFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
          attachment(kDepthFormat, VK_ATTACHMENT_LOAD_OP_CLEAR, VK_IMAGE_LAYOUT_UNDEFINED,
                     VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL)},
         1, true,
@@ -408,8 +445,9 @@ void SplatRenderer::Impl::createPlainPoints() {
           VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
               VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
           0},
-         {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-          VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT, 0}});
+         {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+          VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+          0}});
     const std::array<VkImageView, 2> views{outputImage.view.get(), depth.view.get()};
     VkFramebufferCreateInfo info{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
     info.renderPass = renderPasses[0].get();
@@ -423,7 +461,8 @@ void SplatRenderer::Impl::createPlainPoints() {
     framebuffers[0] = Unique<VkFramebuffer>(device, framebuffer, vkDestroyFramebuffer);
     const auto vert = shaderModule(device, k_plain_point_vert);
     const auto frag = shaderModule(device, k_plain_point_frag);
-    pipelines[0] = graphicsPipeline({VK_PRIMITIVE_TOPOLOGY_POINT_LIST, vert.get(), frag.get(), renderPasses[0].get(), 1, true, true, false});
+    pipelines[0] = graphicsPipeline({VK_PRIMITIVE_TOPOLOGY_POINT_LIST, vert.get(), frag.get(),
+                                     renderPasses[0].get(), 1, true, true, false});
 }
 
 void SplatRenderer::Impl::ensureRangeCapacity(std::size_t nodes) {
@@ -475,7 +514,8 @@ void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass, bool clea
     constexpr VkPipelineStageFlags kCompute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
     if (pass == 0 && !cleared) {
-        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
         vkCmdFillBuffer(cmd, depthBits.buffer.get(), 0, VK_WHOLE_SIZE, gpu::kDepthCleared);
         vkCmdFillBuffer(cmd, accum.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
@@ -484,10 +524,12 @@ void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass, bool clea
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
     }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines[pass].get());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout.get(), 0, 1, &set, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout.get(), 0, 1, &set, 0,
+                            nullptr);
     if (pass < 2) {
         // Work items in rows of at most maxComputeWorkGroupCount[0] groups.
-        const std::uint32_t row = std::min(workItems, context.properties().limits.maxComputeWorkGroupCount[0]);
+        const std::uint32_t row =
+            std::min(workItems, context.properties().limits.maxComputeWorkGroupCount[0]);
         if (workItems > 0) vkCmdDispatch(cmd, row, (workItems + row - 1) / row, 1);
     } else {
         vkCmdDispatch(cmd, (settings.width + 31) / 32, (settings.height + 31) / 32, 1);
@@ -516,7 +558,8 @@ void SplatRenderer::Impl::recordGraphics(VkCommandBuffer cmd, int pass,
     begin.pClearValues = clears.data();
     vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines[pass].get());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout.get(), 0, 1, &set, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout.get(), 0, 1, &set, 0,
+                            nullptr);
     if (plain()) {
         for (const auto& [first, count] : draws) vkCmdDraw(cmd, count, 1, first, 0);
     } else if (pass < 2) {
@@ -550,8 +593,10 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
         if (settings.cullNodes && !frustum.intersects(c, node.bounds.radius + maxRadius)) continue;
         ++stats.nodesVisible;
         stats.splatsDrawn += node.count;
-        if (!draws.empty() && draws.back()[0] + draws.back()[1] == node.first) draws.back()[1] += node.count;
-        else draws.push_back({node.first, node.count});
+        if (!draws.empty() && draws.back()[0] + draws.back()[1] == node.first)
+            draws.back()[1] += node.count;
+        else
+            draws.push_back({node.first, node.count});
     }
     ensureRangeCapacity(scene.nodes().size() + scene.size() / gpu::kLocalSize + 1);
     auto* items = static_cast<std::array<std::uint32_t, 2>*>(ranges.mapped);
@@ -564,7 +609,8 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     frame.view = view;
     frame.projection = projection(camera.fovY, aspect, range);
     frame.background = {settings.background, 1.0f};
-    frame.viewport = {float(settings.width), float(settings.height), 1.0f / float(settings.width), 1.0f / float(settings.height)};
+    frame.viewport = {float(settings.width), float(settings.height), 1.0f / float(settings.width),
+                      1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
     frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, 0.0f};
     frame.flags = {settings.normalize ? 1u : 0u, workItems, 0u, 0u};
@@ -578,12 +624,16 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
         context.submitAndWait([&](VkCommandBuffer cmd) {
             if (timestamps) {
                 vkCmdResetQueryPool(cmd, timestamps.get(), std::uint32_t(2 * pass), 2);
-                vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass));
+                vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps.get(),
+                                    std::uint32_t(2 * pass));
             }
-            if (compute()) recordCompute(cmd, pass, cleared);
-            else recordGraphics(cmd, pass, draws);
+            if (compute())
+                recordCompute(cmd, pass, cleared);
+            else
+                recordGraphics(cmd, pass, draws);
             if (timestamps)
-                vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.get(), std::uint32_t(2 * pass + 1));
+                vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.get(),
+                                    std::uint32_t(2 * pass + 1));
             if (pass + 1 < passCount()) return;
             // Read back the 8-bit result.
             if (compute()) {
@@ -598,8 +648,8 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
                 vkCmdCopyImageToBuffer(cmd, outputImage.image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                                        readback.buffer.get(), 1, &region);
             }
-            bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
-                          VK_ACCESS_HOST_READ_BIT);
+            bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                          VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
         });
     }
     buffersCleared = compute();
@@ -611,10 +661,13 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
         // Only the queries this path wrote: waiting on one never written would never return.
         std::array<std::uint64_t, 6> ticks{};
         const std::uint32_t queries = std::uint32_t(2 * passCount());
-        PNSPLAT_VK_CHECK(vkGetQueryPoolResults(device, timestamps.get(), 0, queries, queries * sizeof(std::uint64_t), ticks.data(),
-                                               sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        PNSPLAT_VK_CHECK(vkGetQueryPoolResults(
+            device, timestamps.get(), 0, queries, queries * sizeof(std::uint64_t), ticks.data(),
+            sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
         const double period = double(context.properties().limits.timestampPeriod) * 1e-6;
-        const auto span = [&](int pass) { return pass < passCount() ? double(ticks[2 * pass + 1] - ticks[2 * pass]) * period : 0.0; };
+        const auto span = [&](int pass) {
+            return pass < passCount() ? double(ticks[2 * pass + 1] - ticks[2 * pass]) * period : 0.0;
+        };
         stats.visibilityMs = span(0); // the whole draw for PlainPoints
         stats.accumulationMs = span(1);
         stats.normalizationMs = span(2);
@@ -622,31 +675,39 @@ RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& cam
     return image;
 }
 
-Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context, const RenderSettings& settings) {
+Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
+                                                             const RenderSettings& settings) {
     const auto& limits = context.properties().limits;
     if (settings.width == 0 || settings.height == 0)
-        return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) + " is empty"};
+        return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
+                     " is empty"};
     if (settings.width > limits.maxImageDimension2D || settings.height > limits.maxImageDimension2D)
         return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
                      " exceeds the device's limit of " + std::to_string(limits.maxImageDimension2D)};
-    if (!(settings.radiusScale > 0.0f) || !std::isfinite(settings.radiusScale) || !(settings.depthOffset >= 0.0f) ||
-        !std::isfinite(settings.depthOffset) || !(settings.sharpness >= 0.0f) || !std::isfinite(settings.sharpness))
-        return Error{"render settings: radius scale must be positive, depth offset and sharpness non-negative"};
+    if (!(settings.radiusScale > 0.0f) || !std::isfinite(settings.radiusScale) ||
+        !(settings.depthOffset >= 0.0f) || !std::isfinite(settings.depthOffset) ||
+        !(settings.sharpness >= 0.0f) || !std::isfinite(settings.sharpness))
+        return Error{
+            "render settings: radius scale must be positive, depth offset and sharpness non-negative"};
     if (settings.path == RenderPath::Compute) {
         if (!context.hasInt64Atomics())
-            return Error{"the compute path needs 64-bit storage buffer atomics, which " + context.deviceName() +
-                         " lacks; use the graphics path"};
+            return Error{"the compute path needs 64-bit storage buffer atomics, which " +
+                         context.deviceName() + " lacks; use the graphics path"};
         const std::size_t accumBytes = std::size_t{settings.width} * settings.height * gpu::kAccumStride * 8;
         if (accumBytes > limits.maxStorageBufferRange)
-            return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
+            return Error{"image size " + std::to_string(settings.width) + "x" +
+                         std::to_string(settings.height) +
                          " is too large for the compute path on this device; use the graphics path"};
     }
     auto impl = std::make_unique<Impl>(context, settings);
     try {
         impl->createCommon();
-        if (impl->compute()) impl->createCompute();
-        else if (impl->plain()) impl->createPlainPoints();
-        else impl->createGraphics();
+        if (impl->compute())
+            impl->createCompute();
+        else if (impl->plain())
+            impl->createPlainPoints();
+        else
+            impl->createGraphics();
     } catch (const VulkanError& e) {
         return Error{std::string("Vulkan: ") + e.what()};
     }
@@ -662,8 +723,9 @@ const RenderSettings& SplatRenderer::settings() const {
 
 Result<RgbaImage> SplatRenderer::render(const SplatScene& scene, const Camera& camera, FrameStats* stats) {
     if (!camera.valid())
-        return Error{"camera: eye and target must differ (by a distance single precision can measure), up must "
-                     "not be parallel to the view direction, and the field of view must lie in (0, 180) degrees"};
+        return Error{
+            "camera: eye and target must differ (by a distance single precision can measure), up must "
+            "not be parallel to the view direction, and the field of view must lie in (0, 180) degrees"};
     FrameStats local;
     try {
         return impl_->render(scene, camera, stats != nullptr ? *stats : local);

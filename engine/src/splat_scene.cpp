@@ -46,7 +46,8 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
     const VkDeviceSize bytes = std::max<std::size_t>(count, 1) * sizeof(gpu::Splat);
     if (bytes > context.properties().limits.maxStorageBufferRange)
         return Error{std::to_string(count) + " splats exceed the device's storage buffer range of " +
-                     std::to_string(context.properties().limits.maxStorageBufferRange / sizeof(gpu::Splat)) + " splats"};
+                     std::to_string(context.properties().limits.maxStorageBufferRange / sizeof(gpu::Splat)) +
+                     " splats"};
 
     SplatScene scene;
     scene.size_ = count;
@@ -56,19 +57,21 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
     if (count > 0) {
         scene.bounds_ = boundingSphere(points.position, order.data(), count);
         const Sphere& bounds = scene.bounds_;
-        if (!std::isfinite(bounds.radius) || !std::isfinite(bounds.centre.x) || !std::isfinite(bounds.centre.y) ||
-            !std::isfinite(bounds.centre.z))
+        if (!std::isfinite(bounds.radius) || !std::isfinite(bounds.centre.x) ||
+            !std::isfinite(bounds.centre.y) || !std::isfinite(bounds.centre.z))
             return Error{"the points spread farther than single precision can measure (their bounding sphere "
                          "overflows); scale the model down"};
         // Morton codes on a 1024³ grid over the bounding cube; ties keep input order.
         const glm::vec3 lo = scene.bounds_.centre - glm::vec3(scene.bounds_.radius);
         const float scale = scene.bounds_.radius > 0.0f ? 1023.0f / (2.0f * scene.bounds_.radius) : 0.0f;
         for (std::size_t i = 0; i < count; ++i) {
-            const glm::vec3 g = glm::clamp((points.position[i] - lo) * scale, glm::vec3(0.0f), glm::vec3(1023.0f));
+            const glm::vec3 g =
+                glm::clamp((points.position[i] - lo) * scale, glm::vec3(0.0f), glm::vec3(1023.0f));
             code[i] = spread(static_cast<std::uint32_t>(g.x)) | spread(static_cast<std::uint32_t>(g.y)) << 1 |
                       spread(static_cast<std::uint32_t>(g.z)) << 2;
         }
-        std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return code[a] < code[b]; });
+        std::stable_sort(order.begin(), order.end(),
+                         [&](std::uint32_t a, std::uint32_t b) { return code[a] < code[b]; });
     }
 
     std::vector<gpu::Splat> splats(std::max<std::size_t>(count, 1), gpu::Splat{});
@@ -88,8 +91,8 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
     std::vector<std::uint32_t> sortedCode(count);
     for (std::size_t k = 0; k < count; ++k) sortedCode[k] = code[order[k]];
     const auto addNode = [&](std::size_t first, std::size_t n) {
-        scene.nodes_.push_back({boundingSphere(points.position, order.data() + first, n), static_cast<std::uint32_t>(first),
-                                static_cast<std::uint32_t>(n)});
+        scene.nodes_.push_back({boundingSphere(points.position, order.data() + first, n),
+                                static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(n)});
     };
     const auto split = [&](const auto& self, std::size_t begin, std::size_t end, int shift) -> void {
         if (end - begin <= gpu::kChunkSize || shift < 0) {
@@ -108,7 +111,8 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
     };
     if (count > 0) split(split, 0, count, 27);
     try {
-        scene.buffer_ = createBuffer(context, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        scene.buffer_ = createBuffer(context, bytes,
+                                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                      MemoryUse::Device);
         upload(context, scene.buffer_, splats.data(), bytes);
     } catch (const VulkanError& e) {

@@ -6,8 +6,9 @@ namespace pnsplat::engine {
 
 const char* resultName(VkResult result) {
     switch (result) {
-#define PNSPLAT_RESULT_CASE(name) \
-    case name: return #name;
+#define PNSPLAT_RESULT_CASE(name)                                                                            \
+    case name:                                                                                               \
+        return #name;
         PNSPLAT_RESULT_CASE(VK_SUCCESS)
         PNSPLAT_RESULT_CASE(VK_NOT_READY)
         PNSPLAT_RESULT_CASE(VK_TIMEOUT)
@@ -29,7 +30,8 @@ const char* resultName(VkResult result) {
         PNSPLAT_RESULT_CASE(VK_ERROR_OUT_OF_DATE_KHR)
         PNSPLAT_RESULT_CASE(VK_SUBOPTIMAL_KHR)
 #undef PNSPLAT_RESULT_CASE
-    default: return "VK_ERROR_UNKNOWN";
+    default:
+        return "VK_ERROR_UNKNOWN";
     }
 }
 

@@ -13,7 +13,7 @@ constexpr std::uint32_t kLeafSize = 8;
 // Bounds are rounded up so that the float test |c - p_i|² <= (radius + bound_i)² in query() can
 // never exclude a descendant the bound covers in exact arithmetic.
 constexpr float kBoundRoundUp = 1.0f + 1.0f / (1u << 18);
-}
+} // namespace
 
 PointHierarchy::PointHierarchy(std::span<const glm::vec3> roots) {
     const auto count = static_cast<std::uint32_t>(roots.size());
@@ -29,7 +29,8 @@ PointHierarchy::PointHierarchy(std::span<const glm::vec3> roots) {
     }
 }
 
-std::uint32_t PointHierarchy::build(std::uint32_t begin, std::uint32_t end, std::span<const glm::vec3> roots) {
+std::uint32_t PointHierarchy::build(std::uint32_t begin, std::uint32_t end,
+                                    std::span<const glm::vec3> roots) {
     const auto index = static_cast<std::uint32_t>(nodes_.size());
     nodes_.push_back(Node{glm::vec3(0.0f), glm::vec3(0.0f), begin, end, 0});
     if (end - begin <= kLeafSize) return index;
@@ -74,7 +75,8 @@ void PointHierarchy::updateBounds(std::span<const glm::vec3> positions) {
         float bound = 0.0f;
         for (std::uint32_t l = levelOf(i); l < lastLevel; ++l) {
             for (std::uint32_t c = children_[l][i]; c < children_[l][i + 1]; ++c)
-                bound = std::max(bound, (glm::length(positions[c] - positions[i]) + bounds_[c]) * kBoundRoundUp);
+                bound =
+                    std::max(bound, (glm::length(positions[c] - positions[i]) + bounds_[c]) * kBoundRoundUp);
         }
         bounds_[i] = bound;
     }

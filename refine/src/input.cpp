@@ -14,7 +14,8 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, bool r
     const std::size_t given = points.size();
     done.repeats = removeCoincident(points);
     if (points.size() < 3)
-        return Error{fmt::format("{} points but {} distinct position(s); at least 3 are needed", given, points.size())};
+        return Error{fmt::format("{} points but {} distinct position(s); at least 3 are needed", given,
+                                 points.size())};
     if (!points.hasNormal()) {
         const Result<NormalEstimate> estimate = estimateNormals(points, threads);
         if (!estimate) return estimate.error();
@@ -25,9 +26,10 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, bool r
     done.radiiEstimated = true;
     for (std::size_t i = 0; i < points.size(); ++i)
         if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
-            return Error{fmt::format("no radius can be estimated for point {}: it has no neighbour but points along its "
-                                     "normal, or its distances overflow single precision",
-                                     i)};
+            return Error{fmt::format(
+                "no radius can be estimated for point {}: it has no neighbour but points along its "
+                "normal, or its distances overflow single precision",
+                i)};
     return done;
 }
 

@@ -20,7 +20,6 @@ TangentFrame::TangentFrame(glm::vec3 normal) : n(normal) {
     v = glm::vec3(b, sign + n.y * n.y * a, -n.y);
 }
 
-
 void NeighbourSet::clear() {
     index.clear();
     position.clear();
@@ -117,8 +116,12 @@ struct FilterArrays {
 };
 
 // n rounded up to whole SIMD lanes: the length of the filter's arrays.
-std::size_t paddedToLanes(std::size_t n) { return (n + kLanes - 1) / kLanes * kLanes; }
-void zeroPadding(float* array, std::size_t count) { std::fill(array + count, array + paddedToLanes(count), 0.0f); }
+std::size_t paddedToLanes(std::size_t n) {
+    return (n + kLanes - 1) / kLanes * kLanes;
+}
+void zeroPadding(float* array, std::size_t count) {
+    std::fill(array + count, array + paddedToLanes(count), 0.0f);
+}
 
 // Whether entry i survives: w_i = max_{j ∈ Succ_i} w_ij + max_{j ∈ Pred_i} w_ij <= 1, w_ij from
 // fuzzyBadness. Succ_i: the j whose signed angle ∠(q_i, p, q_j) lies in (0, π), Pred_i: those in
@@ -136,8 +139,9 @@ constexpr std::size_t kBlock = 8 * kLanes;
 // cross = q_i × q_j and ahead = q_i · q_j. Adds w_ij to i's running maxima over Succ_i and Pred_i.
 // Always inlined: called out of line from the loops of both filters, they ran 19 % slower (pinned
 // A/B on `pnsplat bench refine`'s sphere, faster variants).
-[[gnu::always_inline]] inline void addPair(float bx, float by, float bz, float djx, float djy, float djz, float cross, float ahead,
-                    float sinThetaF, float inverseSin, float& worstSucc, float& worstPred) {
+[[gnu::always_inline]] inline void addPair(float bx, float by, float bz, float djx, float djy, float djz,
+                                           float cross, float ahead, float sinThetaF, float inverseSin,
+                                           float& worstSucc, float& worstPred) {
     const float length2 = bx * bx + by * by + bz * bz;
     const float length = std::sqrt(length2 > 1e-30f ? length2 : 1e-30f);
     const float sinIJ = (djx * bx + djy * by + djz * bz) / length; // p_i behind p_j
@@ -205,12 +209,14 @@ PNSPLAT_AVX2_CLONE std::size_t survivorsOfSmallSet(const FilterArrays& a, std::s
     for (std::size_t lanes = 0; lanes < count; lanes += kLanes) {
         float worstSucc[kLanes] = {}, worstPred[kLanes] = {};
         for (std::size_t j = 0; j < count; ++j) {
-            const float pjx = a.px[j], pjy = a.py[j], pjz = a.pz[j], djx = a.dx[j], djy = a.dy[j], djz = a.dz[j];
+            const float pjx = a.px[j], pjy = a.py[j], pjz = a.pz[j], djx = a.dx[j], djy = a.dy[j],
+                        djz = a.dz[j];
             const float suj = a.su[j], svj = a.sv[j];
             for (std::size_t l = 0; l < kLanes; ++l) {
                 const std::size_t i = lanes + l;
-                addPair(a.px[i] - pjx, a.py[i] - pjy, a.pz[i] - pjz, djx, djy, djz, a.su[i] * svj - a.sv[i] * suj,
-                        a.su[i] * suj + a.sv[i] * svj, sinThetaF, inverseSin, worstSucc[l], worstPred[l]);
+                addPair(a.px[i] - pjx, a.py[i] - pjy, a.pz[i] - pjz, djx, djy, djz,
+                        a.su[i] * svj - a.sv[i] * suj, a.su[i] * suj + a.sv[i] * svj, sinThetaF, inverseSin,
+                        worstSucc[l], worstPred[l]);
             }
         }
         for (std::size_t l = 0; l < kLanes && lanes + l < count; ++l) {
@@ -244,14 +250,21 @@ FilterArrays sortedByDistance(glm::vec3 p, const FilterArrays& arrays, const Nei
     const std::size_t padded = paddedToLanes(count);
     std::vector<float>& sorted = scratch.byDistanceArrays;
     if (sorted.size() < 8 * padded) sorted.resize(8 * padded);
-    const float* from[8] = {arrays.px, arrays.py, arrays.pz, arrays.dx, arrays.dy, arrays.dz, arrays.su, arrays.sv};
+    const float* from[8] = {arrays.px, arrays.py, arrays.pz, arrays.dx,
+                            arrays.dy, arrays.dz, arrays.su, arrays.sv};
     for (std::size_t a = 0; a < 8; ++a)
         for (std::size_t k = 0; k < count; ++k) sorted[a * padded + k] = from[a][byDistance[k]];
     float* base = sorted.data();
     zeroPadding(base + 6 * padded, count); // su
     zeroPadding(base + 7 * padded, count); // sv
-    return FilterArrays{base, base + padded, base + 2 * padded, base + 3 * padded,
-                        base + 4 * padded, base + 5 * padded, base + 6 * padded, base + 7 * padded};
+    return FilterArrays{base,
+                        base + padded,
+                        base + 2 * padded,
+                        base + 3 * padded,
+                        base + 4 * padded,
+                        base + 5 * padded,
+                        base + 6 * padded,
+                        base + 7 * padded};
 }
 
 } // namespace
@@ -286,9 +299,10 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
             // plane, G = 2/3 |p p_i| + |b_{p,i} - b_{i,p}| (or |p p_i| for variant 1).
             const glm::vec3 tangent = d - glm::dot(d, n) * n;
             const float tangentLength = glm::length(tangent);
-            const float g = params.euclideanGeodesic
-                                ? glm::length(d)
-                                : controlPolygonLength(p, set.position[k], set.nearControl[k], set.farControl[k]);
+            const float g =
+                params.euclideanGeodesic
+                    ? glm::length(d)
+                    : controlPolygonLength(p, set.position[k], set.nearControl[k], set.farControl[k]);
             if (tangentLength > 0.0f) y = p + tangent * (g / tangentLength);
         }
         const glm::vec3 direction = glm::normalize(y - p);

@@ -48,29 +48,33 @@ enum class ScalarType : std::uint8_t { Int8, UInt8, Int16, UInt16, Int32, UInt32
 std::size_t sizeOf(ScalarType type) {
     switch (type) {
     case ScalarType::Int8:
-    case ScalarType::UInt8: return 1;
+    case ScalarType::UInt8:
+        return 1;
     case ScalarType::Int16:
-    case ScalarType::UInt16: return 2;
+    case ScalarType::UInt16:
+        return 2;
     case ScalarType::Int32:
     case ScalarType::UInt32:
-    case ScalarType::Float32: return 4;
-    case ScalarType::Float64: return 8;
+    case ScalarType::Float32:
+        return 4;
+    case ScalarType::Float64:
+        return 8;
     }
     return 1;
 }
 
-bool isFloating(ScalarType type) { return type == ScalarType::Float32 || type == ScalarType::Float64; }
+bool isFloating(ScalarType type) {
+    return type == ScalarType::Float32 || type == ScalarType::Float64;
+}
 
 std::optional<ScalarType> parseScalarType(std::string_view name) {
     static constexpr std::pair<std::string_view, ScalarType> kNames[] = {
-        {"char", ScalarType::Int8},      {"int8", ScalarType::Int8},
-        {"uchar", ScalarType::UInt8},    {"uint8", ScalarType::UInt8},
-        {"short", ScalarType::Int16},    {"int16", ScalarType::Int16},
-        {"ushort", ScalarType::UInt16},  {"uint16", ScalarType::UInt16},
-        {"int", ScalarType::Int32},      {"int32", ScalarType::Int32},
-        {"uint", ScalarType::UInt32},    {"uint32", ScalarType::UInt32},
-        {"float", ScalarType::Float32},  {"float32", ScalarType::Float32},
-        {"double", ScalarType::Float64}, {"float64", ScalarType::Float64},
+        {"char", ScalarType::Int8},       {"int8", ScalarType::Int8},       {"uchar", ScalarType::UInt8},
+        {"uint8", ScalarType::UInt8},     {"short", ScalarType::Int16},     {"int16", ScalarType::Int16},
+        {"ushort", ScalarType::UInt16},   {"uint16", ScalarType::UInt16},   {"int", ScalarType::Int32},
+        {"int32", ScalarType::Int32},     {"uint", ScalarType::UInt32},     {"uint32", ScalarType::UInt32},
+        {"float", ScalarType::Float32},   {"float32", ScalarType::Float32}, {"double", ScalarType::Float64},
+        {"float64", ScalarType::Float64},
     };
     for (const auto& [spelling, type] : kNames)
         if (spelling == name) return type;
@@ -112,7 +116,23 @@ struct Header {
 // second normal and an optional `crease` flag (0 an ordinary point, whose n2 repeats n; 1 a crease
 // point; 2 a corner, given as the crease of its two largest sectors). Without the flag a point is
 // ordinary when n2 is zero or equal to n.
-enum Slot : int { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kRadius, kNx2, kNy2, kNz2, kCreaseFlag, kSlotCount };
+enum Slot : int {
+    kX,
+    kY,
+    kZ,
+    kNx,
+    kNy,
+    kNz,
+    kRed,
+    kGreen,
+    kBlue,
+    kRadius,
+    kNx2,
+    kNy2,
+    kNz2,
+    kCreaseFlag,
+    kSlotCount
+};
 constexpr std::array<std::string_view, kSlotCount> kSlotNames = {
     "x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "radius", "nx2", "ny2", "nz2", "crease"};
 
@@ -170,8 +190,8 @@ Result<Header> parseHeader(std::string_view data, std::string_view file) {
         if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
         const auto words = splitWords(line);
         const auto bad = [&](std::string_view what) {
-            return fail(file, fmt::format("malformed header line {}: {} ('{}')", lineNumber, what,
-                                          printable(line)));
+            return fail(
+                file, fmt::format("malformed header line {}: {} ('{}')", lineNumber, what, printable(line)));
         };
         if (lineNumber == 1) {
             if (words.size() != 1 || words[0] != "ply") return bad("expected 'ply'");
@@ -187,10 +207,14 @@ Result<Header> parseHeader(std::string_view data, std::string_view file) {
         if (keyword == "format") {
             if (haveFormat) return bad("second format line");
             if (words.size() != 3) return bad("expected 'format <type> 1.0'");
-            if (words[1] == "ascii") header.encoding = Encoding::Ascii;
-            else if (words[1] == "binary_little_endian") header.encoding = Encoding::BinaryLittleEndian;
-            else if (words[1] == "binary_big_endian") header.encoding = Encoding::BinaryBigEndian;
-            else return bad("unknown format");
+            if (words[1] == "ascii")
+                header.encoding = Encoding::Ascii;
+            else if (words[1] == "binary_little_endian")
+                header.encoding = Encoding::BinaryLittleEndian;
+            else if (words[1] == "binary_big_endian")
+                header.encoding = Encoding::BinaryBigEndian;
+            else
+                return bad("unknown format");
             if (words[2] != "1.0") return bad("unsupported format version");
             haveFormat = true;
         } else if (keyword == "element") {
@@ -262,13 +286,14 @@ Result<VertexLayout> vertexLayout(const Element& vertex, const PlyReadOptions& o
     const bool normalsOptional = options.readFaces || !options.requireNormals;
     if (!layout.hasNormal && !(normalsOptional && !has(kNx) && !has(kNy) && !has(kNz))) {
         for (int s : {kNx, kNy, kNz})
-            if (!has(s))
-                return fail(file, fmt::format("vertex element has no '{}' property", kSlotNames[s]));
+            if (!has(s)) return fail(file, fmt::format("vertex element has no '{}' property", kSlotNames[s]));
     }
     layout.hasColour = has(kRed) && has(kGreen) && has(kBlue);
     layout.hasRadius = has(kRadius);
     layout.hasCrease = layout.hasNormal && has(kNx2) && has(kNy2) && has(kNz2);
-    if (!layout.hasCrease) layout.property[kNx2] = layout.property[kNy2] = layout.property[kNz2] = layout.property[kCreaseFlag] = -1;
+    if (!layout.hasCrease)
+        layout.property[kNx2] = layout.property[kNy2] = layout.property[kNz2] = layout.property[kCreaseFlag] =
+            -1;
     if (!layout.hasNormal) layout.property[kNx] = layout.property[kNy] = layout.property[kNz] = -1;
     if (!layout.hasColour) layout.property[kRed] = layout.property[kGreen] = layout.property[kBlue] = -1;
     return layout;
@@ -281,7 +306,8 @@ std::uint8_t toColourByte(double value, ScalarType type) {
 
 // Whether three values stay finite as floats.
 bool finiteFloats(double x, double y, double z) {
-    return std::isfinite(static_cast<float>(x)) && std::isfinite(static_cast<float>(y)) && std::isfinite(static_cast<float>(z));
+    return std::isfinite(static_cast<float>(x)) && std::isfinite(static_cast<float>(y)) &&
+           std::isfinite(static_cast<float>(z));
 }
 
 // A normal as stored: values within kUnitTolerance of unit length are kept bit for bit, others
@@ -292,7 +318,8 @@ std::optional<glm::vec3> unitDirection(double x, double y, double z) {
     const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
     if (!(length >= kMinNormalLength)) return std::nullopt;
     if (std::abs(length - 1.0) <= kUnitTolerance) return n;
-    return glm::vec3(static_cast<float>(nx / length), static_cast<float>(ny / length), static_cast<float>(nz / length));
+    return glm::vec3(static_cast<float>(nx / length), static_cast<float>(ny / length),
+                     static_cast<float>(nz / length));
 }
 
 // Stores row `i` (values by slot) into `points`; returns the problem, or nullptr when valid.
@@ -385,9 +412,12 @@ int faceListIndex(const Element& face) {
 
 template <typename T>
 T byteSwap(T value) {
-    if constexpr (sizeof(T) == 2) return static_cast<T>(__builtin_bswap16(value));
-    else if constexpr (sizeof(T) == 4) return __builtin_bswap32(value);
-    else return __builtin_bswap64(value);
+    if constexpr (sizeof(T) == 2)
+        return static_cast<T>(__builtin_bswap16(value));
+    else if constexpr (sizeof(T) == 4)
+        return __builtin_bswap32(value);
+    else
+        return __builtin_bswap64(value);
 }
 
 template <bool kSwap, typename Bits>
@@ -401,14 +431,22 @@ Bits loadBits(const unsigned char* p) {
 template <bool kSwap>
 double loadScalar(const unsigned char* p, ScalarType type) {
     switch (type) {
-    case ScalarType::Int8: return static_cast<std::int8_t>(p[0]);
-    case ScalarType::UInt8: return p[0];
-    case ScalarType::Int16: return static_cast<std::int16_t>(loadBits<kSwap, std::uint16_t>(p));
-    case ScalarType::UInt16: return loadBits<kSwap, std::uint16_t>(p);
-    case ScalarType::Int32: return static_cast<std::int32_t>(loadBits<kSwap, std::uint32_t>(p));
-    case ScalarType::UInt32: return loadBits<kSwap, std::uint32_t>(p);
-    case ScalarType::Float32: return std::bit_cast<float>(loadBits<kSwap, std::uint32_t>(p));
-    case ScalarType::Float64: return std::bit_cast<double>(loadBits<kSwap, std::uint64_t>(p));
+    case ScalarType::Int8:
+        return static_cast<std::int8_t>(p[0]);
+    case ScalarType::UInt8:
+        return p[0];
+    case ScalarType::Int16:
+        return static_cast<std::int16_t>(loadBits<kSwap, std::uint16_t>(p));
+    case ScalarType::UInt16:
+        return loadBits<kSwap, std::uint16_t>(p);
+    case ScalarType::Int32:
+        return static_cast<std::int32_t>(loadBits<kSwap, std::uint32_t>(p));
+    case ScalarType::UInt32:
+        return loadBits<kSwap, std::uint32_t>(p);
+    case ScalarType::Float32:
+        return std::bit_cast<float>(loadBits<kSwap, std::uint32_t>(p));
+    case ScalarType::Float64:
+        return std::bit_cast<double>(loadBits<kSwap, std::uint64_t>(p));
     }
     return 0.0;
 }
@@ -420,7 +458,7 @@ struct Field {
 };
 
 class BinaryReader {
-public:
+  public:
     BinaryReader(std::string_view body, std::string_view file, const PlyReadOptions& options)
         : data_(reinterpret_cast<const unsigned char*>(body.data())), size_(body.size()), file_(file),
           options_(options) {}
@@ -438,7 +476,7 @@ public:
         return {};
     }
 
-private:
+  private:
     std::size_t remaining() const { return size_ - pos_; }
 
     Error truncated(const Element& element, std::uint64_t row) const {
@@ -488,8 +526,9 @@ private:
         for (const Property& p : element.properties) minRow += sizeOf(p.isList ? p.countType : p.type);
         const std::uint64_t available = remaining() / minRow;
         if (element.count > available)
-            return fail(file_, fmt::format("truncated binary data ({} element of {} rows, room for at most {})",
-                                           printable(element.name), element.count, available));
+            return fail(file_,
+                        fmt::format("truncated binary data ({} element of {} rows, room for at most {})",
+                                    printable(element.name), element.count, available));
         const auto count = static_cast<std::size_t>(element.count);
         const int faceList = isFace ? faceListIndex(element) : -1;
         if (isFace && faceList < 0) return fail(file_, "face element has no vertex_indices list");
@@ -510,7 +549,8 @@ private:
                 const double n = loadScalar<kSwap>(data_ + pos_, property.countType);
                 pos_ += countSize;
                 if (n < 0.0)
-                    return fail(file_, fmt::format("negative list length ({} {})", printable(element.name), i));
+                    return fail(file_,
+                                fmt::format("negative list length ({} {})", printable(element.name), i));
                 const auto length = static_cast<std::size_t>(n);
                 const std::size_t itemSize = sizeOf(property.type);
                 if (length > remaining() / itemSize) return truncated(element, i);
@@ -542,10 +582,11 @@ private:
 // Ascii body
 
 class AsciiReader {
-public:
+  public:
     AsciiReader(std::string_view body, std::string_view file, const PlyReadOptions& options,
                 std::uint64_t firstLine)
-        : p_(body.data()), end_(body.data() + body.size()), file_(file), options_(options), line_(firstLine) {}
+        : p_(body.data()), end_(body.data() + body.size()), file_(file), options_(options), line_(firstLine) {
+    }
 
     Result<void> read(const Header& header, const VertexLayout& layout, PlyData& out) {
         for (const Element& element : header.elements) {
@@ -555,8 +596,10 @@ public:
         return {};
     }
 
-private:
-    static bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+  private:
+    static bool isSpace(char c) {
+        return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
+    }
 
     std::size_t remaining() const { return static_cast<std::size_t>(end_ - p_); }
 
@@ -592,12 +635,24 @@ private:
         std::int64_t lo = 0;
         std::int64_t hi = 0;
         switch (type) {
-        case ScalarType::Int8: lo = INT8_MIN, hi = INT8_MAX; break;
-        case ScalarType::UInt8: hi = UINT8_MAX; break;
-        case ScalarType::Int16: lo = INT16_MIN, hi = INT16_MAX; break;
-        case ScalarType::UInt16: hi = UINT16_MAX; break;
-        case ScalarType::Int32: lo = INT32_MIN, hi = INT32_MAX; break;
-        default: hi = UINT32_MAX; break;
+        case ScalarType::Int8:
+            lo = INT8_MIN, hi = INT8_MAX;
+            break;
+        case ScalarType::UInt8:
+            hi = UINT8_MAX;
+            break;
+        case ScalarType::Int16:
+            lo = INT16_MIN, hi = INT16_MAX;
+            break;
+        case ScalarType::UInt16:
+            hi = UINT16_MAX;
+            break;
+        case ScalarType::Int32:
+            lo = INT32_MIN, hi = INT32_MAX;
+            break;
+        default:
+            hi = UINT32_MAX;
+            break;
         }
         if (i < lo || i > hi) return false;
         value = static_cast<double>(i);
@@ -625,8 +680,9 @@ private:
         // n values need at least 2n - 1 characters: bound the count before allocating.
         const std::uint64_t available = (remaining() / 2 + 1) / element.properties.size();
         if (element.count > available)
-            return fail(file_, fmt::format("truncated ascii data ({} element of {} rows, room for at most {})",
-                                           printable(element.name), element.count, available));
+            return fail(file_,
+                        fmt::format("truncated ascii data ({} element of {} rows, room for at most {})",
+                                    printable(element.name), element.count, available));
         const auto count = static_cast<std::size_t>(element.count);
         const int faceList = isFace ? faceListIndex(element) : -1;
         if (isFace && faceList < 0) return fail(file_, "face element has no vertex_indices list");
@@ -637,7 +693,8 @@ private:
             for (std::size_t p = 0; p < element.properties.size(); ++p) {
                 const Property& property = element.properties[p];
                 if (!property.isList) {
-                    Result<void> r = readValue(element, i, property.type, slotOf[p] >= 0 ? values[slotOf[p]] : scratch);
+                    Result<void> r =
+                        readValue(element, i, property.type, slotOf[p] >= 0 ? values[slotOf[p]] : scratch);
                     if (!r) return r;
                     continue;
                 }
@@ -677,7 +734,9 @@ private:
 // ---------------------------------------------------------------------------------------------
 // Files
 
-std::string errnoMessage(int error) { return std::generic_category().message(error); }
+std::string errnoMessage(int error) {
+    return std::generic_category().message(error);
+}
 
 struct FileCloser {
     void operator()(std::FILE* f) const { std::fclose(f); }
@@ -728,12 +787,14 @@ Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options
     switch (header->encoding) {
     case Encoding::Ascii: {
         const auto headerLines = std::count(bytes.begin(), bytes.begin() + header->bodyOffset, '\n');
-        read = AsciiReader(body, file, options, static_cast<std::uint64_t>(headerLines) + 1).read(*header, *layout, out);
+        read = AsciiReader(body, file, options, static_cast<std::uint64_t>(headerLines) + 1)
+                   .read(*header, *layout, out);
         break;
     }
     case Encoding::BinaryLittleEndian:
     case Encoding::BinaryBigEndian: {
-        const bool swap = (header->encoding == Encoding::BinaryBigEndian) == (std::endian::native == std::endian::little);
+        const bool swap =
+            (header->encoding == Encoding::BinaryBigEndian) == (std::endian::native == std::endian::little);
         BinaryReader reader(body, file, options);
         read = swap ? reader.read<true>(*header, *layout, out) : reader.read<false>(*header, *layout, out);
         break;
@@ -754,11 +815,14 @@ Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options
 // Writing
 
 std::string plyHeader(const PointSet& points, PlyFormat format) {
-    std::string header = fmt::format("ply\nformat {} 1.0\ncomment written by pnsplat\nelement vertex {}\n",
-                                     format == PlyFormat::Ascii ? "ascii" : "binary_little_endian", points.size());
-    for (const char* name : {"x", "y", "z", "nx", "ny", "nz"}) header += fmt::format("property float {}\n", name);
+    std::string header =
+        fmt::format("ply\nformat {} 1.0\ncomment written by pnsplat\nelement vertex {}\n",
+                    format == PlyFormat::Ascii ? "ascii" : "binary_little_endian", points.size());
+    for (const char* name : {"x", "y", "z", "nx", "ny", "nz"})
+        header += fmt::format("property float {}\n", name);
     if (points.hasRadius()) header += "property float radius\n";
-    if (points.hasCrease()) header += "property float nx2\nproperty float ny2\nproperty float nz2\nproperty uchar crease\n";
+    if (points.hasCrease())
+        header += "property float nx2\nproperty float ny2\nproperty float nz2\nproperty uchar crease\n";
     if (points.hasColour()) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     header += "end_header\n";
     return header;
@@ -787,7 +851,8 @@ void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyForma
     if (points.hasRadius()) values[floats++] = points.radius[i];
     const bool crease = points.isCrease(i);
     if (points.hasCrease())
-        for (int k = 0; k < 3; ++k) values[floats++] = crease ? points.crease[i][k] : n[k]; // n2 = n: ordinary
+        for (int k = 0; k < 3; ++k)
+            values[floats++] = crease ? points.crease[i][k] : n[k]; // n2 = n: ordinary
     // The bytes after the floats: the crease flag, then the colour.
     std::uint8_t bytes[4];
     int byteCount = 0;
@@ -799,13 +864,15 @@ void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyForma
         out.append(reinterpret_cast<const char*>(bytes), static_cast<std::size_t>(byteCount));
         return;
     }
-    for (int k = 0; k < floats; ++k) appendFloatAscii(out, values[k], (k + 1 < floats || byteCount > 0) ? ' ' : '\n');
-    for (int k = 0; k < byteCount; ++k) fmt::format_to(std::back_inserter(out), "{}{}", bytes[k], k + 1 < byteCount ? ' ' : '\n');
+    for (int k = 0; k < floats; ++k)
+        appendFloatAscii(out, values[k], (k + 1 < floats || byteCount > 0) ? ' ' : '\n');
+    for (int k = 0; k < byteCount; ++k)
+        fmt::format_to(std::back_inserter(out), "{}{}", bytes[k], k + 1 < byteCount ? ' ' : '\n');
 }
 
 // A temporary file that is removed unless committed.
 class TempFile {
-public:
+  public:
     explicit TempFile(fs::path path) : path_(std::move(path)) {}
     TempFile(const TempFile&) = delete;
     TempFile& operator=(const TempFile&) = delete;
@@ -821,7 +888,9 @@ public:
         file_ = std::fopen(path_.c_str(), "wb");
         return file_ != nullptr;
     }
-    bool write(std::string_view bytes) { return std::fwrite(bytes.data(), 1, bytes.size(), file_) == bytes.size(); }
+    bool write(std::string_view bytes) {
+        return std::fwrite(bytes.data(), 1, bytes.size(), file_) == bytes.size();
+    }
     // Flushes, syncs and closes; false on any error.
     bool close() {
         int error = 0;
@@ -835,7 +904,7 @@ public:
     void commit() { committed_ = true; }
     const fs::path& path() const { return path_; }
 
-private:
+  private:
     fs::path path_;
     std::FILE* file_ = nullptr;
     bool committed_ = false;
@@ -843,7 +912,8 @@ private:
 
 std::atomic<unsigned> tempCounter{0};
 
-Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyFormat format, std::string_view file) {
+Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyFormat format,
+                          std::string_view file) {
     assert(points.normal.size() == points.size());
     assert(!points.hasRadius() || points.radius.size() == points.size());
     assert(!points.hasColour() || points.colour.size() == points.size());
@@ -853,7 +923,8 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
     tempPath += fmt::format(".tmp-{}-{}", ::getpid(), tempCounter.fetch_add(1));
     TempFile temp(tempPath);
     errno = 0;
-    if (!temp.open()) return fail(file, fmt::format("cannot create a temporary file beside it: {}", errnoMessage(errno)));
+    if (!temp.open())
+        return fail(file, fmt::format("cannot create a temporary file beside it: {}", errnoMessage(errno)));
 
     std::string buffer = plyHeader(points, format);
     buffer.reserve(kWriteChunkBytes + 256);

@@ -50,7 +50,9 @@ struct PositionsAdaptor {
         return positions[i][static_cast<glm::length_t>(dim)];
     }
     template <typename Box>
-    bool kdtree_get_bbox(Box&) const { return false; }
+    bool kdtree_get_bbox(Box&) const {
+        return false;
+    }
 };
 
 using PointTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PositionsAdaptor>,
@@ -88,7 +90,9 @@ glm::vec3 closestOnSegment(glm::vec3 p, glm::vec3 a, glm::vec3 b, float& t) {
     return a + t * ab;
 }
 
-float length2(glm::vec3 v) { return glm::dot(v, v); }
+float length2(glm::vec3 v) {
+    return glm::dot(v, v);
+}
 
 // Angle in degrees between two directions (need not be unit): atan2(|a x b|, a . b), accurate
 // for small angles, where acos is not.
@@ -143,17 +147,29 @@ HugePageVector<glm::vec3> areaWeightedNormals(std::span<const glm::vec3> positio
 
 // ---- JSON ----
 
-std::string jsonNumber(double v) { return std::isfinite(v) ? fmt::format("{}", v) : std::string("null"); }
+std::string jsonNumber(double v) {
+    return std::isfinite(v) ? fmt::format("{}", v) : std::string("null");
+}
 
 std::string jsonString(std::string_view s) {
     std::string out = "\"";
     for (const char ch : s) {
         switch (ch) {
-        case '"': out += "\\\""; break;
-        case '\\': out += "\\\\"; break;
-        case '\n': out += "\\n"; break;
-        case '\r': out += "\\r"; break;
-        case '\t': out += "\\t"; break;
+        case '"':
+            out += "\\\"";
+            break;
+        case '\\':
+            out += "\\\\";
+            break;
+        case '\n':
+            out += "\\n";
+            break;
+        case '\r':
+            out += "\\r";
+            break;
+        case '\t':
+            out += "\\t";
+            break;
         default:
             if (static_cast<unsigned char>(ch) < 0x20)
                 out += fmt::format("\\u{:04x}", static_cast<unsigned>(static_cast<unsigned char>(ch)));
@@ -293,11 +309,13 @@ TriangleMeshIndex::TriangleMeshIndex(std::span<const glm::vec3> positions,
             nodes.push_back({bounds.lo, bounds.hi, first, count});
             if (count <= kLeafSize) return;
             const glm::vec3 extent = centres.hi - centres.lo;
-            const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+            const int axis =
+                extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
             const std::uint32_t half = count / 2;
             auto begin = order.begin() + first;
             std::nth_element(begin, begin + half, begin + count, [&](std::uint32_t a, std::uint32_t b) {
-                return centroids[a][axis] < centroids[b][axis] || (centroids[a][axis] == centroids[b][axis] && a < b);
+                return centroids[a][axis] < centroids[b][axis] ||
+                       (centroids[a][axis] == centroids[b][axis] && a < b);
             });
             nodes[self].count = 0;
             build(first, half);
@@ -369,8 +387,8 @@ Result<Reference> meshReference(PointSet vertices, std::vector<glm::u32vec3> tri
     for (std::size_t i = 0; i < triangles.size(); ++i) {
         const glm::u32vec3 t = triangles[i];
         if (t.x >= n || t.y >= n || t.z >= n)
-            return Error{fmt::format("reference {}: face {} uses vertex {} but there are only {} vertices", name, i,
-                                     std::max({t.x, t.y, t.z}), n)};
+            return Error{fmt::format("reference {}: face {} uses vertex {} but there are only {} vertices",
+                                     name, i, std::max({t.x, t.y, t.z}), n)};
     }
     bool normalsUsable = vertices.normal.size() == n;
     for (std::size_t i = 0; normalsUsable && i < n; ++i) {
@@ -466,7 +484,8 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
             for (std::size_t i = begin; i < end; ++i) {
                 const TriangleMeshIndex::Hit hit = mesh.closest(refined.position[i]);
                 const glm::u32vec3 t = reference.triangles[hit.triangle];
-                glm::vec3 normal = hit.barycentric.x * vn[t.x] + hit.barycentric.y * vn[t.y] + hit.barycentric.z * vn[t.z];
+                glm::vec3 normal =
+                    hit.barycentric.x * vn[t.x] + hit.barycentric.y * vn[t.y] + hit.barycentric.z * vn[t.z];
                 if (!(length2(normal) > 1e-12f)) normal = glm::cross(vp[t.y] - vp[t.x], vp[t.z] - vp[t.x]);
                 if (!(length2(normal) > 0.0f)) normal = vn[t.x];
                 if (options.flatNormals) {
@@ -543,8 +562,8 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
         deviation2 += deviation * deviation;
     }
     report.spacingMean = spacingMean;
-    report.uniformityCv =
-        spacingMean > 0.0 ? std::sqrt(deviation2 / dn) / spacingMean : std::numeric_limits<double>::quiet_NaN();
+    report.uniformityCv = spacingMean > 0.0 ? std::sqrt(deviation2 / dn) / spacingMean
+                                            : std::numeric_limits<double>::quiet_NaN();
 
     // 3. Holes: reference samples with no refined point within twice the mean spacing.
     PointSet analyticSamples;
@@ -555,15 +574,13 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
                               : sampleTorusUniform(options.analyticSamples, s.R, s.r);
         for (glm::vec3& p : analyticSamples.position) p += s.centre;
     }
-    const auto& samples =
-        reference.isAnalytic() ? analyticSamples.position : reference.points.position;
+    const auto& samples = reference.isAnalytic() ? analyticSamples.position : reference.points.position;
     const std::size_t m = samples.size();
     report.referencePoints = m;
     // The tangential variant measures the offset to the nearest of the kTangentialNearest refined
     // points in the sample's tangent plane only, so that a refined surface lying a little off the
     // true one (the approximation error of a sparse input) does not count as a hole.
-    const auto& sampleNormals =
-        reference.isAnalytic() ? analyticSamples.normal : reference.points.normal;
+    const auto& sampleNormals = reference.isAnalytic() ? analyticSamples.normal : reference.points.normal;
     const auto threshold2 = static_cast<float>(4.0 * spacingMean * spacingMean);
     constexpr std::size_t kTangentialNearest = 8;
     std::vector<std::uint8_t> uncovered(m), uncoveredTangential(m);
@@ -572,7 +589,8 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
         std::array<float, kTangentialNearest> d2;
         for (std::size_t j = begin; j < end; ++j) {
             const glm::vec3 q = samples[j];
-            const std::size_t found = refinedTree.knnSearch(&q.x, kTangentialNearest, index.data(), d2.data());
+            const std::size_t found =
+                refinedTree.knnSearch(&q.x, kTangentialNearest, index.data(), d2.data());
             uncovered[j] = found == 0 || d2[0] > threshold2;
             float tangential2 = kInfinity;
             for (std::size_t k = 0; k < found; ++k) {
@@ -607,25 +625,30 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
         };
         // The input is small: sort its keys, look every output point up, mark what is found.
         std::vector<std::pair<Key, std::uint32_t>> keys(input->size());
-        for (std::size_t i = 0; i < keys.size(); ++i) keys[i] = {keyOf(*input, i), static_cast<std::uint32_t>(i)};
+        for (std::size_t i = 0; i < keys.size(); ++i)
+            keys[i] = {keyOf(*input, i), static_cast<std::uint32_t>(i)};
         std::sort(keys.begin(), keys.end());
         std::vector<std::uint8_t> found(keys.size(), 0);
         for (std::size_t i = 0; i < n && !keys.empty(); ++i) {
             const Key k = keyOf(refined, i);
             auto it = std::lower_bound(keys.begin(), keys.end(), k,
                                        [](const auto& entry, const Key& key) { return entry.first < key; });
-            for (; it != keys.end() && it->first == k; ++it) found[static_cast<std::size_t>(it - keys.begin())] = 1;
+            for (; it != keys.end() && it->first == k; ++it)
+                found[static_cast<std::size_t>(it - keys.begin())] = 1;
         }
         report.hasInput = true;
         report.inputPoints = input->size();
-        report.inputMissing = static_cast<std::size_t>(std::count(found.begin(), found.end(), std::uint8_t{0}));
+        report.inputMissing =
+            static_cast<std::size_t>(std::count(found.begin(), found.end(), std::uint8_t{0}));
         report.inputPreserved = report.inputMissing == 0;
     }
     return report;
 }
 
 std::string toJson(const QualityReport& r) {
-    const auto inputValue = [&](auto value) { return r.hasInput ? fmt::format("{}", value) : std::string("null"); };
+    const auto inputValue = [&](auto value) {
+        return r.hasInput ? fmt::format("{}", value) : std::string("null");
+    };
     return fmt::format(
         "{{\"points\": {}, \"reference\": {}, \"reference_points\": {}, \"reference_triangles\": {}, "
         "\"diagonal\": {}, "
@@ -638,8 +661,9 @@ std::string toJson(const QualityReport& r) {
         jsonNumber(r.distanceMean), jsonNumber(r.distanceRms), jsonNumber(r.distanceMax),
         jsonNumber(r.distanceMeanRel), jsonNumber(r.distanceRmsRel), jsonNumber(r.distanceMaxRel),
         jsonNumber(r.normalErrorMeanDeg), jsonNumber(r.normalErrorP95Deg), jsonNumber(r.normalErrorMaxDeg),
-        jsonNumber(r.spacingMean), jsonNumber(r.uniformityCv), jsonNumber(r.holes), jsonNumber(r.holesTangential), inputValue(r.inputPoints),
-        inputValue(r.inputPreserved), inputValue(r.inputMissing));
+        jsonNumber(r.spacingMean), jsonNumber(r.uniformityCv), jsonNumber(r.holes),
+        jsonNumber(r.holesTangential), inputValue(r.inputPoints), inputValue(r.inputPreserved),
+        inputValue(r.inputMissing));
 }
 
 } // namespace pnsplat

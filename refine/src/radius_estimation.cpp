@@ -8,10 +8,10 @@
 
 #include <glm/geometric.hpp>
 
+#include "kd_tree.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/worker_pool.h"
-#include "kd_tree.h"
 
 namespace pnsplat {
 
@@ -39,7 +39,8 @@ void estimateRadii(PointSet& points, unsigned threads) {
         std::array<float, kMaxCandidates + 1> distance2;
         for (std::size_t i = begin; i < end; ++i) {
             const glm::vec3 x = points.position[i], n = points.normal[i];
-            const std::size_t found = tree.knnSearch(&x.x, kMaxCandidates + 1, index.data(), distance2.data());
+            const std::size_t found =
+                tree.knnSearch(&x.x, kMaxCandidates + 1, index.data(), distance2.data());
             // Skip the point itself and coincident duplicates.
             std::size_t first = 0;
             while (first < found && distance2[first] <= 0.0f) ++first;

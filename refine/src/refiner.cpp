@@ -65,9 +65,10 @@ constexpr float kTwoPi = 2.0f * kPi;
 constexpr float kCellFactor = 4.5f;
 constexpr float kRetryReach = 1.5f;
 constexpr float kLargeQuantile = 0.99f;
-constexpr std::size_t kPrefetchAhead = 16; // grid entries between a point's prefetch and its read: 1.03x over 8 (pinned A/B)
-constexpr unsigned kMaxTileShift = 4;      // tiles of at most 16³ cells
-constexpr std::size_t kMinTiles = 64;      // tiles of a level, at least (where the cells allow)
+constexpr std::size_t kPrefetchAhead =
+    16; // grid entries between a point's prefetch and its read: 1.03x over 8 (pinned A/B)
+constexpr unsigned kMaxTileShift = 4;         // tiles of at most 16³ cells
+constexpr std::size_t kMinTiles = 64;         // tiles of a level, at least (where the cells allow)
 constexpr float kMinCreaseCos = -0.98480775f; // cos 170°
 // Choice: radii are set a hair above the distances they must reach. Neighbourhoods are open balls
 // (|p - p_i| < r, eq. 7) while r' is the distance of the farthest new neighbour, which must stay a
@@ -100,8 +101,8 @@ struct RingMember {
     std::uint32_t cell, local;
     glm::vec3 position;
     glm::vec3 normal;
-    float angle;           // around n_p
-    float gapToNext = 0;   // gapValue to the next member, valid when neither stale nor exhausted
+    float angle;         // around n_p
+    float gapToNext = 0; // gapValue to the next member, valid when neither stale nor exhausted
     bool gapStale = true;
     bool gapExhausted = false; // no candidate left inside this gap
     float discardRadius = 0;   // Y_p: λ2 times its radius, which stays while p is refined
@@ -132,11 +133,11 @@ struct NearbyPoint {
 
 constexpr std::uint64_t kNoCell = ~std::uint64_t{0}; // cell keys use 63 bits
 
-struct alignas(64) WorkerScratch { // one cache line apart: workers write their counters
-    std::vector<std::uint32_t> group; // the points of the cell being refined
+struct alignas(64) WorkerScratch {          // one cache line apart: workers write their counters
+    std::vector<std::uint32_t> group;       // the points of the cell being refined
     std::optional<std::uint64_t> groupCell; // the colour cell of the group (none: a large point)
-    std::vector<NearbyPoint> nearby; // candidates for the Euclidean neighbourhoods of the group
-    std::vector<NearbyPoint> wideNearby; // the same for one point searched again wider
+    std::vector<NearbyPoint> nearby;        // candidates for the Euclidean neighbourhoods of the group
+    std::vector<NearbyPoint> wideNearby;    // the same for one point searched again wider
     // Where the 3×3 columns of cells around `columnsOf` start in the grid (gatherNearby): a cell
     // with a larger key starts its search there, as the workers take cells in increasing key order.
     std::array<std::size_t, 9> columnStart{};
@@ -148,19 +149,23 @@ struct alignas(64) WorkerScratch { // one cache line apart: workers write their 
     std::vector<RingMember> outer; // Y_p
     std::vector<Candidate> candidates;
     PhaseTimes times;
-    std::vector<std::uint32_t> inReach; // the candidates within reach of the point being refined
+    std::vector<std::uint32_t> inReach;         // the candidates within reach of the point being refined
     std::span<const NearbyPoint> reachableFrom; // the candidates inReach indexes (collectNeighbourhood)
     std::size_t reachable = 0;                  // the entries of inReach in use
-    std::vector<NearbyPoint> nearest; // the maxNeighbours nearest, for an oversized neighbourhood
-    BlockArena<NewPoint> arena;       // the points this worker inserts, cell after cell
+    std::vector<NearbyPoint> nearest;           // the maxNeighbours nearest, for an oversized neighbourhood
+    BlockArena<NewPoint> arena;                 // the points this worker inserts, cell after cell
     std::size_t inserted = 0, discarded = 0, retried = 0, beyondBound = 0, coincident = 0,
                 boundaryInserted = 0, capped = 0;
 };
 
 // Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
 // loops over fans and rings).
-inline std::size_t nextIndex(std::size_t j, std::size_t m) { return j + 1 == m ? 0 : j + 1; }
-inline std::size_t previousIndex(std::size_t j, std::size_t m) { return j == 0 ? m - 1 : j - 1; }
+inline std::size_t nextIndex(std::size_t j, std::size_t m) {
+    return j + 1 == m ? 0 : j + 1;
+}
+inline std::size_t previousIndex(std::size_t j, std::size_t m) {
+    return j == 0 ? m - 1 : j - 1;
+}
 
 // Counter-clockwise sweep from angle a to angle b, in [0, 2π).
 inline float sweep(float a, float b) {
@@ -202,7 +207,8 @@ inline PnTriangle fanTriangleFromP(glm::vec3 p, glm::vec3 n, const NeighbourSet&
 }
 
 // The whole PN triangle (p, fan[a], fan[b]).
-inline PnTriangle fanTriangle(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b) {
+inline PnTriangle fanTriangle(glm::vec3 p, glm::vec3 n, const NeighbourSet& fan, std::uint32_t a,
+                              std::uint32_t b) {
     PnTriangle t = fanTriangleFromP(p, n, fan, a, b);
     const EdgeControls e = edgeControlPoints(fan.position[a], fan.normal[a], fan.position[b], fan.normal[b]);
     t.b021 = e.ab;
@@ -246,7 +252,9 @@ inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
 // Colour cells (see the top of this file): integer coordinates of 21 bits each, packed x, y, z from
 // the most significant bits, so that keys sort by x, then y, then z.
 constexpr std::uint64_t kCellCoordinateMask = (1u << 21) - 1;
-inline std::uint64_t packCell(std::uint64_t x, std::uint64_t y, std::uint64_t z) { return x << 42 | y << 21 | z; }
+inline std::uint64_t packCell(std::uint64_t x, std::uint64_t y, std::uint64_t z) {
+    return x << 42 | y << 21 | z;
+}
 inline std::uint64_t cellKeyOf(glm::vec3 x, glm::vec3 lo, float cellSize) {
     const glm::uvec3 c =
         glm::uvec3(glm::clamp((x - lo) / cellSize, glm::vec3(0.0f), glm::vec3(float(kCellCoordinateMask))));
@@ -318,15 +326,28 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
 // pool's workers: growing is mostly page faults on fresh memory (huge pages where offered), which
 // the workers take in parallel.
 void growInParallel(PointSet& points, PointHierarchy& hierarchy, std::uint32_t n, WorkerPool& pool) {
-    const bool withRadius = points.hasRadius(), withColour = points.hasColour(), withCrease = points.hasCrease();
+    const bool withRadius = points.hasRadius(), withColour = points.hasColour(),
+               withCrease = points.hasCrease();
     pool.parallelFor(6, [&](std::size_t array, unsigned) {
         switch (array) {
-        case 0: points.position.resize(n); break;
-        case 1: points.normal.resize(n); break;
-        case 2: if (withRadius) points.radius.resize(n); break;
-        case 3: if (withColour) points.colour.resize(n); break;
-        case 4: if (withCrease) points.crease.resize(n); break;
-        default: hierarchy.growTo(n); break;
+        case 0:
+            points.position.resize(n);
+            break;
+        case 1:
+            points.normal.resize(n);
+            break;
+        case 2:
+            if (withRadius) points.radius.resize(n);
+            break;
+        case 3:
+            if (withColour) points.colour.resize(n);
+            break;
+        case 4:
+            if (withCrease) points.crease.resize(n);
+            break;
+        default:
+            hierarchy.growTo(n);
+            break;
         }
     });
 }
@@ -342,7 +363,8 @@ void sortCellKeys(CellKeys& keyed) {
     for (const auto& entry : keyed) used |= entry.first;
     CellKeys buffer(keyed.size());
     for (unsigned field = 0; field < 3; ++field) { // z, y, x
-        const auto width = static_cast<unsigned>(std::bit_width((used >> (21 * field)) & kCellCoordinateMask));
+        const auto width =
+            static_cast<unsigned>(std::bit_width((used >> (21 * field)) & kCellCoordinateMask));
         for (unsigned low = 0; low < width; low += kDigitBits) {
             const unsigned shift = 21 * field + low;
             const std::uint64_t mask = (std::uint64_t{1} << std::min(kDigitBits, width - low)) - 1;
@@ -379,15 +401,17 @@ inline std::uint64_t tileKeyOf(std::uint64_t cellKey, unsigned tileShift) {
 unsigned chooseTileShift(const CellKeys& keyed, std::span<const Cell> cells) {
     std::vector<std::uint64_t> tileKeys(cells.size());
     for (unsigned shift = kMaxTileShift; shift > 0; --shift) {
-        for (std::size_t c = 0; c < cells.size(); ++c) tileKeys[c] = tileKeyOf(keyed[cells[c].begin].first, shift);
+        for (std::size_t c = 0; c < cells.size(); ++c)
+            tileKeys[c] = tileKeyOf(keyed[cells[c].begin].first, shift);
         std::sort(tileKeys.begin(), tileKeys.end());
-        if (static_cast<std::size_t>(std::unique(tileKeys.begin(), tileKeys.end()) - tileKeys.begin()) >= kMinTiles)
+        if (static_cast<std::size_t>(std::unique(tileKeys.begin(), tileKeys.end()) - tileKeys.begin()) >=
+            kMinTiles)
             return shift;
     }
     return 0;
 }
-Tiles makeTiles(const CellKeys& keyed, std::span<const Cell> cells, std::uint32_t firstCell, std::uint32_t endCell,
-                unsigned tileShift) {
+Tiles makeTiles(const CellKeys& keyed, std::span<const Cell> cells, std::uint32_t firstCell,
+                std::uint32_t endCell, unsigned tileShift) {
     std::vector<std::pair<std::uint64_t, std::uint32_t>> tiled; // (tile key, cell), cells in key order
     tiled.reserve(endCell - firstCell);
     for (std::uint32_t c = firstCell; c < endCell; ++c)
@@ -416,7 +440,8 @@ Tiles makeTiles(const CellKeys& keyed, std::span<const Cell> cells, std::uint32_
                 for (std::uint64_t nz = z > 0 ? z - 1 : 0; nz <= std::min(z + 1, last); ++nz) {
                     const std::uint64_t key = packCell(nx, ny, nz);
                     const auto found = std::lower_bound(tileKey.begin(), tileKey.end(), key);
-                    if (found == tileKey.end() || *found != key || colourOf(key) <= colourOf(tileKey[t])) continue;
+                    if (found == tileKey.end() || *found != key || colourOf(key) <= colourOf(tileKey[t]))
+                        continue;
                     graph.successors.push_back(static_cast<std::uint32_t>(found - tileKey.begin()));
                     ++graph.waitCount[graph.successors.back()];
                 }
@@ -452,7 +477,9 @@ int scaleExponent(const PointSet& points, float size) {
     }
     for (const float r : points.radius) smallest = std::min(smallest, r);
     const int wanted = -rlim;
-    if (wanted < 0) return std::max(wanted, std::min(0, std::numeric_limits<float>::min_exponent - 1 - std::ilogb(smallest)));
+    if (wanted < 0)
+        return std::max(wanted,
+                        std::min(0, std::numeric_limits<float>::min_exponent - 1 - std::ilogb(smallest)));
     return std::min(wanted, std::max(0, kLargestScaledExponent - (largest > 0.0f ? std::ilogb(largest) : 0)));
 }
 
@@ -517,7 +544,7 @@ struct Refiner::State {
     std::vector<Segment> segments;
     std::vector<std::uint32_t> segmentsOf;      // segment indices grouped by first point (this level)
     std::vector<std::uint32_t> segmentsOfBegin; // per point of P(l): range into segmentsOf
-    std::vector<std::uint32_t> segmentChild;    // per segment: offset of its first new point among a's children
+    std::vector<std::uint32_t> segmentChild; // per segment: offset of its first new point among a's children
 
     State(PointSet input, const RefineOptions& o)
         : options(o), pool(o.threads), points(spatialOrder(std::move(input), inputOrder)),
@@ -540,15 +567,17 @@ struct Refiner::State {
         return fuzzy;
     }
 
-private:
-    void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell, float reachFactor,
-                      std::vector<NearbyPoint>& nearby, WorkerScratch& s);
+  private:
+    void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell,
+                      float reachFactor, std::vector<NearbyPoint>& nearby, WorkerScratch& s);
     bool gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
                              std::span<const NearbyPoint> candidates, WorkerScratch& s);
     PNSPLAT_V3_CLONE void collectNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
-                              std::span<const NearbyPoint> candidates, WorkerScratch& s);
+                                               std::span<const NearbyPoint> candidates, WorkerScratch& s);
     bool fanIsOpen(const NeighbourSet& fan) const;
-    glm::vec3 creaseOf(std::uint32_t i) const { return points.hasCrease() ? points.crease[i] : glm::vec3(0.0f); }
+    glm::vec3 creaseOf(std::uint32_t i) const {
+        return points.hasCrease() ? points.crease[i] : glm::vec3(0.0f);
+    }
     glm::vec3 planeNormal(std::uint32_t p) const;
     // The corner normals of the fan triangle (p, fan[a], fan[b]) (creases: creaseTriangleNormals).
     bool triangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
@@ -562,8 +591,10 @@ private:
                                glm::vec3 (&normals)[3]) const;
     std::array<std::uint32_t, 2> creaseNeighbours(std::uint32_t p, std::span<const NearbyPoint> nearby) const;
     PNSPLAT_V3_CLONE void makeCandidates(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s) const;
-    [[gnu::always_inline]] float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const;
-    PNSPLAT_V3_CLONE NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan, const Candidate& c) const;
+    [[gnu::always_inline]] float gapValue(glm::vec3 x, const RingMember& a, const RingMember& b,
+                                          std::size_t ringSize) const;
+    PNSPLAT_V3_CLONE NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan,
+                                           const Candidate& c) const;
     void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
     void splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s);
     NewPoint& newPoint(const RingMember& m) { return cellBase[m.cell][m.local]; }
@@ -633,7 +664,8 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
             }
             const auto end = gridKey.begin() + static_cast<std::ptrdiff_t>(std::min(above, gridKey.size()));
             return static_cast<std::size_t>(
-                std::lower_bound(gridKey.begin() + static_cast<std::ptrdiff_t>(below), end, key) - gridKey.begin());
+                std::lower_bound(gridKey.begin() + static_cast<std::ptrdiff_t>(below), end, key) -
+                gridKey.begin());
         };
         for (std::uint64_t x = cx > 0 ? cx - 1 : 0; x <= std::min(cx + 1, kCellCoordinateMask); ++x) {
             for (std::uint64_t y = cy > 0 ? cy - 1 : 0; y <= std::min(cy + 1, kCellCoordinateMask); ++y) {
@@ -649,7 +681,8 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
                         __builtin_prefetch(&points.normal[gridPoint[k + kPrefetchAhead]]);
                     }
                     const glm::vec3 d = points.position[i] - glm::clamp(points.position[i], lo, hi);
-                    if (glm::dot(d, d) <= margin * margin) nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
+                    if (glm::dot(d, d) <= margin * margin)
+                        nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
                 }
             }
         }
@@ -661,7 +694,8 @@ void Refiner::State::gatherNearby(std::span<const std::uint32_t> group, std::opt
         if (!refined[c.index]) continue;
         const ChildRange range = childRange[c.index];
         const auto* children = reinterpret_cast<const char*>(cellBase[range.cell] + range.begin);
-        for (std::size_t line = 0; line < range.count * sizeof(NewPoint); line += 64) __builtin_prefetch(children + line);
+        for (std::size_t line = 0; line < range.count * sizeof(NewPoint); line += 64)
+            __builtin_prefetch(children + line);
     }
     if (options.profile) s.times.neighbourhood += secondsSince(t0);
 }
@@ -683,10 +717,11 @@ bool Refiner::State::gatherNeighbourhood(std::uint32_t p, const TangentFrame& fr
     if (s.nearest.size() <= cap) return false; // the same points (rounding aside)
     ++s.capped;
     const auto middle = s.nearest.begin() + static_cast<std::ptrdiff_t>(cap);
-    std::nth_element(s.nearest.begin(), middle, s.nearest.end(), [&](const NearbyPoint& a, const NearbyPoint& b) {
-        const float da = distance2(a), db = distance2(b);
-        return da != db ? da < db : a.index < b.index;
-    });
+    std::nth_element(s.nearest.begin(), middle, s.nearest.end(),
+                     [&](const NearbyPoint& a, const NearbyPoint& b) {
+                         const float da = distance2(a), db = distance2(b);
+                         return da != db ? da < db : a.index < b.index;
+                     });
     s.nearest.erase(middle, s.nearest.end());
     collectNeighbourhood(p, frame, reach, s.nearest, s);
     return true;
@@ -714,7 +749,8 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
     for (std::size_t k = 0; k < candidates.size(); ++k) {
         const glm::vec3 d = candidates[k].position - x;
         s.inReach[inReach] = static_cast<std::uint32_t>(k);
-        inReach += static_cast<std::size_t>(glm::dot(d, d) < reach2) & static_cast<std::size_t>(candidates[k].index != p);
+        inReach += static_cast<std::size_t>(glm::dot(d, d) < reach2) &
+                   static_cast<std::size_t>(candidates[k].index != p);
     }
     s.reachableFrom = candidates;
     s.reachable = inReach;
@@ -769,21 +805,24 @@ glm::vec3 Refiner::State::planeNormal(std::uint32_t p) const {
 // it faces, or on the crease when it is a crease point of the same crease; a triangle takes the
 // side of its corners, must not have two, and needs a corner off the crease. For an ordinary p,
 // a triangle with a crease corner must have its other ordinary corner on p's side of it.
-bool Refiner::State::creaseTriangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a, std::uint32_t b,
-                                           glm::vec3 (&normals)[3]) const {
+bool Refiner::State::creaseTriangleNormals(std::uint32_t p, const NeighbourSet& fan, std::uint32_t a,
+                                           std::uint32_t b, glm::vec3 (&normals)[3]) const {
     const std::uint32_t corner[2] = {fan.index[a], fan.index[b]};
     if (points.isCrease(p)) {
         const glm::vec3 n1 = points.normal[p], n2 = points.crease[p];
         int sides[2];
         for (int k = 0; k < 2; ++k) {
             const std::uint32_t i = corner[k];
-            if (points.isCrease(i) && sameCrease(n1, n2, points.normal[i], points.crease[i])) sides[k] = -1;
-            else sides[k] = glm::dot(n1, normals[1 + k]) >= glm::dot(n2, normals[1 + k]) ? 0 : 1;
+            if (points.isCrease(i) && sameCrease(n1, n2, points.normal[i], points.crease[i]))
+                sides[k] = -1;
+            else
+                sides[k] = glm::dot(n1, normals[1 + k]) >= glm::dot(n2, normals[1 + k]) ? 0 : 1;
         }
         if (sides[0] < 0 && sides[1] < 0) return false;
         if (sides[0] >= 0 && sides[1] >= 0 && sides[0] != sides[1]) return false;
         normals[0] = std::max(sides[0], sides[1]) == 0 ? n1 : n2;
-        for (int k = 0; k < 2; ++k) normals[1 + k] = facing(points.normal[corner[k]], points.crease[corner[k]], normals[0]);
+        for (int k = 0; k < 2; ++k)
+            normals[1 + k] = facing(points.normal[corner[k]], points.crease[corner[k]], normals[0]);
         return true;
     }
     for (int k = 0; k < 2; ++k) {
@@ -818,7 +857,8 @@ void Refiner::State::makeCandidates(std::uint32_t p, const TangentFrame& frame, 
         if (!options.smoothing || options.centroidCandidates) {
             c.position = cog;
         } else {
-            const PnTriangle t = creaseP ? makePnTriangle(x, normals[0], fan.position[a], normals[1], fan.position[b], normals[2])
+            const PnTriangle t = creaseP ? makePnTriangle(x, normals[0], fan.position[a], normals[1],
+                                                          fan.position[b], normals[2])
                                          : fanTriangle(x, n, fan, a, b);
             c.position = cog + smoothingDisplacement(t);
             c.b021 = t.b021;
@@ -870,7 +910,8 @@ NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, 
         np.normal = centreNormal(t, n, na, nb);
     }
     if (points.hasColour())
-        np.colour = meanColour(points.colour[p], points.colour[fan.index[c.a]], points.colour[fan.index[c.b]]);
+        np.colour =
+            meanColour(points.colour[p], points.colour[fan.index[c.a]], points.colour[fan.index[c.b]]);
     return np;
 }
 
@@ -879,7 +920,8 @@ NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, 
 // sweep is used, which is always above θc. Gaps are only compared with θc and ranked above it,
 // so an angle surely below θc is not measured (curvedAngleUnlessSmall, angleAtUnlessSmall).
 // Always inlined: refinePoint's x86-64-v3 clone calls it out of line otherwise.
-inline float Refiner::State::gapValue(glm::vec3 x, const RingMember& a, const RingMember& b, std::size_t ringSize) const {
+inline float Refiner::State::gapValue(glm::vec3 x, const RingMember& a, const RingMember& b,
+                                      std::size_t ringSize) const {
     const float s = ringSize == 1 ? kTwoPi : sweep(a.angle, b.angle);
     if (s > kPi) return s;
     if (options.plainAngle) return angleAtUnlessSmall(x, a.position, b.position);
@@ -887,9 +929,8 @@ inline float Refiner::State::gapValue(glm::vec3 x, const RingMember& a, const Ri
 }
 
 void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const {
-    auto at = std::upper_bound(ring.begin(), ring.end(), m, [](const RingMember& u, const RingMember& v) {
-        return u.angle < v.angle;
-    });
+    auto at = std::upper_bound(ring.begin(), ring.end(), m,
+                               [](const RingMember& u, const RingMember& v) { return u.angle < v.angle; });
     at = ring.insert(at, m);
     // The gaps before and after the new member change.
     const std::size_t k = static_cast<std::size_t>(at - ring.begin());
@@ -904,7 +945,8 @@ void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMem
 // none for boundary points). Crease: the curve leaves each end along its crease direction n1 × n2,
 // with the same |ab|/3 legs, and the new points are crease points whose two normals interpolate
 // the ends' paired normals.
-void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s) {
+void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild,
+                                   WorkerScratch& s) {
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = points.normal[p], nc = creaseOf(p);
     const TangentFrame frame(planeNormal(p));
@@ -918,7 +960,9 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             const glm::vec3 chord = pb - x;
             const float leg = glm::length(chord) / 3.0f;
             const float chord2 = glm::dot(chord, chord);
-            const glm::vec3 along = chord2 >= std::numeric_limits<float>::min() ? chord * (1.0f / std::sqrt(chord2)) : glm::vec3(0.0f);
+            const glm::vec3 along = chord2 >= std::numeric_limits<float>::min()
+                                        ? chord * (1.0f / std::sqrt(chord2))
+                                        : glm::vec3(0.0f);
             const auto directionAt = [&](glm::vec3 first, glm::vec3 second) {
                 const glm::vec3 d = creaseDirection(first, second);
                 return d == glm::vec3(0.0f) ? along : d;
@@ -945,10 +989,12 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             const glm::vec3 q = curve[third - 1];
             const glm::vec3 before = third == 1 ? x : curve[0], after = third == 1 ? curve[1] : pb;
             NewPoint np{q, glm::normalize((1.0f - t) * n + t * nb),
-                        kRadiusMargin * std::max(glm::length(q - before), glm::length(q - after)), glm::u8vec3(0)};
+                        kRadiusMargin * std::max(glm::length(q - before), glm::length(q - after)),
+                        glm::u8vec3(0)};
             if (segments[segment].crease) np.crease = glm::normalize((1.0f - t) * nc + t * nbc);
             if (points.hasColour())
-                np.colour = glm::u8vec3(glm::round(glm::mix(glm::vec3(points.colour[p]), glm::vec3(points.colour[b]), t)));
+                np.colour = glm::u8vec3(
+                    glm::round(glm::mix(glm::vec3(points.colour[p]), glm::vec3(points.colour[b]), t)));
             const std::uint32_t local = store(cell, np, s);
             ++s.inserted;
             ++s.boundaryInserted;
@@ -956,7 +1002,8 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             // farther than c_β,max · r_p: choice, as for Y_p's substitutes, so that r' stays within
             // the convergence bound of SPEC 4 (a segment may be up to kRetryReach · r long).
             if (third == 1 && withinConvergenceBound(p, q))
-                insertIntoRing(s.ring, RingMember{cell, local, q, facing(np.normal, np.crease, frame.n), frame.angleOf(q - x)});
+                insertIntoRing(s.ring, RingMember{cell, local, q, facing(np.normal, np.crease, frame.n),
+                                                  frame.angleOf(q - x)});
         }
     }
 }
@@ -972,7 +1019,8 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
 // wider balls (2 r, 3 r) still broke the bound at level 5 (r'/r up to 0.983). None for a point
 // whose two normals are less than 1° apart (creaseDirection; before, such points within 1° of
 // parallel found neighbours along a direction made of rounding, and exactly parallel ones none).
-std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, std::span<const NearbyPoint> nearby) const {
+std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p,
+                                                              std::span<const NearbyPoint> nearby) const {
     const glm::vec3 x = points.position[p], n1 = points.normal[p], n2 = points.crease[p];
     const glm::vec3 direction = creaseDirection(n1, n2);
     std::array<std::uint32_t, 2> ends{UINT32_MAX, UINT32_MAX};
@@ -981,12 +1029,14 @@ std::array<std::uint32_t, 2> Refiner::State::creaseNeighbours(std::uint32_t p, s
     std::array<float, 2> nearest{std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
     for (const NearbyPoint& candidate : nearby) {
         const std::uint32_t i = candidate.index;
-        if (i == p || !points.isCrease(i) || !sameCrease(n1, n2, points.normal[i], points.crease[i])) continue;
+        if (i == p || !points.isCrease(i) || !sameCrease(n1, n2, points.normal[i], points.crease[i]))
+            continue;
         const glm::vec3 d = candidate.position - x;
         const float along = glm::dot(d, direction), length = glm::length(d);
         if (!(length < reach) || !(std::abs(along) > kCreaseMatch * length)) continue;
         const int end = along > 0.0f ? 0 : 1;
-        if (length < nearest[end] || (length == nearest[end] && i < ends[end])) nearest[end] = length, ends[end] = i;
+        if (length < nearest[end] || (length == nearest[end] && i < ends[end]))
+            nearest[end] = length, ends[end] = i;
     }
     return ends;
 }
@@ -1022,7 +1072,8 @@ void Refiner::State::findSegments() {
         if (!options.boundaries || !open || m < 2) return; // closed, or isolated: no direction to follow
         std::size_t widest = 0;
         for (std::size_t a = 1; a < m; ++a)
-            if (sweep(s.fan.angle[a], s.fan.angle[nextIndex(a, m)]) > sweep(s.fan.angle[widest], s.fan.angle[nextIndex(widest, m)]))
+            if (sweep(s.fan.angle[a], s.fan.angle[nextIndex(a, m)]) >
+                sweep(s.fan.angle[widest], s.fan.angle[nextIndex(widest, m)]))
                 widest = a;
         potential[p] = 1;
         ends[p] = {s.fan.index[widest], s.fan.index[nextIndex(widest, m)]};
@@ -1051,7 +1102,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
 
     const glm::vec3 x = points.position[p];
     const glm::vec3 n = planeNormal(p);
-    const FuzzyParams fuzzy = fuzzyParams(options.smoothing && !options.centroidCandidates); // PN-centre candidates
+    const FuzzyParams fuzzy =
+        fuzzyParams(options.smoothing && !options.centroidCandidates); // PN-centre candidates
     const TangentFrame frame(n);
     const bool cut = gatherNeighbourhood(p, frame, levelRadius[p], s.nearby, s);
     if (profile) s.times.neighbourhood += secondsSince(t0);
@@ -1093,7 +1145,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     //    the one being filled.
     const auto candidateIn = [&](std::size_t j, bool anyInside) {
         const RingMember& a = ring[j];
-        const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(j, ring.size())].angle);
+        const float gapSweep =
+            ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(j, ring.size())].angle);
         std::size_t best = candidates.size();
         float bestScore = -1.0f;
         for (std::size_t k = 0; k < candidates.size(); ++k) {
@@ -1128,7 +1181,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
                 if (!ring[j].gapStale) continue;
                 ring[j].gapStale = false;
                 ring[j].gapExhausted = candidatesFirst && candidateIn(j, true) == candidates.size();
-                if (!ring[j].gapExhausted) ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
+                if (!ring[j].gapExhausted)
+                    ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
             }
             for (;;) {
                 std::size_t widest = ring.size();
@@ -1414,8 +1468,9 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
                 continue;
             }
             const std::uint32_t q1 = childBegin[segment.a] + segmentChild[k], q2 = q1 + 1;
-            split.insert(split.end(), {Segment{segment.a, q1, segment.crease}, Segment{q1, q2, segment.crease},
-                                       Segment{q2, segment.b, segment.crease}});
+            split.insert(split.end(),
+                         {Segment{segment.a, q1, segment.crease}, Segment{q1, q2, segment.crease},
+                          Segment{q2, segment.b, segment.crease}});
         }
         segments = std::move(split);
     }
@@ -1449,24 +1504,41 @@ Refiner::~Refiner() = default;
 Refiner::Refiner(Refiner&&) noexcept = default;
 Refiner& Refiner::operator=(Refiner&&) noexcept = default;
 
-LevelStats Refiner::refineLevel(const ProgressFn& progress) { return state_->refineLevel(progress); }
-void Refiner::setTargetRadius(float radius) { state_->options.targetRadius = radius; }
-float Refiner::targetRadius() const { return state_->options.targetRadius; }
-const PointSet& Refiner::points() const { return state_->points; }
-std::uint32_t Refiner::levels() const { return state_->hierarchy.levels() - 1; }
-std::size_t Refiner::levelEnd(std::uint32_t l) const { return state_->hierarchy.levelEnd(l); }
+LevelStats Refiner::refineLevel(const ProgressFn& progress) {
+    return state_->refineLevel(progress);
+}
+void Refiner::setTargetRadius(float radius) {
+    state_->options.targetRadius = radius;
+}
+float Refiner::targetRadius() const {
+    return state_->options.targetRadius;
+}
+const PointSet& Refiner::points() const {
+    return state_->points;
+}
+std::uint32_t Refiner::levels() const {
+    return state_->hierarchy.levels() - 1;
+}
+std::size_t Refiner::levelEnd(std::uint32_t l) const {
+    return state_->hierarchy.levelEnd(l);
+}
 std::size_t Refiner::childBegin(std::uint32_t l, std::size_t i) const {
     return state_->hierarchy.childBegin(l, static_cast<std::uint32_t>(i));
 }
 std::size_t Refiner::childEnd(std::uint32_t l, std::size_t i) const {
     return state_->hierarchy.childEnd(l, static_cast<std::uint32_t>(i));
 }
-PointSet Refiner::takePoints() && { return std::move(state_->points); }
-std::span<const std::uint32_t> Refiner::inputOrder() const { return state_->inputOrder; }
+PointSet Refiner::takePoints() && {
+    return std::move(state_->points);
+}
+std::span<const std::uint32_t> Refiner::inputOrder() const {
+    return state_->inputOrder;
+}
 
 float Refiner::longestSegment() const {
     float longest = 0.0f;
-    for (const State::Segment& segment : state_->segments) longest = std::max(longest, state_->segmentLength(segment));
+    for (const State::Segment& segment : state_->segments)
+        longest = std::max(longest, state_->segmentLength(segment));
     return longest;
 }
 
@@ -1481,12 +1553,13 @@ float medianRadius(HugePageVector<float> radii) {
 
 } // namespace
 
-std::vector<LevelStats> refineDownTo(Refiner& refiner, float targetRadius, unsigned maxLevels, const ProgressFn& progress) {
+std::vector<LevelStats> refineDownTo(Refiner& refiner, float targetRadius, unsigned maxLevels,
+                                     const ProgressFn& progress) {
     const float previous = refiner.targetRadius();
     refiner.setTargetRadius(targetRadius);
     std::vector<LevelStats> levels;
-    while (levels.size() < maxLevels &&
-           (std::ranges::max(refiner.points().radius) > targetRadius || refiner.longestSegment() > targetRadius)) {
+    while (levels.size() < maxLevels && (std::ranges::max(refiner.points().radius) > targetRadius ||
+                                         refiner.longestSegment() > targetRadius)) {
         levels.push_back(refiner.refineLevel(progress));
         if (levels.back().inserted == 0) break;
     }
@@ -1494,7 +1567,8 @@ std::vector<LevelStats> refineDownTo(Refiner& refiner, float targetRadius, unsig
     return levels;
 }
 
-std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress) {
+std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels,
+                                const ProgressFn& progress) {
     if (!(factor > 0.0f)) return {};
     return refineDownTo(refiner, factor * medianRadius(refiner.points().radius), maxLevels, progress);
 }
@@ -1505,7 +1579,8 @@ Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> hole
         const Hole& hole = holes[k];
         if (!std::isfinite(hole.centre.x) || !std::isfinite(hole.centre.y) || !std::isfinite(hole.centre.z) ||
             !std::isfinite(hole.radius) || !(hole.radius > 0.0f))
-            return Error{"hole " + std::to_string(k + 1) + " needs a finite centre and a finite positive radius"};
+            return Error{"hole " + std::to_string(k + 1) +
+                         " needs a finite centre and a finite positive radius"};
     }
     HugePageVector<float> radius = points.radius;
     std::vector<bool> reached(holes.size(), false);
@@ -1528,7 +1603,9 @@ Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> hole
         }
     }
     for (std::size_t k = 0; k < holes.size(); ++k)
-        if (!reached[k]) return Error{"hole " + std::to_string(k + 1) + " reaches no point's ball: nothing around it to fill it from"};
+        if (!reached[k])
+            return Error{"hole " + std::to_string(k + 1) +
+                         " reaches no point's ball: nothing around it to fill it from"};
     rims.fillTarget = std::max(kEvenOutFactor * medianRadius(points.radius), largestKept);
     points.radius = std::move(radius);
     return rims;
@@ -1590,7 +1667,8 @@ Result<void> validateForRefinement(const PointSet& points) {
     if (points.empty()) return Error{"the point set is empty"};
     if (!points.hasRadius()) return Error{"the point set has no radii"};
     if (points.size() >= (1u << 31)) return Error{"too many points (at most 2^31)"};
-    if (points.hasCrease() && points.crease.size() != points.size()) return Error{"crease normals do not match the points"};
+    if (points.hasCrease() && points.crease.size() != points.size())
+        return Error{"crease normals do not match the points"};
     if (points.normal.size() != points.size()) return Error{"the point set has no normals"};
     for (std::size_t i = 0; i < points.size(); ++i) {
         const glm::vec3 x = points.position[i], n = points.normal[i];
@@ -1602,21 +1680,25 @@ Result<void> validateForRefinement(const PointSet& points) {
         if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
             return Error{"point " + std::to_string(i) + " has a radius that is not positive and finite"};
         if (!(points.radius[i] >= kMinRadius && points.radius[i] <= kMaxRadius))
-            return Error{fmt::format("point {} has a radius of {}, outside [{}, {}] (radii are squared in single precision)",
-                                     i, points.radius[i], kMinRadius, kMaxRadius)};
+            return Error{fmt::format(
+                "point {} has a radius of {}, outside [{}, {}] (radii are squared in single precision)", i,
+                points.radius[i], kMinRadius, kMaxRadius)};
         if (points.isCrease(i)) {
             const glm::vec3 c = points.crease[i];
             if (!(std::abs(glm::length(c) - 1.0f) < 1e-3f))
-                return Error{"point " + std::to_string(i) + " has a crease normal that is neither zero nor of unit length"};
+                return Error{"point " + std::to_string(i) +
+                             " has a crease normal that is neither zero nor of unit length"};
             // Choice: a crease sharper than 170° has no usable bisector plane to refine in.
             if (!(glm::dot(n, c) > kMinCreaseCos))
-                return Error{"point " + std::to_string(i) + " has crease normals more than 170 degrees apart"};
+                return Error{"point " + std::to_string(i) +
+                             " has crease normals more than 170 degrees apart"};
         }
     }
     // Cell keys and Morton codes divide by the extent of the set.
     const float extent = boundsOf(points.position).extent();
     if (!std::isfinite(extent))
-        return Error{"the points span more than single precision holds (coordinates of both signs beyond 1.7e38)"};
+        return Error{
+            "the points span more than single precision holds (coordinates of both signs beyond 1.7e38)"};
     // Two copies of a point would each insert the same new points (removeCoincident merges them).
     if (const auto pair = findCoincident(points))
         return Error{"points " + std::to_string(pair->first) + " and " + std::to_string(pair->second) +

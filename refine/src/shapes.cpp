@@ -31,7 +31,9 @@ double uniform01(std::mt19937_64& rng) {
     return static_cast<double>(rng() >> 11) * 0x1.0p-53;
 }
 
-glm::vec3 toFloat(const DVec3& v) { return glm::vec3(v); }
+glm::vec3 toFloat(const DVec3& v) {
+    return glm::vec3(v);
+}
 
 // Appends a point with position p and unit normal n, both computed in double.
 void append(PointSet& set, const DVec3& p, const DVec3& n) {
@@ -114,14 +116,22 @@ glm::u8vec3 hsvToRgb(double hue, double s, double v) {
     const double c = v * s;
     const double x = c * (1.0 - std::abs(std::fmod(h, 2.0) - 1.0));
     DVec3 rgb;
-    if (h < 1.0) rgb = {c, x, 0.0};
-    else if (h < 2.0) rgb = {x, c, 0.0};
-    else if (h < 3.0) rgb = {0.0, c, x};
-    else if (h < 4.0) rgb = {0.0, x, c};
-    else if (h < 5.0) rgb = {x, 0.0, c};
-    else rgb = {c, 0.0, x};
+    if (h < 1.0)
+        rgb = {c, x, 0.0};
+    else if (h < 2.0)
+        rgb = {x, c, 0.0};
+    else if (h < 3.0)
+        rgb = {0.0, c, x};
+    else if (h < 4.0)
+        rgb = {0.0, x, c};
+    else if (h < 5.0)
+        rgb = {x, 0.0, c};
+    else
+        rgb = {c, 0.0, x};
     rgb += DVec3(v - c);
-    auto to8 = [](double t) { return static_cast<std::uint8_t>(std::lround(std::clamp(t, 0.0, 1.0) * 255.0)); };
+    auto to8 = [](double t) {
+        return static_cast<std::uint8_t>(std::lround(std::clamp(t, 0.0, 1.0) * 255.0));
+    };
     return {to8(rgb.x), to8(rgb.y), to8(rgb.z)};
 }
 
@@ -204,8 +214,9 @@ PointSet sampleTorusUniform(std::size_t n, float R, float r) {
         assigned += count[j];
         remainder[j] = {exact - std::floor(exact), j};
     }
-    std::sort(remainder.begin(), remainder.end(),
-              [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
+    std::sort(remainder.begin(), remainder.end(), [](const auto& a, const auto& b) {
+        return a.first > b.first || (a.first == b.first && a.second < b.second);
+    });
     for (std::size_t k = 0; assigned < n; ++k, ++assigned) ++count[remainder[k % rings].second];
 
     set.position.reserve(n);
@@ -238,7 +249,8 @@ PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H) {
     for (std::size_t j = 0; j <= sideRings; ++j) {
         const double z = -half + dH * static_cast<double>(j) / static_cast<double>(sideRings);
         for (std::size_t i = 0; i < rimPoints; ++i) {
-            const double u = kTwoPi * (static_cast<double>(i) + 0.5 * static_cast<double>(j % 2)) / static_cast<double>(rimPoints);
+            const double u = kTwoPi * (static_cast<double>(i) + 0.5 * static_cast<double>(j % 2)) /
+                             static_cast<double>(rimPoints);
             const glm::dvec3 radial(std::cos(u), std::sin(u), 0.0);
             const bool rim = j == 0 || j == sideRings;
             append(glm::dvec3(dR * radial.x, dR * radial.y, z), radial,
@@ -314,9 +326,9 @@ DVec3 radialDirection(const DVec3& q) {
 // Closest point's direction from the sphere centre or the nearest tube-circle point ("spine"),
 // and that spine point, both relative to the surface centre.
 struct Spine {
-    DVec3 point;     // centre of the sphere, or nearest point of the torus tube circle
-    DVec3 offset;    // q - point
-    double length;   // |offset|
+    DVec3 point;   // centre of the sphere, or nearest point of the torus tube circle
+    DVec3 offset;  // q - point
+    double length; // |offset|
 };
 
 Spine spine(const AnalyticSurface& s, glm::vec3 p) {

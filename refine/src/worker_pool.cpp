@@ -69,7 +69,8 @@ void WorkerPool::parallelFor(std::size_t count, const std::function<void(std::si
 // Node k of the ready list is run by item k of a parallelFor: items are taken in increasing order,
 // so when item k is taken every earlier item has been taken, and it waits only while the nodes
 // run so far have not yet released a k-th ready node; an acyclic graph always has one more.
-void runGraph(WorkerPool& pool, const TaskGraph& graph, const std::function<void(std::uint32_t, unsigned)>& task) {
+void runGraph(WorkerPool& pool, const TaskGraph& graph,
+              const std::function<void(std::uint32_t, unsigned)>& task) {
     const std::size_t count = graph.size();
     constexpr std::uint32_t kNotYet = UINT32_MAX;
     const auto waiting = std::make_unique<std::atomic<std::uint32_t>[]>(count);

@@ -44,8 +44,10 @@ int main(int argc, char** argv) {
     bool ok = true;
     for (const PlyFormat format : {PlyFormat::Ascii, PlyFormat::BinaryLittleEndian}) {
         const std::string suffix = format == PlyFormat::Ascii ? "-ascii.ply" : "-binary.ply";
-        ok = ok && write(folder / ("sphere" + suffix), sphere, format) && write(folder / ("torus" + suffix), torus, format) &&
-             write(folder / ("coloured" + suffix), model, format) && write(folder / ("creases" + suffix), cylinder, format) &&
+        ok = ok && write(folder / ("sphere" + suffix), sphere, format) &&
+             write(folder / ("torus" + suffix), torus, format) &&
+             write(folder / ("coloured" + suffix), model, format) &&
+             write(folder / ("creases" + suffix), cylinder, format) &&
              write(folder / ("radii" + suffix), withRadii, format);
     }
     // Positions only and a small mesh: writePly needs normals and writes no faces.
@@ -65,7 +67,9 @@ int main(int argc, char** argv) {
         std::ifstream in(entry.path(), std::ios::binary);
         const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
         for (const int variant : {0, 1, 2, 4, 8}) {
-            std::ofstream out(refineFolder / (std::to_string(variant) + "-" + entry.path().filename().string()), std::ios::binary);
+            std::ofstream out(refineFolder /
+                                  (std::to_string(variant) + "-" + entry.path().filename().string()),
+                              std::ios::binary);
             out << static_cast<char>(variant) << bytes;
             ok = ok && out.good();
         }

@@ -20,7 +20,8 @@ void checkRead(std::string_view bytes, const pnsplat::PlyReadOptions& options) {
     if (!read) {
         const std::string& message = read.error().message;
         check(message.rfind("input: ", 0) == 0, "an error names the file first");
-        check(message.size() > 7 && message.find('\n') == std::string::npos, "an error is one non-empty line");
+        check(message.size() > 7 && message.find('\n') == std::string::npos,
+              "an error is one non-empty line");
         return;
     }
     const pnsplat::PointSet& points = read->points;
@@ -30,7 +31,8 @@ void checkRead(std::string_view bytes, const pnsplat::PlyReadOptions& options) {
     const std::string defect = pnsplat::test::pointSetDefect(points);
     check(defect.empty(), defect.c_str());
     check(options.readFaces || read->triangles.empty(), "no triangles unless asked for");
-    for (const glm::u32vec3& t : read->triangles) check(t.x < n && t.y < n && t.z < n, "face indices in range");
+    for (const glm::u32vec3& t : read->triangles)
+        check(t.x < n && t.y < n && t.z < n, "face indices in range");
 }
 
 } // namespace

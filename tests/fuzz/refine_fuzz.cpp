@@ -51,7 +51,8 @@ PointSet refine(const PointSet& input, std::uint8_t knob, unsigned threads) {
         refiner.refineLevel();
         const PointSet& after = refiner.points();
         for (std::size_t i = 0; i < before.size(); ++i)
-            check(static_cast<double>(after.radius[i]) <= test::kConvergenceBound * static_cast<double>(before[i]),
+            check(static_cast<double>(after.radius[i]) <=
+                      test::kConvergenceBound * static_cast<double>(before[i]),
                   "every old radius shrinks by c_beta,max");
     }
     check(test::inputMismatches(refiner, input) == 0, "every input point kept bit for bit");
@@ -67,13 +68,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::uint8_t knob = data[0];
     PlyReadOptions options;
     options.requireNormals = false;
-    Result<PlyData> read = parsePly(std::string_view(reinterpret_cast<const char*>(data) + 1, size - 1), "input", options);
+    Result<PlyData> read =
+        parsePly(std::string_view(reinterpret_cast<const char*>(data) + 1, size - 1), "input", options);
     if (!read || read->points.size() > kMaxPoints) return 0;
     PointSet points = std::move(read->points);
     if (!completeForRefinement(points)) return 0;
     const PointSet one = refine(points, knob, 1), two = refine(points, knob, 2);
-    check(sameBits(one.position, two.position) && sameBits(one.normal, two.normal) && sameBits(one.radius, two.radius) &&
-              sameBits(one.colour, two.colour) && sameBits(one.crease, two.crease),
+    check(sameBits(one.position, two.position) && sameBits(one.normal, two.normal) &&
+              sameBits(one.radius, two.radius) && sameBits(one.colour, two.colour) &&
+              sameBits(one.crease, two.crease),
           "the same output for one and two threads");
     return 0;
 }

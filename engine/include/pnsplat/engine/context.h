@@ -32,7 +32,7 @@ struct ContextOptions {
 };
 
 class Context {
-public:
+  public:
     static Result<std::unique_ptr<Context>> create(const ContextOptions& options = {});
     ~Context();
     Context(const Context&) = delete;
@@ -59,12 +59,13 @@ public:
     std::uint32_t validationMessages() const { return messages_.load(); }
     std::string lastValidationMessage() const;
 
-private:
+  private:
     Context() = default;
     void initialise(const ContextOptions& options);
     static VKAPI_ATTR VkBool32 VKAPI_CALL onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                                     VkDebugUtilsMessageTypeFlagsEXT types,
-                                                    const VkDebugUtilsMessengerCallbackDataEXT* data, void* self);
+                                                    const VkDebugUtilsMessengerCallbackDataEXT* data,
+                                                    void* self);
 
     VkInstance instance_ = VK_NULL_HANDLE;
     VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;

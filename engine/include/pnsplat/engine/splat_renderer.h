@@ -42,8 +42,8 @@ struct RenderSettings {
     // Gaussian w = exp(-k ρ²) with ρ the distance from the centre over the radius. Choice: k = 2
     // (σ = r / 2): weight 0.14 at the rim, so the disk's cut-off barely shows.
     float sharpness = 2.0f;
-    bool normalize = true;  // false shows raw accumulated colour (a switch for tests)
-    bool cullNodes = true;  // false draws every node (a switch for tests of the culling)
+    bool normalize = true; // false shows raw accumulated colour (a switch for tests)
+    bool cullNodes = true; // false draws every node (a switch for tests of the culling)
 };
 
 struct FrameStats {
@@ -56,7 +56,7 @@ struct FrameStats {
 };
 
 class SplatRenderer {
-public:
+  public:
     // Fails for a zero or too large image size, a compute path the device cannot run, or a Vulkan error.
     static Result<std::unique_ptr<SplatRenderer>> create(Context& context, const RenderSettings& settings);
     ~SplatRenderer();
@@ -68,7 +68,7 @@ public:
     Result<RgbaImage> render(const SplatScene& scene, const Camera& camera, FrameStats* stats = nullptr);
     const RenderSettings& settings() const;
 
-private:
+  private:
     struct Impl;
     explicit SplatRenderer(std::unique_ptr<Impl> impl);
     std::unique_ptr<Impl> impl_;

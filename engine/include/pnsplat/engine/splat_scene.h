@@ -23,7 +23,7 @@ struct SceneNode {
 inline constexpr std::uint32_t kDefaultColour = 0xC8C8C8u;
 
 class SplatScene {
-public:
+  public:
     // points needs normals and radii (see estimateRadii); colour is optional. An empty set gives
     // an empty scene that renders as background. Fails when the splats do not fit in one storage
     // buffer of the device (maxStorageBufferRange; 4M splats on lavapipe) or on a Vulkan error.
@@ -36,7 +36,7 @@ public:
     float maxRadius() const { return maxRadius_; }
     const Buffer& splats() const { return buffer_; }
 
-private:
+  private:
     std::size_t size_ = 0;
     std::vector<SceneNode> nodes_;
     Sphere bounds_;

@@ -27,13 +27,15 @@ void check(VkResult result, const char* call, const char* file, int line);
 // Owns one device-level handle and destroys it with the matching vkDestroy*/vkFree* function.
 template <typename T>
 class Unique {
-public:
+  public:
     using Destroy = void (*)(VkDevice, T, const VkAllocationCallbacks*);
 
     Unique() = default;
-    Unique(VkDevice device, T handle, Destroy destroy) : device_(device), handle_(handle), destroy_(destroy) {}
+    Unique(VkDevice device, T handle, Destroy destroy)
+        : device_(device), handle_(handle), destroy_(destroy) {}
     Unique(Unique&& other) noexcept
-        : device_(other.device_), handle_(std::exchange(other.handle_, VK_NULL_HANDLE)), destroy_(other.destroy_) {}
+        : device_(other.device_), handle_(std::exchange(other.handle_, VK_NULL_HANDLE)),
+          destroy_(other.destroy_) {}
     Unique& operator=(Unique&& other) noexcept {
         if (this != &other) {
             reset();
@@ -54,7 +56,7 @@ public:
         handle_ = VK_NULL_HANDLE;
     }
 
-private:
+  private:
     VkDevice device_ = VK_NULL_HANDLE;
     T handle_ = VK_NULL_HANDLE;
     Destroy destroy_ = nullptr;

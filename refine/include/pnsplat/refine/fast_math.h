@@ -28,8 +28,8 @@ inline float fastAtan2Upper(float y, float x) {
 }
 } // namespace detail
 
-// atan2(y, x) in (-π, π] with absolute error below 2e-5 rad (measured 1.2e-5) (minimax polynomial for atan on [0,1]
-// after octant reduction); fastAtan2(0, 0) = 0.
+// atan2(y, x) in (-π, π] with absolute error below 2e-5 rad (measured 1.2e-5) (minimax polynomial for atan on
+// [0,1] after octant reduction); fastAtan2(0, 0) = 0.
 inline float fastAtan2(float y, float x) {
     const float r = detail::fastAtan2Upper(std::abs(y), x);
     return std::signbit(y) ? -r : r;
@@ -37,7 +37,8 @@ inline float fastAtan2(float y, float x) {
 
 // out[k] = fastAtan2(y[k], x[k]) for k in [0, n), bit for bit: a loop the compiler runs in SIMD
 // lanes (fastAtan2 is all selects), for the angles of a whole neighbourhood at once.
-inline void fastAtan2s(const float* __restrict y, const float* __restrict x, float* __restrict out, std::size_t n) {
+inline void fastAtan2s(const float* __restrict y, const float* __restrict x, float* __restrict out,
+                       std::size_t n) {
     for (std::size_t k = 0; k < n; ++k) out[k] = fastAtan2(y[k], x[k]);
 }
 

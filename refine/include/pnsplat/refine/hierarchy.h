@@ -18,15 +18,15 @@
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
-#include <glm/vector_relational.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vector_relational.hpp>
 
 #include "pnsplat/refine/huge_pages.h"
 
 namespace pnsplat {
 
 class PointHierarchy {
-public:
+  public:
     // Builds the kd-tree over the roots P0 = positions[0, rootCount).
     explicit PointHierarchy(std::span<const glm::vec3> roots);
 
@@ -73,9 +73,10 @@ public:
     // meets it, d2 the squared distance from p_i to the box [lo, hi]. This includes every point
     // within `margin` of the box. Precondition: lo <= hi.
     template <typename Visit>
-    void queryBox(glm::vec3 lo, glm::vec3 hi, float margin, std::vector<StackEntry>& stack, Visit&& visit) const;
+    void queryBox(glm::vec3 lo, glm::vec3 hi, float margin, std::vector<StackEntry>& stack,
+                  Visit&& visit) const;
 
-private:
+  private:
     struct Node {
         glm::vec3 lo, hi;         // box of the spheres of the node's roots
         std::uint32_t begin, end; // roots in rootOrder_[begin, end)
@@ -111,7 +112,8 @@ void PointHierarchy::queryBox(glm::vec3 lo, glm::vec3 hi, float margin, std::vec
     while (nodeTop > 0) {
         const std::uint32_t n = nodeStack[--nodeTop];
         const Node& node = nodes_[n];
-        if (glm::any(glm::lessThan(node.hi, grownLo)) || glm::any(glm::greaterThan(node.lo, grownHi))) continue;
+        if (glm::any(glm::lessThan(node.hi, grownLo)) || glm::any(glm::greaterThan(node.lo, grownHi)))
+            continue;
         if (node.right != 0) {
             nodeStack[nodeTop++] = node.right;
             nodeStack[nodeTop++] = n + 1;

@@ -56,7 +56,7 @@ using HugePageVector = std::vector<T, HugePageAllocator<T>>;
 // next one. T must be trivially copyable.
 template <typename T>
 class BlockArena {
-public:
+  public:
     // Starts a new pass: every block is free again (and kept).
     void clear() {
         block_ = 0;
@@ -72,7 +72,7 @@ public:
         ++used_;
     }
 
-private:
+  private:
     struct Release {
         std::size_t bytes;
         void operator()(T* p) const { releaseHugePages(p, bytes); }

@@ -81,9 +81,9 @@ inline float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThet
 // their largest size; entries [0, k) belong to the last set of k entries filtered, and the pair
 // loop reads up to k rounded up to its SIMD width.
 struct NeighbourhoodScratch {
-    std::vector<float> px, py, pz;     // the positions the badness is measured on
-    std::vector<float> dx, dy, dz;     // their unit directions from p
-    std::vector<float> su, sv;         // tangent-plane coordinates of the neighbours
+    std::vector<float> px, py, pz; // the positions the badness is measured on
+    std::vector<float> dx, dy, dz; // their unit directions from p
+    std::vector<float> su, sv;     // tangent-plane coordinates of the neighbours
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
     // Sets larger than the filter's block (sortedByDistance): the entries by distance from p, and

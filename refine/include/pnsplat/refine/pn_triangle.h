@@ -48,7 +48,8 @@ inline glm::vec3 edgeControlPoint(glm::vec3 pa, glm::vec3 na, glm::vec3 pb) {
 struct EdgeControls {
     glm::vec3 ab, ba; // near pa, near pb
 };
-[[gnu::always_inline]] inline EdgeControls edgeControlPoints(glm::vec3 pa, glm::vec3 na, glm::vec3 pb, glm::vec3 nb) {
+[[gnu::always_inline]] inline EdgeControls edgeControlPoints(glm::vec3 pa, glm::vec3 na, glm::vec3 pb,
+                                                             glm::vec3 nb) {
     const glm::vec3 third = (pb - pa) * (1.0f / 3.0f);
     const float thirdLength2 = glm::dot(third, third);
     return {detail::edgeControlPointFromThird(pa, na, third, thirdLength2),
@@ -58,10 +59,10 @@ struct EdgeControls {
 // The ten control points of the PN triangle over (p0,n0), (p1,n1), (p2,n2).
 // Index names follow the paper: b_ijk weights p0^i p1^j p2^k.
 struct PnTriangle {
-    glm::vec3 b300, b030, b003;       // corners p0, p1, p2
-    glm::vec3 b210, b120;             // edge p0 p1: near p0, near p1
-    glm::vec3 b021, b012;             // edge p1 p2: near p1, near p2
-    glm::vec3 b102, b201;             // edge p2 p0: near p2, near p0
+    glm::vec3 b300, b030, b003; // corners p0, p1, p2
+    glm::vec3 b210, b120;       // edge p0 p1: near p0, near p1
+    glm::vec3 b021, b012;       // edge p1 p2: near p1, near p2
+    glm::vec3 b102, b201;       // edge p2 p0: near p2, near p0
 };
 
 inline PnTriangle makePnTriangle(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec3 n1, glm::vec3 p2,
@@ -95,8 +96,8 @@ inline glm::vec3 evaluate(const PnTriangle& t, float u, float v) {
     const float w = 1.0f - u - v;
     const glm::vec3 b111 = centreControlPoint(t);
     return t.b300 * (u * u * u) + t.b030 * (v * v * v) + t.b003 * (w * w * w) +
-           3.0f * (t.b210 * (u * u * v) + t.b120 * (u * v * v) + t.b021 * (v * v * w) +
-                   t.b012 * (v * w * w) + t.b102 * (u * w * w) + t.b201 * (u * u * w)) +
+           3.0f * (t.b210 * (u * u * v) + t.b120 * (u * v * v) + t.b021 * (v * v * w) + t.b012 * (v * w * w) +
+                   t.b102 * (u * w * w) + t.b201 * (u * u * w)) +
            6.0f * b111 * (u * v * w);
 }
 
@@ -129,14 +130,15 @@ inline glm::vec3 centreOfGravity(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
     // Three normals that (nearly) cancel: the first one's.
     return length2 >= 1e-6f ? sum * (1.0f / std::sqrt(length2)) : n0;
 }
-[[gnu::always_inline]] inline glm::vec3 centreNormal(const PnTriangle& t, glm::vec3 n0, glm::vec3 n1, glm::vec3 n2) {
+[[gnu::always_inline]] inline glm::vec3 centreNormal(const PnTriangle& t, glm::vec3 n0, glm::vec3 n1,
+                                                     glm::vec3 n2) {
     const glm::vec3 ds = (t.b030 - t.b300) + (t.b120 - t.b210) + (t.b012 - t.b102) + 2.0f * (t.b021 - t.b201);
     const glm::vec3 dt = (t.b003 - t.b300) + (t.b102 - t.b201) + (t.b021 - t.b120) + 2.0f * (t.b012 - t.b210);
     glm::vec3 n = glm::cross(ds, dt);
     const float length2 = glm::dot(n, n);
     constexpr float kMinSin2 = 7.6e-5f; // sin²(0.5°)
-    if (!(length2 > kMinSin2 * glm::dot(ds, ds) * glm::dot(dt, dt)) || !(length2 >= std::numeric_limits<float>::min()) ||
-        !(length2 <= std::numeric_limits<float>::max()))
+    if (!(length2 > kMinSin2 * glm::dot(ds, ds) * glm::dot(dt, dt)) ||
+        !(length2 >= std::numeric_limits<float>::min()) || !(length2 <= std::numeric_limits<float>::max()))
         return meanNormal(n0, n1, n2);
     n *= 1.0f / std::sqrt(length2);
     return glm::dot(n, n0 + n1 + n2) < 0.0f ? -n : n;
@@ -154,7 +156,9 @@ inline float geodesicDistance(glm::vec3 p0, glm::vec3 n0, glm::vec3 p1, glm::vec
 }
 
 // Unsigned angle a-o-b in [0, π]; 0 when a or b coincides with o.
-inline float angleAt(glm::vec3 o, glm::vec3 a, glm::vec3 b) { return angleBetween(a - o, b - o); }
+inline float angleAt(glm::vec3 o, glm::vec3 a, glm::vec3 b) {
+    return angleBetween(a - o, b - o);
+}
 
 // Curved angle (eq. 5) of p0, p1 seen from p: the angles subtended by the three legs of the control
 // polygon of the curve between p0 and p1, A = ∠(p0,p,b210) + ∠(b210,p,b120) + ∠(b120,p,p1).
@@ -188,7 +192,9 @@ inline float curvedAngleUnlessSmall(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm
     const float l0 = glm::dot(u0, u0), l1 = glm::dot(u1, u1), l2 = glm::dot(u2, u2), l3 = glm::dot(u3, u3);
     const float d01 = glm::dot(u0, u1), d12 = glm::dot(u1, u2), d23 = glm::dot(u2, u3);
     constexpr float kCos2Of29Degrees = 0.764960f;
-    const auto below29 = [&](float d, float la, float lb) { return d > 0.0f && d * d > kCos2Of29Degrees * la * lb; };
+    const auto below29 = [&](float d, float la, float lb) {
+        return d > 0.0f && d * d > kCos2Of29Degrees * la * lb;
+    };
     if (below29(d01, l0, l1) && below29(d12, l1, l2) && below29(d23, l2, l3)) return 0.0f;
     const float x01 = glm::length(glm::cross(u0, u1)), x12 = glm::length(glm::cross(u1, u2));
     const float x23 = glm::length(glm::cross(u2, u3));
@@ -201,7 +207,8 @@ inline float curvedAngleUnlessSmall(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm
         const double scale2 = double{l1} * double{l2}, ends = double{l0} * double{l3};
         if (cosSum3 > 0.0 && cosSum3 * cosSum3 > double{kSin2Of1Degree} * scale2 * scale2 * ends) return 0.0f;
     }
-    return detail::fastAtan2Upper(x01, d01) + detail::fastAtan2Upper(x12, d12) + detail::fastAtan2Upper(x23, d23);
+    return detail::fastAtan2Upper(x01, d01) + detail::fastAtan2Upper(x12, d12) +
+           detail::fastAtan2Upper(x23, d23);
 }
 
 // Neighbour validity (eq. 6, SPEC 2): p1 may be a neighbour of p0 only when it lies outside the cone

@@ -14,8 +14,8 @@
 #include <optional>
 #include <vector>
 
-#include <glm/vec3.hpp>
 #include <glm/gtc/type_precision.hpp>
+#include <glm/vec3.hpp>
 
 #include "pnsplat/refine/huge_pages.h"
 

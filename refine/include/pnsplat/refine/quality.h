@@ -39,8 +39,8 @@
 #include <string>
 #include <vector>
 
-#include <glm/vec3.hpp>
 #include <glm/gtc/type_precision.hpp>
+#include <glm/vec3.hpp>
 
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
@@ -50,7 +50,7 @@ namespace pnsplat {
 
 // The true surface of an evaluation. Build it with parseReference or meshReference.
 struct Reference {
-    std::string name;                      // as given: "sphere:1", "torus:1,0.25" or the file path
+    std::string name;                       // as given: "sphere:1", "torus:1,0.25" or the file path
     std::optional<AnalyticSurface> surface; // set for an analytic reference
     PointSet points;                        // file references: vertices with unit normals
     std::vector<glm::u32vec3> triangles;    // mesh references: indices into `points`
@@ -85,10 +85,10 @@ inline glm::vec3 closestPointOnTriangle(glm::vec3 p, glm::vec3 a, glm::vec3 b, g
 // boxes, median splits, 4 triangles per leaf) searched branch and bound. Construction copies the
 // triangles; queries are const and may run from any number of threads at once.
 class TriangleMeshIndex {
-public:
+  public:
     struct Hit {
-        glm::vec3 point;       // the closest surface point
-        glm::vec3 barycentric; // of `point` in `triangle`'s vertices
+        glm::vec3 point;        // the closest surface point
+        glm::vec3 barycentric;  // of `point` in `triangle`'s vertices
         std::uint32_t triangle; // index into the triangles given to the constructor
         float distanceSquared;
     };
@@ -99,23 +99,23 @@ public:
     Hit closest(glm::vec3 p) const;
     std::size_t triangleCount() const { return order_.size(); }
 
-private:
+  private:
     struct Node {
         glm::vec3 lo, hi;
         std::uint32_t index; // leaf: first triangle slot; inner node: right child (left is next)
         std::uint32_t count; // leaf: number of triangles (> 0); inner node: 0
     };
     std::vector<Node> nodes_;
-    std::vector<glm::vec3> corners_;    // 3 per triangle slot, in leaf order
-    std::vector<std::uint32_t> order_;  // triangle index of each slot
+    std::vector<glm::vec3> corners_;   // 3 per triangle slot, in leaf order
+    std::vector<std::uint32_t> order_; // triangle index of each slot
 };
 
 inline constexpr glm::u8vec3 kGapColour{255, 0, 0};
 inline constexpr glm::u8vec3 kOffSurfaceColour{255, 170, 0};
 
 struct EvalOptions {
-    unsigned threads = 0;                      // worker threads; 0 = std::thread::hardware_concurrency
-    std::size_t analyticSamples = 200'000;     // dense reference samples of an analytic surface
+    unsigned threads = 0;                  // worker threads; 0 = std::thread::hardware_concurrency
+    std::size_t analyticSamples = 200'000; // dense reference samples of an analytic surface
     // A mesh reference's true normal is its closest triangle's own (facing like the vertex
     // normals there), not the vertex normals interpolated: for CAD parts with sharp edges, whose
     // vertex normals average the faces on both sides (../shared/data's fandisk), so that near an
@@ -124,20 +124,20 @@ struct EvalOptions {
 };
 
 struct QualityReport {
-    std::string reference;            // Reference::name
-    std::size_t points = 0;           // refined points
-    std::size_t referencePoints = 0;  // points of the hole test (vertices, or analytic samples)
+    std::string reference;           // Reference::name
+    std::size_t points = 0;          // refined points
+    std::size_t referencePoints = 0; // points of the hole test (vertices, or analytic samples)
     std::size_t referenceTriangles = 0;
-    double diagonal = 0.0;            // bounding-box diagonal of the reference (model units)
+    double diagonal = 0.0; // bounding-box diagonal of the reference (model units)
 
     double distanceMean = 0.0, distanceRms = 0.0, distanceMax = 0.0;          // model units
     double distanceMeanRel = 0.0, distanceRmsRel = 0.0, distanceMaxRel = 0.0; // / diagonal
 
     double normalErrorMeanDeg = 0.0, normalErrorP95Deg = 0.0, normalErrorMaxDeg = 0.0;
 
-    double spacingMean = 0.0;   // mean nearest-neighbour distance of the refined points
-    double uniformityCv = 0.0;  // std / mean of those distances (population std)
-    double holes = 0.0;         // share in [0, 1] of reference points not covered
+    double spacingMean = 0.0;     // mean nearest-neighbour distance of the refined points
+    double uniformityCv = 0.0;    // std / mean of those distances (population std)
+    double holes = 0.0;           // share in [0, 1] of reference points not covered
     double holesTangential = 0.0; // the same, distances measured in the sample's tangent plane
     std::size_t holeReferencePoints = 0;
     // The holeReferencePoints samples themselves, coloured kGapColour where they are holes in the
@@ -145,7 +145,7 @@ struct QualityReport {
     // refined surface passes there, off the true one): where the holes are, to look at.
     PointSet holePoints;
 
-    bool hasInput = false;       // the fields below are meaningful only with an input
+    bool hasInput = false; // the fields below are meaningful only with an input
     std::size_t inputPoints = 0;
     bool inputPreserved = false;
     std::size_t inputMissing = 0; // input points without a bit-identical twin in the output

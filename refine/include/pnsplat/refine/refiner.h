@@ -10,8 +10,8 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
-#include <span>
 #include <numbers>
+#include <span>
 #include <vector>
 
 #include "pnsplat/refine/point_set.h"
@@ -76,8 +76,8 @@ struct RefineOptions {
     float targetRadius = 0.0f;
 
     std::size_t maxNeighbours = kMaxNeighbours; // see kMaxNeighbours
-    unsigned threads = 1;  // 0 = all hardware threads; the output does not depend on it
-    bool profile = false;  // measure the time per phase (costs a few percent)
+    unsigned threads = 1;                       // 0 = all hardware threads; the output does not depend on it
+    bool profile = false;                       // measure the time per phase (costs a few percent)
 
     // All four faster variants on.
     static RefineOptions fast();
@@ -90,21 +90,21 @@ struct PhaseTimes {
 };
 
 struct LevelStats {
-    std::uint32_t level = 0;         // the level built: P(level) from P(level-1)
+    std::uint32_t level = 0; // the level built: P(level) from P(level-1)
     std::size_t pointsBefore = 0;
     std::size_t inserted = 0;
-    std::size_t discarded = 0;       // candidates that fell in the discard space
-    std::size_t retried = 0;         // points whose fan was open and was searched again wider
-    std::size_t beyondBound = 0;     // candidates not inserted: farther than c_β,max · r (SPEC 4)
-    std::size_t coincident = 0;      // candidates not inserted: at the position of p or a point near it
-                                     // (of P(l) within reach, of N'_p or of Y_p)
+    std::size_t discarded = 0;            // candidates that fell in the discard space
+    std::size_t retried = 0;              // points whose fan was open and was searched again wider
+    std::size_t beyondBound = 0;          // candidates not inserted: farther than c_β,max · r (SPEC 4)
+    std::size_t coincident = 0;           // candidates not inserted: at the position of p or a point near it
+                                          // (of P(l) within reach, of N'_p or of Y_p)
     std::size_t cappedNeighbourhoods = 0; // neighbourhoods cut to the maxNeighbours nearest
-    std::size_t boundaryInserted = 0; // points inserted on boundary and crease segments (section 6)
-    std::size_t boundarySegments = 0; // boundary and crease segments after this level
-    double seconds = 0;              // wall clock
-    PhaseTimes phases;               // filled when RefineOptions::profile
-    std::size_t largePoints = 0;      // points above r_lim, refined in a colouring of their own
-    std::size_t refinedPoints = 0;    // points of P(level-1) refined (all but adaptive skips)
+    std::size_t boundaryInserted = 0;     // points inserted on boundary and crease segments (section 6)
+    std::size_t boundarySegments = 0;     // boundary and crease segments after this level
+    double seconds = 0;                   // wall clock
+    PhaseTimes phases;                    // filled when RefineOptions::profile
+    std::size_t largePoints = 0;          // points above r_lim, refined in a colouring of their own
+    std::size_t refinedPoints = 0;        // points of P(level-1) refined (all but adaptive skips)
 };
 
 // Called as progress(done, total) with points refined so far in the current level, from the
@@ -112,7 +112,7 @@ struct LevelStats {
 using ProgressFn = std::function<void(std::size_t done, std::size_t total)>;
 
 class Refiner {
-public:
+  public:
     // `input` must be non-empty with unit normals and positive radii (estimateRadii supplies them).
     Refiner(PointSet input, const RefineOptions& options);
     ~Refiner();
@@ -134,15 +134,15 @@ public:
     const PointSet& points() const;
     // inputOrder()[i] is the index in the input of point i of P0 (i < levelEnd(0)).
     std::span<const std::uint32_t> inputOrder() const;
-    std::uint32_t levels() const;                 // 0 before the first refineLevel
-    std::size_t levelEnd(std::uint32_t l) const;  // |P(l)|
+    std::uint32_t levels() const;                // 0 before the first refineLevel
+    std::size_t levelEnd(std::uint32_t l) const; // |P(l)|
     // Children of point i inserted at the transition l → l+1: [childBegin, childEnd).
     std::size_t childBegin(std::uint32_t l, std::size_t i) const;
     std::size_t childEnd(std::uint32_t l, std::size_t i) const;
 
     PointSet takePoints() &&;
 
-private:
+  private:
     struct State;
     std::unique_ptr<State> state_;
 };
@@ -157,8 +157,9 @@ private:
 // levels built. Deterministic like refineLevel. Not for inputs with
 // openings that the uniform levels bridged (undetected boundaries): the largest radii sit across
 // them, and evening out fills them further.
-std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels, const ProgressFn& progress = {});
-inline constexpr float kEvenOutFactor = 2.0f;   // the suggested factor (tests, `--even-out` help, hole filling)
+std::vector<LevelStats> evenOut(Refiner& refiner, float factor, unsigned maxLevels,
+                                const ProgressFn& progress = {});
+inline constexpr float kEvenOutFactor = 2.0f; // the suggested factor (tests, `--even-out` help, hole filling)
 inline constexpr unsigned kEvenOutMaxLevels = 4; // the tools' level budget
 
 // The adaptive levels of evenOut for a given target radius: points whose radius is above it (or

@@ -1,6 +1,7 @@
 // Procedural models for tests, demos and `pnsplat eval`: sphere and torus samplings with exact
-// normals, a capped cylinder with crease points, the embedded default model of the README's first command, and exact analytic
-// descriptions of the sphere and torus (closest point, distance, normal) for error measurements.
+// normals, a capped cylinder with crease points, the embedded default model of the README's first command,
+// and exact analytic descriptions of the sphere and torus (closest point, distance, normal) for error
+// measurements.
 //
 // Not from the paper (which uses scanned models); the sampling patterns are the usual ones:
 // Fibonacci spiral (Swinbank & Purser 2006) for near-uniform sphere points, area-correct
@@ -70,8 +71,8 @@ struct AnalyticSurface {
     enum class Kind { Sphere, Torus };
 
     Kind kind = Kind::Sphere;
-    float R = 1.0f;      // sphere radius, or torus major radius (> 0)
-    float r = 0.0f;      // torus tube radius (0 < r < R); unused for a sphere
+    float R = 1.0f; // sphere radius, or torus major radius (> 0)
+    float r = 0.0f; // torus tube radius (0 < r < R); unused for a sphere
     glm::vec3 centre{0.0f};
 
     static AnalyticSurface sphere(float radius) { return {Kind::Sphere, radius, 0.0f, glm::vec3(0.0f)}; }

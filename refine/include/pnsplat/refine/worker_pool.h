@@ -22,7 +22,7 @@
 namespace pnsplat {
 
 class WorkerPool {
-public:
+  public:
     // threads = 0 picks std::thread::hardware_concurrency().
     explicit WorkerPool(unsigned threads);
     ~WorkerPool();
@@ -33,7 +33,7 @@ public:
 
     void parallelFor(std::size_t count, const std::function<void(std::size_t item, unsigned worker)>& task);
 
-private:
+  private:
     void workerLoop(unsigned worker);
     void runItems(unsigned worker);
 
@@ -64,7 +64,8 @@ struct TaskGraph {
 // done. Nodes that do not depend on each other run in any order, concurrently: they must not write
 // what the other reads or writes. A worker with no node ready waits (yielding) for one. Same
 // calling rules as parallelFor.
-void runGraph(WorkerPool& pool, const TaskGraph& graph, const std::function<void(std::uint32_t node, unsigned worker)>& task);
+void runGraph(WorkerPool& pool, const TaskGraph& graph,
+              const std::function<void(std::uint32_t node, unsigned worker)>& task);
 
 // pool.parallelFor over consecutive ranges of `chunk` items: body(begin, end, worker) for every
 // range [begin, end) of [0, n) (the last may be shorter), under parallelFor's contract.

@@ -63,7 +63,6 @@ constexpr float kTwoPi = 2.0f * kPi;
 // and each point then scans a longer list: 4.5 was the fastest of 2.25, 3, 4, 4.5, 5, 6 and 9
 // (1.06x over 2.25 on the faster variants, 1.04x on the full method; pinned A/B).
 constexpr float kCellFactor = 4.5f;
-constexpr float kRetryReach = 1.5f;
 constexpr float kLargeQuantile = 0.99f;
 constexpr std::size_t kPrefetchAhead =
     16; // grid entries between a point's prefetch and its read: 1.03x over 8 (pinned A/B)
@@ -125,6 +124,13 @@ struct Candidate {
     glm::vec3 b021, b012;
 };
 
+// The points of P(l) a new point was made from (refineRegion's recordParents): the refined point
+// and the other two corners of its fan triangle, or a segment's ends (a, b, b); indices of P(l).
+struct ParentRecord {
+    std::uint32_t cell, local;
+    std::array<std::uint32_t, 3> corners;
+};
+
 struct NearbyPoint {
     glm::vec3 position;
     std::uint32_t index;
@@ -155,7 +161,8 @@ struct alignas(64) WorkerScratch {          // one cache line apart: workers wri
     std::vector<NearbyPoint> nearest;           // the maxNeighbours nearest, for an oversized neighbourhood
     BlockArena<NewPoint> arena;                 // the points this worker inserts, cell after cell
     std::size_t inserted = 0, discarded = 0, retried = 0, beyondBound = 0, coincident = 0,
-                boundaryInserted = 0, capped = 0;
+                boundaryInserted = 0, capped = 0, outsideRegion = 0;
+    std::vector<ParentRecord> parents; // refineRegion with recordParents: one per inserted point
 };
 
 // Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
@@ -545,6 +552,25 @@ struct Refiner::State {
     std::vector<std::uint32_t> segmentsOf;      // segment indices grouped by first point (this level)
     std::vector<std::uint32_t> segmentsOfBegin; // per point of P(l): range into segmentsOf
     std::vector<std::uint32_t> segmentChild; // per segment: offset of its first new point among a's children
+    std::vector<std::uint8_t> segmentInserted; // per segment: bit t set when its point at third t+1 was inserted
+
+    // refineRegion: its one level refines only the region's points (not the context points), inserts
+    // no point outside the region (scaled with the points during the level), and splits segments
+    // at the parity of the global level: levelOffset is the level of P0 here.
+    struct RegionRun {
+        Region region;
+        std::uint32_t levelOffset = 0;
+        bool recordParents = false;
+        std::vector<std::uint8_t> context; // per point of P0: a context point, not refined
+    };
+    std::optional<RegionRun> regionRun;
+    std::vector<std::array<std::uint32_t, 3>> newPointParents; // recordParents: per new point (ParentRecord)
+    Region scaledRegion; // regionRun's region during the level
+    bool outsideRegion(glm::vec3 q) const { return regionRun && !scaledRegion.contains(q); }
+    void recordParent(WorkerScratch& s, std::uint32_t cell, std::uint32_t local, std::uint32_t p,
+                      std::uint32_t b, std::uint32_t c) const {
+        if (regionRun && regionRun->recordParents) s.parents.push_back(ParentRecord{cell, local, {p, b, c}});
+    }
 
     State(PointSet input, const RefineOptions& o)
         : options(o), pool(o.threads), points(spatialOrder(std::move(input), inputOrder)),
@@ -553,7 +579,10 @@ struct Refiner::State {
     PNSPLAT_V3_CLONE void refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s);
     LevelStats refineLevel(const ProgressFn& progress);
     void findSegments();
-    bool splitsSegments() const { return !segments.empty() && hierarchy.levels() % 2 == 1; }
+    bool splitsSegments() const {
+        const std::uint32_t offset = regionRun ? regionRun->levelOffset : 0;
+        return !segments.empty() && (hierarchy.levels() + offset) % 2 == 1;
+    }
     float segmentLength(const Segment& segment) const {
         return glm::length(points.position[segment.b] - points.position[segment.a]);
     }
@@ -979,6 +1008,7 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             c2 = e.ba;
         }
         segmentChild[segment] = cellCount[cell] - firstChild;
+        segmentInserted[segment] = 0;
         glm::vec3 curve[2];
         for (int third = 1; third <= 2; ++third) {
             const float t = static_cast<float>(third) / 3.0f, u = 1.0f - t;
@@ -987,6 +1017,11 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
         for (int third = 1; third <= 2; ++third) {
             const float t = static_cast<float>(third) / 3.0f;
             const glm::vec3 q = curve[third - 1];
+            if (outsideRegion(q)) { // refineRegion: choice, as for candidates (refiner.h)
+                ++s.outsideRegion;
+                continue;
+            }
+            segmentInserted[segment] |= static_cast<std::uint8_t>(1u << (third - 1));
             const glm::vec3 before = third == 1 ? x : curve[0], after = third == 1 ? curve[1] : pb;
             NewPoint np{q, glm::normalize((1.0f - t) * n + t * nb),
                         kRadiusMargin * std::max(glm::length(q - before), glm::length(q - after)),
@@ -996,6 +1031,7 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
                 np.colour = glm::u8vec3(
                     glm::round(glm::mix(glm::vec3(points.colour[p]), glm::vec3(points.colour[b]), t)));
             const std::uint32_t local = store(cell, np, s);
+            recordParent(s, cell, local, p, b, b);
             ++s.inserted;
             ++s.boundaryInserted;
             // The first point joins N'_p (it fills the gap along the segment), unless it lies
@@ -1255,7 +1291,13 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             if (profile) interpolationSeconds += secondsSince(ti);
             continue;
         }
+        // refineRegion: the neighbouring region inserts what lies in it (see refiner.h).
+        if (outsideRegion(np.position)) {
+            ++s.outsideRegion;
+            continue;
+        }
         const std::uint32_t local = store(cell, np, s);
+        recordParent(s, cell, local, p, s.fan.index[c.a], s.fan.index[c.b]);
         ++s.inserted;
         RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
         insertIntoRing(ring, m);
@@ -1310,12 +1352,13 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const float extent = bounds.extent() * scale;
     const float radiusLimit = unscaledLimit * scale;
     const float targetRadius = options.targetRadius * scale;
+    if (regionRun) scaledRegion = Region{regionRun->region.lo * scale, regionRun->region.hi * scale};
 
     levelRadius = points.radius;
     hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
     childRange.assign(count, ChildRange{});
-    if (stats.level == 1 && (options.boundaries || points.hasCrease())) findSegments();
+    if (stats.level == 1 && !regionRun && (options.boundaries || points.hasCrease())) findSegments();
     if (splitsSegments()) {
         segmentsOfBegin.assign(count + 1, 0);
         for (const Segment& segment : segments) ++segmentsOfBegin[segment.a + 1];
@@ -1324,6 +1367,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         std::vector<std::uint32_t> fill(segmentsOfBegin.begin(), segmentsOfBegin.end() - 1);
         for (std::uint32_t k = 0; k < segments.size(); ++k) segmentsOf[fill[segments[k].a]++] = k;
         segmentChild.assign(segments.size(), 0);
+        segmentInserted.assign(segments.size(), 0);
     }
 
     const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
@@ -1347,6 +1391,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             longestOwned[segment.a] = std::max(longestOwned[segment.a], segmentLength(segment));
     }
     const auto skipped = [&](std::uint32_t i) {
+        if (regionRun && regionRun->context[i]) return true;
         return levelRadius[i] <= targetRadius && (longestOwned.empty() || longestOwned[i] <= targetRadius);
     };
     std::erase_if(keyed, [&](const auto& entry) {
@@ -1393,7 +1438,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         s.arena.clear();
         s.times = {};
         s.inserted = s.discarded = s.retried = s.beyondBound = s.coincident = s.boundaryInserted = s.capped =
-            0;
+            s.outsideRegion = 0;
+        s.parents.clear();
         s.columnsOf = kNoCell;
     }
     // A cell's points find their surroundings together, from the grid; a large point alone,
@@ -1456,6 +1502,23 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             }
         }
     });
+    if (regionRun && regionRun->recordParents) {
+        std::vector<ParentRecord> records;
+        for (const WorkerScratch& s : scratch) records.insert(records.end(), s.parents.begin(), s.parents.end());
+        const auto before = [](const ParentRecord& u, const ParentRecord& v) {
+            return u.cell != v.cell ? u.cell < v.cell : u.local < v.local;
+        };
+        std::sort(records.begin(), records.end(), before);
+        newPointParents.assign(offset - count, {});
+        for (std::uint32_t i = 0; i < count; ++i) {
+            const ChildRange range = childRange[i];
+            if (range.count == 0) continue;
+            const auto first = std::lower_bound(records.begin(), records.end(),
+                                                ParentRecord{range.cell, range.begin, {}}, before);
+            for (std::uint32_t k = 0; k < range.count; ++k)
+                newPointParents[childBegin[i] + k - count] = first[k].corners;
+        }
+    }
     if (splitsSegments()) {
         // Each segment becomes three: (a, q1), (q1, q2), (q2, b); one whose first point was not
         // refined (adaptive refinement: the point and the segment are within the target) stays whole.
@@ -1467,10 +1530,14 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
                 split.push_back(segment);
                 continue;
             }
-            const std::uint32_t q1 = childBegin[segment.a] + segmentChild[k], q2 = q1 + 1;
-            split.insert(split.end(),
-                         {Segment{segment.a, q1, segment.crease}, Segment{q1, q2, segment.crease},
-                          Segment{q2, segment.b, segment.crease}});
+            // (a, q1), (q1, q2), (q2, b), without the points refineRegion left out.
+            std::uint32_t from = segment.a, next = childBegin[segment.a] + segmentChild[k];
+            for (unsigned t = 0; t < 2; ++t) {
+                if (!(segmentInserted[k] & (1u << t))) continue;
+                split.push_back(Segment{from, next, segment.crease});
+                from = next++;
+            }
+            split.push_back(Segment{from, segment.b, segment.crease});
         }
         segments = std::move(split);
     }
@@ -1486,6 +1553,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         stats.coincident += s.coincident;
         stats.cappedNeighbourhoods += s.capped;
         stats.boundaryInserted += s.boundaryInserted;
+        stats.outsideRegion += s.outsideRegion;
         stats.phases.neighbourhood += s.times.neighbourhood;
         stats.phases.filtering += s.times.filtering;
         stats.phases.selection += s.times.selection;
@@ -1613,6 +1681,94 @@ Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> hole
 
 std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress) {
     return refineDownTo(refiner, rims.fillTarget, kHoleFillingLevels, progress);
+}
+
+namespace {
+
+// Positions as bit patterns, ordered: the points of a level have distinct positions, so a position
+// names a point (segments between the separate runs of refineRegion).
+using PositionKey = std::array<std::uint32_t, 3>;
+PositionKey positionKey(glm::vec3 p) {
+    return {std::bit_cast<std::uint32_t>(p.x), std::bit_cast<std::uint32_t>(p.y),
+            std::bit_cast<std::uint32_t>(p.z)};
+}
+
+} // namespace
+
+std::vector<SegmentEnds> findSegments(const PointSet& input, const RefineOptions& options) {
+    if (!options.boundaries && !input.hasCrease()) return {};
+    Refiner refiner(input, options);
+    Refiner::State& state = *refiner.state_;
+    const auto count = static_cast<std::uint32_t>(state.points.size());
+    // The preparation of refineLevel's first level, up to its search for segments.
+    HugePageVector<float> sortedRadii = state.points.radius;
+    const float limit = radiusLimitOf(sortedRadii);
+    const int exponent = scaleExponent(state.points, std::min(limit, boundsOf(state.points.position).extent()));
+    if (exponent != 0) scalePoints(state.points, std::ldexp(1.0f, exponent), state.pool);
+    state.levelRadius = state.points.radius;
+    state.hierarchy.updateBounds(state.points.position);
+    state.refined.assign(count, 0);
+    state.childRange.assign(count, ChildRange{});
+    state.findSegments();
+    if (exponent != 0) scalePoints(state.points, std::ldexp(1.0f, -exponent), state.pool);
+    std::vector<SegmentEnds> segments;
+    segments.reserve(state.segments.size());
+    for (const Refiner::State::Segment& segment : state.segments)
+        segments.push_back({state.points.position[segment.a], state.points.position[segment.b], segment.crease});
+    return segments;
+}
+
+RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
+    RegionResult result;
+    const std::size_t owned = input.owned;
+    assert(owned <= input.points.size());
+    if (owned == 0) return result;
+    RefineOptions local = options;
+    local.threads = 1;
+    local.targetRadius = 0.0f;
+    local.profile = false;
+    Refiner refiner(std::move(input.points), local);
+    Refiner::State& state = *refiner.state_;
+    const auto count = static_cast<std::uint32_t>(state.points.size());
+    Refiner::State::RegionRun run{input.region, input.level, input.recordParents, {}};
+    run.context.resize(count);
+    std::vector<std::uint32_t> sortedIndexOf(owned);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const std::uint32_t k = state.inputOrder[i];
+        run.context[i] = k >= owned;
+        if (k < owned) sortedIndexOf[k] = i;
+        assert(k >= owned || input.region.contains(state.points.position[i]));
+    }
+    // The segments by index: a among the owned points, b anywhere in the set (others are dropped).
+    std::vector<std::pair<PositionKey, std::uint32_t>> byPosition(count);
+    for (std::uint32_t i = 0; i < count; ++i) byPosition[i] = {positionKey(state.points.position[i]), i};
+    std::sort(byPosition.begin(), byPosition.end());
+    const auto find = [&](glm::vec3 p) -> std::optional<std::uint32_t> {
+        const PositionKey key = positionKey(p);
+        const auto at = std::lower_bound(byPosition.begin(), byPosition.end(), std::pair{key, 0u});
+        if (at == byPosition.end() || at->first != key) return std::nullopt;
+        return at->second;
+    };
+    for (const SegmentEnds& segment : input.segments) {
+        const auto a = find(segment.a), b = find(segment.b);
+        if (a && b && !run.context[*a]) state.segments.push_back({*a, *b, segment.crease});
+    }
+    state.regionRun = std::move(run);
+    result.stats = state.refineLevel({});
+
+    const PointSet& all = state.points;
+    const std::size_t firstNew = state.hierarchy.levelEnd(0);
+    result.points.reserve(owned + all.size() - firstNew);
+    for (std::size_t k = 0; k < owned; ++k) result.points.appendFrom(all, sortedIndexOf[k]);
+    for (std::size_t i = firstNew; i < all.size(); ++i) result.points.appendFrom(all, i);
+    const std::vector<std::uint8_t>& context = state.regionRun->context;
+    for (const Refiner::State::Segment& segment : state.segments)
+        if (segment.a >= firstNew || !context[segment.a])
+            result.segments.push_back({all.position[segment.a], all.position[segment.b], segment.crease});
+    result.parents.reserve(state.newPointParents.size());
+    for (const auto& corners : state.newPointParents)
+        result.parents.push_back({all.position[corners[0]], all.position[corners[1]], all.position[corners[2]]});
+    return result;
 }
 
 namespace {

@@ -6,9 +6,11 @@
 // level is identical for any number of threads (SPEC 5: fixed spatial colouring, see refiner.cpp).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <span>
@@ -34,6 +36,10 @@ inline constexpr float kThetaC = std::numbers::pi_v<float> / 2.0f;
 // ends a level at most c_β,max times its value before; a point whose new one-ring stays empty
 // (nothing found, nothing inserted: the paper's r' is undefined) gets exactly c_β,max · r.
 inline constexpr float kCBetaMax = 0.956172f;
+// The farthest a point's refinement looks: its neighbourhood is searched within r, and once more
+// within kRetryReach · r when its fan is open (a possible boundary). The real-time refinement's
+// context reaches as far (node_tree.h).
+inline constexpr float kRetryReach = 1.5f;
 
 // Choice (not in the paper): when more than RefineOptions::maxNeighbours points within a point's
 // radius pass the validity cone, only that many nearest points within the radius are kept (and
@@ -105,11 +111,17 @@ struct LevelStats {
     PhaseTimes phases;                    // filled when RefineOptions::profile
     std::size_t largePoints = 0;          // points above r_lim, refined in a colouring of their own
     std::size_t refinedPoints = 0;        // points of P(level-1) refined (all but adaptive skips)
+    std::size_t outsideRegion = 0;        // refineRegion: candidates and segment points outside the
+                                          // region, not inserted
 };
 
 // Called as progress(done, total) with points refined so far in the current level, from the
 // thread that called refineLevel, at most a few hundred times per level.
 using ProgressFn = std::function<void(std::size_t done, std::size_t total)>;
+
+struct SegmentEnds;
+struct RegionLevel;
+struct RegionResult;
 
 class Refiner {
   public:
@@ -143,6 +155,8 @@ class Refiner {
     PointSet takePoints() &&;
 
   private:
+    friend std::vector<SegmentEnds> findSegments(const PointSet&, const RefineOptions&);
+    friend RegionResult refineRegion(RegionLevel, const RefineOptions&);
     struct State;
     std::unique_ptr<State> state_;
 };
@@ -199,6 +213,65 @@ Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> hole
 // The filling levels (refineDownTo to rims.fillTarget, at most kHoleFillingLevels).
 std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress = {});
 inline constexpr unsigned kHoleFillingLevels = 12;
+
+// A region of space for the real-time refinement (node_tree.h): [lo, hi) on each axis, so that
+// the regions of one level partition space and a point lies in exactly one of them. Sides may be
+// infinite.
+struct Region {
+    glm::vec3 lo{-std::numeric_limits<float>::infinity()};
+    glm::vec3 hi{std::numeric_limits<float>::infinity()};
+    bool contains(glm::vec3 p) const {
+        return lo.x <= p.x && p.x < hi.x && lo.y <= p.y && p.y < hi.y && lo.z <= p.z && p.z < hi.z;
+    }
+};
+
+// A boundary or crease segment (section 6) by the positions of its ends (positions are distinct
+// within a level, so they name points across the separate runs of refineRegion). The refinement
+// of its first point `a` splits it at every odd step.
+struct SegmentEnds {
+    glm::vec3 a{0.0f}, b{0.0f};
+    bool crease = false;
+};
+
+// The boundary and crease segments that the first level finds on P0 (section 6): what
+// refineLevel finds at its first step, for the callers of refineRegion, which never look for
+// segments themselves. `points` as for Refiner; options.threads workers. Any thread.
+std::vector<SegmentEnds> findSegments(const PointSet& points, const RefineOptions& options);
+
+// One level of the refinement of one region of space (real-time refinement, paper section 7;
+// docs/ARCHITECTURE.md, "Real-time refinement"): the points of P(l) in `region` are refined once,
+// in the order refineLevel would refine `points`, seeing the other points of P(l) as context.
+//  - Context points are neighbours, fan corners and candidates' corners like any point of P(l),
+//    but they are not refined: they insert nothing and their children are not seen.
+//  - Choice: no point is inserted outside `region` (a candidate or segment point there is dropped,
+//    LevelStats::outsideRegion). The neighbouring region inserts it when its own points are
+//    refined, so a gap at the border between two regions is filled once, by the region that holds
+//    its new point; and every point of a region lies in it, which makes the context of a region
+//    exactly the points of the regions within reach of it.
+//  - Segments (section 6) are given, by position, with `a` among the region's points and `b`
+//    among `points` (others are dropped); they are split when level l+1 is odd, as in refineLevel.
+// The result depends only on the input (its order included), never on the thread or the history:
+// the real-time refinement relies on it. Runs on the calling thread. Preconditions: `points` as
+// for Refiner, owned <= points.size(), the owned points lie in `region`.
+struct RegionLevel {
+    PointSet points;               // the region's points of P(l) (the first `owned`), then context
+    std::size_t owned = 0;
+    Region region;
+    std::uint32_t level = 0;       // l: level l+1 is built
+    std::vector<SegmentEnds> segments;
+    bool recordParents = false;    // fill RegionResult::parents (tests: levels stay separated)
+};
+struct RegionResult {
+    // The owned points in their given order with their radii of P(l+1), then the new points,
+    // grouped by the point that inserted them.
+    PointSet points;
+    std::vector<SegmentEnds> segments; // of P(l+1), first points among `points`
+    // With recordParents, per new point: the corners of the fan triangle it was made from (the
+    // refined point first), or a segment's ends (a, b, b). All are points of P(l).
+    std::vector<std::array<glm::vec3, 3>> parents;
+    LevelStats stats;
+};
+RegionResult refineRegion(RegionLevel input, const RefineOptions& options);
 
 // Radii the refinement accepts: each is squared in single precision, below kMinRadius into a
 // denormal (and a radius cannot shrink by c_β,max any more), above kMaxRadius with the reach of a

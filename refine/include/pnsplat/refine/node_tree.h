@@ -1,0 +1,145 @@
+// The node hierarchy of the real-time refinement: paper section 7 ("Real-Time Refinement");
+// docs/ARCHITECTURE.md, "Real-time refinement", has the rules and the reasons.
+//
+// Nodes are axis-aligned regions holding about a thousand or two points each. The roots split the
+// input P0 by medians; refining a node runs one level of the refinement over its points
+// (refineRegion, refiner.h), then splits the result into 1, 2 or 3 children along the longest
+// axis of its box, or 4 along its two longest, by its point count. A child owns a region (the
+// regions of one level partition space) and holds the points of P(l+1) in it, contiguous; its box
+// is refit to exactly its points.
+//
+// Levels stay separated: a node of level l is refined from the points of P(l) only, its own and,
+// as context, those of the other regions of level l within reach of its points (the reach of a
+// point's neighbourhood search, 1.5 r). Rule (balance): a node of level l can be refined only
+// when every region of level l that its reach touches exists; otherwise the coarser leaves there
+// are refined first (ready() names them). Since no point is inserted outside its region, the
+// context is exactly the points of those regions near the node, so the children of a node are a
+// function of P(l) alone: the same whatever was refined, evicted or refined again before, and on
+// whichever thread (the tree's jobs run refineRegion on copies of their input).
+//
+// Thread use: the tree is changed and read by one thread (the engine's); run() is a pure function
+// of its job and may run on any thread.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "pnsplat/refine/point_set.h"
+#include "pnsplat/refine/refiner.h"
+#include "pnsplat/refine/result.h"
+
+namespace pnsplat {
+
+using NodeId = std::uint32_t;
+inline constexpr NodeId kNoNode = UINT32_MAX;
+
+struct NodeSettings {
+    // A node is split so that its children hold at most this many points (the paper: "one or two
+    // thousands points per cell"). At least 16.
+    std::uint32_t maxNodePoints = 2048;
+    // Nodes of this level are not refined further (each level shrinks the radii by about √3).
+    std::uint32_t maxLevel = 14;
+    // The method and its variants; threads is ignored (a job runs on one thread).
+    RefineOptions refine;
+};
+
+struct Node {
+    Region region;                        // the part of space the node owns
+    glm::vec3 lo{0.0f}, hi{0.0f};         // the box of its points (refit)
+    float maxRadius = 0.0f;               // of its points
+    std::uint32_t level = 0;              // its points are P(level) in its region
+    NodeId parent = kNoNode;              // kNoNode for a root
+    std::array<NodeId, 4> children{kNoNode, kNoNode, kNoNode, kNoNode};
+    std::uint32_t childCount = 0;         // 0: a leaf (not refined, or its children released)
+    std::uint32_t generation = 0;         // counts the uses of this slot: jobs check it
+    PointSet points;                      // its points (normals, radii, colours, creases as P0's)
+    std::vector<SegmentEnds> segments;    // boundary and crease segments whose first point is its own
+
+    bool isLeaf() const { return childCount == 0; }
+    std::span<const NodeId> childIds() const { return {children.data(), childCount}; }
+};
+
+// What one refinement of a node needs, copied from the tree: it runs while the tree changes.
+struct NodeJob {
+    NodeId node = kNoNode;
+    std::uint32_t generation = 0;
+    RegionLevel input;
+};
+
+// The children a job made, not yet in the tree.
+struct NodeChild {
+    Region region;
+    PointSet points;
+    std::vector<SegmentEnds> segments;
+};
+struct NodeJobResult {
+    NodeId node = kNoNode;
+    std::uint32_t generation = 0;
+    std::vector<NodeChild> children; // 1 to 4
+    std::vector<std::array<glm::vec3, 3>> parents; // RegionLevel::recordParents, per new point
+    LevelStats stats;
+};
+
+class NodeTree {
+  public:
+    // The roots over `input` (which must pass validateForRefinement): split at medians along the
+    // longest axis until each holds at most settings.maxNodePoints; the segments of P0 found
+    // (findSegments, with settings.refine.threads workers). Errors: invalid settings.
+    static Result<NodeTree> create(PointSet input, const NodeSettings& settings);
+
+    const NodeSettings& settings() const { return settings_; }
+    std::span<const NodeId> roots() const { return roots_; }
+    const Node& node(NodeId id) const { return nodes_[id]; }
+    // Slots in use or free; valid ids are below this.
+    std::size_t slotCount() const { return nodes_.size(); }
+    bool isLive(NodeId id) const { return id < nodes_.size() && live_[id]; }
+    std::size_t nodeCount() const { return liveCount_; }
+    // Points held by all live nodes (each node holds its own copy of the points it keeps).
+    std::size_t pointCount() const { return pointCount_; }
+    std::size_t inputPoints() const { return inputPoints_; }
+
+    // Whether leaf `id` can be refined now (balance rule, see the top). When it cannot, the coarser
+    // leaves whose refinement must come first are appended to `blockers` (each once per call).
+    // False also for a node that is not a leaf or is at settings().maxLevel (no blockers then).
+    bool ready(NodeId id, std::vector<NodeId>& blockers) const;
+    // The job that refines ready leaf `id` (its points, the context of its level within reach, its
+    // segments); with recordParents the result carries every new point's parents (tests).
+    NodeJob makeJob(NodeId id, bool recordParents = false) const;
+    // Refines a job's region and splits the result into children. Pure; any thread.
+    static NodeJobResult run(NodeJob job, const NodeSettings& settings);
+    // Makes a job's children the children of its node; false (and nothing changes) when the
+    // result is stale: the node was released, or refined, since the job was made.
+    bool attach(NodeJobResult&& result);
+    // Releases the children of `id`, which must all be leaves; `id` becomes a leaf again.
+    void release(NodeId id);
+
+  private:
+    NodeTree() = default;
+    NodeId allocate();
+    void gatherContext(NodeId id, glm::vec3 lo, glm::vec3 hi, std::uint32_t level, NodeId from,
+                       PointSet& context) const;
+
+    NodeSettings settings_;
+    std::vector<Node> nodes_;
+    std::vector<std::uint8_t> live_;
+    std::vector<NodeId> free_;
+    std::vector<NodeId> roots_;
+    std::size_t liveCount_ = 0, pointCount_ = 0, inputPoints_ = 0;
+};
+
+// The regions and point lists of a split (pure; exposed for tests): `points` split into children
+// of at most maxNodePoints points where possible (1, 2 or 3 along the longest axis of their box, 4
+// as 2 × 2 along the two longest), at the count quantiles, within `region`. Each child's indices
+// keep the order of `points`; no child is empty. `points` must lie in `region`.
+struct SplitPart {
+    Region region;
+    std::vector<std::uint32_t> indices;
+};
+std::vector<SplitPart> splitNode(std::span<const glm::vec3> points, const Region& region,
+                                 std::uint32_t maxNodePoints);
+
+} // namespace pnsplat

@@ -1,0 +1,281 @@
+// The node hierarchy of the real-time refinement: paper section 7 ("Real-Time Refinement");
+// node_tree.h has the rules.
+#include "pnsplat/refine/node_tree.h"
+
+#include <algorithm>
+#include <cassert>
+#include <numeric>
+#include <string>
+
+#include <glm/common.hpp>
+
+namespace pnsplat {
+
+namespace {
+
+// Whether region [rlo, rhi) meets the closed box [lo, hi].
+bool meets(const Region& region, glm::vec3 lo, glm::vec3 hi) {
+    for (int a = 0; a < 3; ++a)
+        if (!(region.lo[a] <= hi[a] && lo[a] < region.hi[a])) return false;
+    return true;
+}
+
+bool inside(glm::vec3 p, glm::vec3 lo, glm::vec3 hi) {
+    return lo.x <= p.x && p.x <= hi.x && lo.y <= p.y && p.y <= hi.y && lo.z <= p.z && p.z <= hi.z;
+}
+
+struct Box {
+    glm::vec3 lo, hi;
+};
+
+Box boxOf(std::span<const glm::vec3> points, std::span<const std::uint32_t> indices) {
+    Box box{points[indices[0]], points[indices[0]]};
+    for (const std::uint32_t i : indices) {
+        box.lo = glm::min(box.lo, points[i]);
+        box.hi = glm::max(box.hi, points[i]);
+    }
+    return box;
+}
+
+// The axes of a box, longest first (ties: x before y before z).
+std::array<int, 3> axesByExtent(const Box& box) {
+    const glm::vec3 extent = box.hi - box.lo;
+    std::array<int, 3> axes{0, 1, 2};
+    std::stable_sort(axes.begin(), axes.end(), [&](int a, int b) { return extent[a] > extent[b]; });
+    return axes;
+}
+
+// `indices` cut into at most k parts of about equal counts along `axis`, each part the points whose
+// coordinate lies between two cuts. A cut is the coordinate of the point at a count quantile, and
+// points on a cut go to the part above it, so equal coordinates never straddle two parts; cuts that
+// would leave a part empty are dropped.
+std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<const std::uint32_t> indices,
+                                  int axis, std::uint32_t k, const Region& region) {
+    std::vector<float> sorted(indices.size());
+    for (std::size_t j = 0; j < indices.size(); ++j) sorted[j] = points[indices[j]][axis];
+    std::sort(sorted.begin(), sorted.end());
+    std::vector<float> cuts;
+    float below = sorted.empty() ? 0.0f : sorted[0]; // no cut at or below the smallest coordinate
+    for (std::uint32_t q = 1; q < k; ++q) {
+        const float cut = sorted[q * sorted.size() / k];
+        if (cut > below) cuts.push_back(below = cut);
+    }
+    std::vector<SplitPart> parts(cuts.size() + 1);
+    for (std::size_t q = 0; q < parts.size(); ++q) {
+        parts[q].region = region;
+        if (q > 0) parts[q].region.lo[axis] = cuts[q - 1];
+        if (q < cuts.size()) parts[q].region.hi[axis] = cuts[q];
+    }
+    for (const std::uint32_t i : indices) {
+        const float c = points[i][axis];
+        const auto part = static_cast<std::size_t>(std::upper_bound(cuts.begin(), cuts.end(), c) - cuts.begin());
+        parts[part].indices.push_back(i);
+    }
+    return parts;
+}
+
+} // namespace
+
+std::vector<SplitPart> splitNode(std::span<const glm::vec3> points, const Region& region,
+                                 std::uint32_t maxNodePoints) {
+    std::vector<std::uint32_t> all(points.size());
+    std::iota(all.begin(), all.end(), 0u);
+    const std::size_t n = points.size();
+    if (n <= maxNodePoints) return {SplitPart{region, std::move(all)}};
+    const std::array<int, 3> axes = axesByExtent(boxOf(points, all));
+    if (n <= 3 * std::size_t{maxNodePoints})
+        return splitAlong(points, all, axes[0], n <= 2 * std::size_t{maxNodePoints} ? 2 : 3, region);
+    std::vector<SplitPart> parts;
+    for (const SplitPart& half : splitAlong(points, all, axes[0], 2, region)) {
+        std::vector<SplitPart> quarters = splitAlong(points, half.indices, axes[1], 2, half.region);
+        for (SplitPart& quarter : quarters) parts.push_back(std::move(quarter));
+    }
+    return parts;
+}
+
+Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings) {
+    if (settings.maxNodePoints < 16)
+        return Error{"nodes must hold at least 16 points (got " + std::to_string(settings.maxNodePoints) + ")"};
+    if (auto valid = validateForRefinement(input); !valid) return valid.error();
+    NodeTree tree;
+    tree.settings_ = settings;
+    tree.inputPoints_ = input.size();
+    // The segments of P0 (section 6), each given to the root that holds its first point.
+    std::vector<SegmentEnds> segments = findSegments(input, settings.refine);
+
+    // Roots: halves at the median along the longest axis until each holds at most maxNodePoints.
+    std::vector<SplitPart> pending{SplitPart{Region{}, std::vector<std::uint32_t>(input.size())}};
+    std::iota(pending[0].indices.begin(), pending[0].indices.end(), 0u);
+    std::vector<SplitPart> roots;
+    while (!pending.empty()) {
+        SplitPart part = std::move(pending.back());
+        pending.pop_back();
+        if (part.indices.size() <= settings.maxNodePoints) {
+            roots.push_back(std::move(part));
+            continue;
+        }
+        const Box box = boxOf(input.position, part.indices);
+        std::vector<SplitPart> halves =
+            splitAlong(input.position, part.indices, axesByExtent(box)[0], 2, part.region);
+        assert(halves.size() == 2); // distinct positions: the longest axis has two coordinates at least
+        // Lower half last, so that it is taken first: roots in space order.
+        pending.push_back(std::move(halves[1]));
+        pending.push_back(std::move(halves[0]));
+    }
+    for (SplitPart& part : roots) {
+        const NodeId id = tree.allocate();
+        Node& node = tree.nodes_[id];
+        node.region = part.region;
+        node.points.reserve(part.indices.size());
+        for (const std::uint32_t i : part.indices) node.points.appendFrom(input, i);
+        for (const SegmentEnds& segment : segments)
+            if (part.region.contains(segment.a)) node.segments.push_back(segment);
+        const Box box = boxOf(input.position, part.indices);
+        node.lo = box.lo;
+        node.hi = box.hi;
+        node.maxRadius = std::ranges::max(node.points.radius);
+        tree.pointCount_ += node.points.size();
+        tree.roots_.push_back(id);
+    }
+    return tree;
+}
+
+NodeId NodeTree::allocate() {
+    NodeId id;
+    if (!free_.empty()) {
+        id = free_.back();
+        free_.pop_back();
+    } else {
+        id = static_cast<NodeId>(nodes_.size());
+        nodes_.emplace_back();
+        live_.push_back(0);
+    }
+    const std::uint32_t generation = nodes_[id].generation + 1;
+    nodes_[id] = Node{};
+    nodes_[id].generation = generation;
+    live_[id] = 1;
+    ++liveCount_;
+    return id;
+}
+
+bool NodeTree::ready(NodeId id, std::vector<NodeId>& blockers) const {
+    const Node& x = nodes_[id];
+    if (!x.isLeaf() || x.level >= settings_.maxLevel) return false;
+    const float reach = kRetryReach * x.maxRadius;
+    const glm::vec3 lo = x.lo - reach, hi = x.hi + reach;
+    bool ok = true;
+    std::vector<NodeId> stack(roots_.rbegin(), roots_.rend());
+    while (!stack.empty()) {
+        const NodeId n = stack.back();
+        stack.pop_back();
+        const Node& node = nodes_[n];
+        if (node.level >= x.level || !meets(node.region, lo, hi)) continue;
+        if (node.isLeaf()) {
+            blockers.push_back(n);
+            ok = false;
+            continue;
+        }
+        for (std::uint32_t c = node.childCount; c-- > 0;) stack.push_back(node.children[c]);
+    }
+    return ok;
+}
+
+// Appends to `context` the points within [lo, hi] of the nodes of `level` other than `id`, below
+// `from`, in tree order.
+void NodeTree::gatherContext(NodeId id, glm::vec3 lo, glm::vec3 hi, std::uint32_t level, NodeId from,
+                             PointSet& context) const {
+    const Node& node = nodes_[from];
+    if (!meets(node.region, lo, hi)) return;
+    if (node.level < level) {
+        assert(!node.isLeaf()); // ready()
+        for (const NodeId c : node.childIds()) gatherContext(id, lo, hi, level, c, context);
+        return;
+    }
+    if (from == id) return;
+    for (std::size_t i = 0; i < node.points.size(); ++i)
+        if (inside(node.points.position[i], lo, hi)) context.appendFrom(node.points, i);
+}
+
+NodeJob NodeTree::makeJob(NodeId id, bool recordParents) const {
+    const Node& x = nodes_[id];
+    NodeJob job;
+    job.node = id;
+    job.generation = x.generation;
+    RegionLevel& input = job.input;
+    input.points = x.points;
+    input.owned = x.points.size();
+    input.region = x.region;
+    input.level = x.level;
+    input.segments = x.segments;
+    input.recordParents = recordParents;
+    const float reach = kRetryReach * x.maxRadius;
+    for (const NodeId root : roots_) gatherContext(id, x.lo - reach, x.hi + reach, x.level, root, input.points);
+    return job;
+}
+
+NodeJobResult NodeTree::run(NodeJob job, const NodeSettings& settings) {
+    NodeJobResult out;
+    out.node = job.node;
+    out.generation = job.generation;
+    const Region region = job.input.region;
+    RegionResult refined = refineRegion(std::move(job.input), settings.refine);
+    out.stats = refined.stats;
+    out.parents = std::move(refined.parents);
+    for (SplitPart& part : splitNode(refined.points.position, region, settings.maxNodePoints)) {
+        NodeChild& child = out.children.emplace_back();
+        child.region = part.region;
+        child.points.reserve(part.indices.size());
+        for (const std::uint32_t i : part.indices) child.points.appendFrom(refined.points, i);
+        for (const SegmentEnds& segment : refined.segments)
+            if (part.region.contains(segment.a)) child.segments.push_back(segment);
+    }
+    return out;
+}
+
+bool NodeTree::attach(NodeJobResult&& result) {
+    if (!isLive(result.node)) return false;
+    if (nodes_[result.node].generation != result.generation || !nodes_[result.node].isLeaf()) return false;
+    assert(!result.children.empty() && result.children.size() <= 4);
+    std::array<NodeId, 4> ids{kNoNode, kNoNode, kNoNode, kNoNode};
+    for (std::size_t c = 0; c < result.children.size(); ++c) {
+        ids[c] = allocate(); // may move nodes_: no references across this loop
+        NodeChild& made = result.children[c];
+        Node& child = nodes_[ids[c]];
+        child.region = made.region;
+        child.level = nodes_[result.node].level + 1;
+        child.parent = result.node;
+        child.points = std::move(made.points);
+        child.segments = std::move(made.segments);
+        std::vector<std::uint32_t> all(child.points.size());
+        std::iota(all.begin(), all.end(), 0u);
+        const Box box = boxOf(child.points.position, all);
+        child.lo = box.lo;
+        child.hi = box.hi;
+        child.maxRadius = std::ranges::max(child.points.radius);
+        pointCount_ += child.points.size();
+    }
+    Node& node = nodes_[result.node];
+    node.children = ids;
+    node.childCount = static_cast<std::uint32_t>(result.children.size());
+    ++node.generation;
+    return true;
+}
+
+void NodeTree::release(NodeId id) {
+    Node& node = nodes_[id];
+    for (const NodeId c : node.childIds()) {
+        Node& child = nodes_[c];
+        assert(child.isLeaf());
+        pointCount_ -= child.points.size();
+        child.points = PointSet{};
+        child.segments = {};
+        live_[c] = 0;
+        --liveCount_;
+        free_.push_back(c);
+    }
+    node.childCount = 0;
+    node.children = {kNoNode, kNoNode, kNoNode, kNoNode};
+    ++node.generation;
+}
+
+} // namespace pnsplat

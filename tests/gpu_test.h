@@ -8,7 +8,7 @@
 
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/image.h"
-#include "pnsplat/engine/splat_renderer.h"
+#include "pnsplat/engine/engine.h"
 
 namespace pnsplat::test {
 
@@ -38,16 +38,29 @@ class GpuTest : public ::testing::Test {
     }
     engine::Context& context() { return *gpuContext(); }
 
-    // Renders `points` (normals and radii filled) with `settings` from `camera`; fails the test on error.
+    // Renders `points` (normals and radii filled) as they are (the engine without refinement) with
+    // `settings` from `camera`; fails the test on error. `report` receives the frame's report.
     engine::RgbaImage render(const PointSet& points, const engine::RenderSettings& settings,
-                             const engine::Camera& camera, engine::FrameStats* stats = nullptr) {
-        auto scene = engine::SplatScene::create(context(), points);
-        EXPECT_TRUE(scene.ok()) << scene.error().message;
-        if (!scene) return {};
-        auto renderer = engine::SplatRenderer::create(context(), settings);
-        EXPECT_TRUE(renderer.ok()) << renderer.error().message;
-        if (!renderer) return {};
-        auto image = (*renderer)->render(*scene, camera, stats);
+                             const engine::Camera& camera, engine::FrameReport* report = nullptr) {
+        engine::EngineSettings engineSettings;
+        engineSettings.render = settings;
+        engineSettings.adaptive = false;
+        auto engine = engine::Engine::create(context(), points, engineSettings);
+        EXPECT_TRUE(engine.ok()) << engine.error().message;
+        if (!engine) return {};
+        return frame(**engine, camera, report);
+    }
+    // One frame of `engine`, read back; fails the test on error.
+    engine::RgbaImage frame(engine::Engine& engine, const engine::Camera& camera,
+                            engine::FrameReport* report = nullptr, bool lockstep = true) {
+        engine::FrameOptions options;
+        options.readBack = true;
+        options.lockstep = lockstep;
+        auto drawn = engine.frame(camera, options);
+        EXPECT_TRUE(drawn.ok()) << drawn.error().message;
+        if (!drawn) return {};
+        if (report != nullptr) *report = *drawn;
+        auto image = engine.image(drawn->frame);
         EXPECT_TRUE(image.ok()) << image.error().message;
         return image ? std::move(image).value() : engine::RgbaImage{};
     }

@@ -116,34 +116,46 @@ TEST_P(PathTest, HugeSplatCoversTheScreen) {
         for (std::uint32_t x = 0; x < 64; ++x) ASSERT_GT(image.at(x, y).x, 100) << x << "," << y;
 }
 
-// A renderer reused across frames leaves nothing of one frame in the next. The compute path
-// clears its buffers in the normalization pass; with a sharp Gaussian the near disk's rim sets the
-// depth of pixels whose rounded weight is zero, which would hide the far disk there if the depth
-// of weightless pixels were not cleared too.
+// An engine drawing frame after frame (pipelined, kFramesInFlight) leaves nothing of one frame in
+// the next. The compute path clears its buffers in the normalization pass; with a sharp Gaussian
+// the near disk's rim sets the depth of pixels whose rounded weight is zero, which would hide the
+// far disk there if the depth of weightless pixels were not cleared too.
 TEST_P(PathTest, ReusedRendererForgetsTheLastFrame) {
     RenderSettings settings = small(GetParam(), 96, 96);
     settings.sharpness = 30.0f;
-    const Camera camera = lookingDownZ(8.0f);
-    const PointSet nearDisk = disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 0, 0});
+    // Two scenes side by side, 20 apart: a near red disk in front of a far blue one at x = -20,
+    // the far blue disk alone at x = +20.
+    PointSet both = disk({-20, 0, 0}, {0, 0, 1}, 1.0f, {255, 0, 0});
     const PointSet farDisk = disk({0, 0, -3}, {0, 0, 1}, 2.5f, {0, 0, 255});
-    auto near = engine::SplatScene::create(context(), nearDisk);
-    auto far = engine::SplatScene::create(context(), farDisk);
-    auto renderer = engine::SplatRenderer::create(context(), settings);
-    ASSERT_TRUE(near.ok() && far.ok() && renderer.ok());
-    ASSERT_TRUE((*renderer)->render(*near, camera).ok());
-    auto second = (*renderer)->render(*far, camera);
+    both.appendFrom(disk({-20, 0, -3}, {0, 0, 1}, 2.5f, {0, 0, 255}), 0);
+    both.appendFrom(disk({20, 0, -3}, {0, 0, 1}, 2.5f, {0, 0, 255}), 0);
+    engine::EngineSettings engineSettings;
+    engineSettings.render = settings;
+    engineSettings.adaptive = false;
+    auto engine = engine::Engine::create(context(), both, engineSettings);
+    ASSERT_TRUE(engine.ok()) << engine.error().message;
+    Camera left = lookingDownZ(8.0f), right = lookingDownZ(8.0f), away = lookingDownZ(8.0f);
+    left.eye.x = left.target.x = -20.0f;
+    right.eye.x = right.target.x = 20.0f;
+    away.eye.y = away.target.y = 100.0f;
+    // Frames drawn back to back, without waiting in between.
+    engine::FrameOptions options;
+    options.readBack = true;
+    ASSERT_TRUE((*engine)->frame(left).ok());
+    auto second = (*engine)->frame(right, options);
     ASSERT_TRUE(second.ok());
-    const RgbaImage fresh = render(farDisk, settings, camera);
-    ASSERT_EQ(fresh.pixels.size(), second->pixels.size());
-    EXPECT_TRUE(fresh.pixels == second->pixels);
+    const RgbaImage secondImage = frame(**engine, right); // a third frame, same camera
+    auto secondAgain = (*engine)->image(second->frame);
+    ASSERT_TRUE(secondAgain.ok());
+    const RgbaImage fresh = render(farDisk, settings, lookingDownZ(8.0f));
+    ASSERT_EQ(fresh.pixels.size(), secondAgain->pixels.size());
+    EXPECT_TRUE(fresh.pixels == secondAgain->pixels);
+    EXPECT_TRUE(fresh.pixels == secondImage.pixels);
     // And a frame of nothing after a frame of something is all background.
-    auto empty = engine::SplatScene::create(context(), PointSet{});
-    ASSERT_TRUE(empty.ok());
-    auto third = (*renderer)->render(*empty, camera);
-    ASSERT_TRUE(third.ok());
+    const RgbaImage third = frame(**engine, away);
+    ASSERT_EQ(third.width, 96u);
     for (std::uint32_t y = 0; y < 96; ++y)
-        for (std::uint32_t x = 0; x < 96; ++x)
-            ASSERT_EQ(third->at(x, y), glm::u8vec4(0, 0, 0, 255)) << x << "," << y;
+        for (std::uint32_t x = 0; x < 96; ++x) ASSERT_EQ(third.at(x, y), glm::u8vec4(0, 0, 0, 255)) << x << "," << y;
 }
 
 TEST_P(PathTest, EmptySceneAndCameraLookingAwayGiveBackground) {
@@ -172,16 +184,19 @@ TEST_P(PathTest, BadSettingsAndCamerasAreErrors) {
     settings.width = 1u << 20;
     settings.height = 64;
     EXPECT_FALSE(engine::SplatRenderer::create(context(), settings).ok());
-    auto renderer = engine::SplatRenderer::create(context(), small(GetParam(), 32, 32));
-    ASSERT_TRUE(renderer.ok());
-    auto scene = engine::SplatScene::create(context(), disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 255, 255}));
-    ASSERT_TRUE(scene.ok());
+    engine::EngineSettings engineSettings;
+    engineSettings.render = small(GetParam(), 32, 32);
+    engineSettings.adaptive = false;
+    auto engine =
+        engine::Engine::create(context(), disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 255, 255}), engineSettings);
+    ASSERT_TRUE(engine.ok());
     Camera camera = lookingDownZ(5.0f);
     camera.target = camera.eye;
-    EXPECT_FALSE((*renderer)->render(*scene, camera).ok());
+    EXPECT_FALSE((*engine)->frame(camera).ok());
     camera = lookingDownZ(5.0f);
     camera.up = {0.0f, 0.0f, 1.0f};
-    EXPECT_FALSE((*renderer)->render(*scene, camera).ok());
+    EXPECT_FALSE((*engine)->frame(camera).ok());
+    EXPECT_TRUE((*engine)->frame(lookingDownZ(5.0f)).ok()); // and the engine goes on
 }
 
 INSTANTIATE_TEST_SUITE_P(Paths, PathTest, ::testing::Values(RenderPath::Compute, RenderPath::Graphics),
@@ -213,13 +228,14 @@ TEST_F(RenderTest, CullingSkipsNodesAndChangesNothing) {
     const PointSet sphere = withRadii(sampleSphereUniform(50000, 1.0f));
     const Camera camera = lookingDownZ(3.0f, 5.0f); // a narrow cone through the middle of the sphere
     RenderSettings settings = small(RenderPath::Compute, 128, 128);
-    engine::FrameStats culled, all;
+    engine::FrameReport culled, all;
     const RgbaImage a = render(sphere, settings, camera, &culled);
     settings.cullNodes = false;
     const RgbaImage b = render(sphere, settings, camera, &all);
-    EXPECT_EQ(all.nodesVisible, all.nodes);
-    EXPECT_LT(culled.nodesVisible, culled.nodes / 2);
-    EXPECT_LT(culled.splatsDrawn, culled.splats / 2);
+    EXPECT_EQ(all.nodesVisible, all.treeNodes);
+    EXPECT_EQ(all.splatsDrawn, sphere.size());
+    EXPECT_LT(culled.nodesVisible, culled.treeNodes / 2);
+    EXPECT_LT(culled.splatsDrawn, sphere.size() / 2);
     EXPECT_LT(difference(a, b).rmse, 0.05); // only float-atomic ordering may differ
 }
 

@@ -1,5 +1,6 @@
 // `pnsplat bench`: performance harness printing JSON (warm-up, then timed runs; medians).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <string>
@@ -15,8 +16,9 @@
 #include <fmt/format.h>
 
 #include "commands.h"
+#include "frame_json.h"
 #include "pnsplat/engine/context.h"
-#include "pnsplat/engine/splat_renderer.h"
+#include "pnsplat/engine/engine.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
@@ -65,18 +67,6 @@ RunResult refineOnce(const PointSet& input, const RefineOptions& options, std::s
     return result;
 }
 
-// The processor's name from /proc/cpuinfo ("unknown" elsewhere), for the JSON record.
-std::string cpuName() {
-    std::ifstream in("/proc/cpuinfo");
-    std::string line;
-    while (std::getline(in, line)) {
-        if (line.rfind("model name", 0) != 0) continue;
-        const std::size_t colon = line.find(':');
-        if (colon != std::string::npos && colon + 2 <= line.size()) return line.substr(colon + 2);
-    }
-    return "unknown";
-}
-
 void writeJson(const std::string& output, const std::string& json) {
     if (output.empty()) {
         fmt::print("{}", json);
@@ -85,11 +75,6 @@ void writeJson(const std::string& output, const std::string& json) {
     std::ofstream out(output);
     out << json;
     if (!out) throw CommandError(output + ": cannot write");
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
 }
 
 double rate(const RunResult& r) {
@@ -254,19 +239,26 @@ struct RenderTiming {
     double gpu() const { return visibility + accumulation + normalization; }
 };
 
-RenderTiming timeRenders(engine::Context& context, const engine::SplatScene& scene,
-                         const engine::RenderSettings& settings, const engine::Camera& camera,
-                         unsigned repeat) {
-    auto renderer = unwrap(engine::SplatRenderer::create(context, settings));
-    engine::FrameStats stats;
-    unwrap(renderer->render(scene, camera, &stats)); // warm-up
+// Frames of the engine drawing its input as it is, one at a time: wall time from the frame's start
+// to its image in host memory.
+RenderTiming timeRenders(engine::Engine& engine, const engine::RenderSettings& settings,
+                         const engine::Camera& camera, unsigned repeat) {
+    unwrap(engine.setRenderSettings(settings));
+    engine::FrameOptions options;
+    options.readBack = true;
     std::vector<double> v, a, n, w;
-    for (unsigned k = 0; k < repeat; ++k) {
-        unwrap(renderer->render(scene, camera, &stats));
-        v.push_back(stats.visibilityMs);
-        a.push_back(stats.accumulationMs);
-        n.push_back(stats.normalizationMs);
-        w.push_back(stats.wallMs);
+    for (unsigned k = 0; k <= repeat; ++k) { // the first is a warm-up
+        const auto start = std::chrono::steady_clock::now();
+        const engine::FrameReport report = unwrap(engine.frame(camera, options));
+        unwrap(engine.image(report.frame));
+        const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        engine.finish();
+        const engine::PassTimes gpu = engine.reports().back().gpu;
+        if (k == 0) continue;
+        v.push_back(gpu.visibilityMs);
+        a.push_back(gpu.accumulationMs);
+        n.push_back(gpu.normalizationMs);
+        w.push_back(wall);
     }
     return {median(v), median(a), median(n), median(w)};
 }
@@ -291,20 +283,23 @@ void runBenchRender(const BenchRenderArgs& args) {
         PointSet sphere = sampleSphereUniform(n, 1.0f);
         const float basePixels = args.splatPixels.front();
         sphere.radius.assign(n, basePixels * front / (2.0f * focalPixels));
-        const engine::SplatScene scene = unwrap(engine::SplatScene::create(*context, sphere));
         engine::RenderSettings plain;
         plain.width = args.width;
         plain.height = args.height;
         plain.path = engine::RenderPath::PlainPoints;
-        const RenderTiming baseline = timeRenders(*context, scene, plain, camera, args.repeat);
+        engine::EngineSettings settings;
+        settings.render = plain;
+        settings.adaptive = false;
+        const auto engine = unwrap(engine::Engine::create(*context, std::move(sphere), settings));
+        const RenderTiming baseline = timeRenders(*engine, plain, camera, args.repeat);
         fmt::print(stderr, "  {:>8} splats: plain 1-px points {:.1f} ms (GPU), {:.1f} ms (wall)\n", n,
                    baseline.gpu(), baseline.wall);
         for (float pixels : args.splatPixels) {
             for (engine::RenderPath path : {engine::RenderPath::Compute, engine::RenderPath::Graphics}) {
-                engine::RenderSettings settings = plain;
-                settings.path = path;
-                settings.radiusScale = pixels / basePixels;
-                const RenderTiming t = timeRenders(*context, scene, settings, camera, args.repeat);
+                engine::RenderSettings splats = plain;
+                splats.path = path;
+                splats.radiusScale = pixels / basePixels;
+                const RenderTiming t = timeRenders(*engine, splats, camera, args.repeat);
                 const char* name = path == engine::RenderPath::Compute ? "compute" : "graphics";
                 fmt::print(stderr,
                            "  {:>8} splats, {} px, {:<8}: {:.1f} + {:.1f} + {:.1f} ms = {:.1f} ms, ratio to "
@@ -349,6 +344,7 @@ void addBenchCommand(CLI::App& app) {
         ->capture_default_str();
     refine->add_option("-o,--output", args->output, "write the JSON here instead of standard output");
     refine->callback([args] { runBenchRefine(*args); });
+    addBenchViewCommand(*bench);
 
     auto renderArgs = std::make_shared<BenchRenderArgs>();
     CLI::App* render = bench->add_subcommand(

@@ -10,6 +10,8 @@
 
 #include "commands.h"
 #include "pnsplat/engine/context.h"
+#include "pnsplat/engine/engine.h"
+#include "engine_setup.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/engine/splat_renderer.h"
 #include "pnsplat/refine/ply.h"
@@ -23,44 +25,19 @@ namespace {
 struct RenderArgs {
     std::string input;
     std::string output = "render.png";
-    std::uint32_t width = 1280, height = 720;
     std::vector<float> camera;
     double orbitDegrees = 0.0;
     double fovDegrees = 40.0;
     unsigned refineLevels = 0;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
-    std::string path = "auto";
-    std::string device;
     std::vector<float> background{1.0f, 1.0f, 1.0f};
     float radiusScale = 1.0f;
-    bool validation = false;
     bool flipNormals = false;
+    bool adaptive = false;
+    EngineArgs engine;
 };
 
 constexpr double kDegree = std::numbers::pi / 180.0;
-
-// The points of `input` (a PLY file, or the embedded default model when empty) with normals and
-// radii (estimated when the file has none); `name` receives a name for messages.
-PointSet loadForRendering(const std::string& input, std::string& name) {
-    PointSet points;
-    if (input.empty()) {
-        name = "the default model";
-        points = makeDefaultModel();
-    } else {
-        name = input;
-        points = readInput(input);
-    }
-    completeInput(points, 0, name);
-    return points;
-}
-
-// "auto" is the compute path where the device has what it needs (on lavapipe it is several times
-// faster than the raster pipeline), else the graphics path.
-engine::RenderPath choosePath(const std::string& path, const engine::Context& context) {
-    if (path == "graphics") return engine::RenderPath::Graphics;
-    if (path == "compute" || context.hasInt64Atomics()) return engine::RenderPath::Compute;
-    return engine::RenderPath::Graphics;
-}
 
 void runRender(const RenderArgs& args) {
     using namespace engine;
@@ -79,24 +56,15 @@ void runRender(const RenderArgs& args) {
     if (args.flipNormals)
         for (auto& n : points.normal) n = -n;
 
-    ContextOptions contextOptions;
-    contextOptions.deviceName = args.device;
-#ifndef NDEBUG
-    contextOptions.validation = true;
-#endif
-    contextOptions.validation |= args.validation;
-    auto context = unwrap(Context::create(contextOptions));
-    auto created = SplatScene::create(*context, points);
+    EngineArgs engineArgs = args.engine;
+    auto context = createContext(engineArgs);
+    EngineSettings settings = engineSettings(engineArgs, *context, args.adaptive);
+    settings.render.background = {args.background[0], args.background[1], args.background[2]};
+    settings.render.radiusScale = args.radiusScale;
+    const std::size_t pointsIn = points.size();
+    auto created = Engine::create(*context, std::move(points), settings);
     if (!created) throw CommandError(name + ": " + created.error().message);
-    const SplatScene scene = std::move(created).value();
-
-    RenderSettings settings;
-    settings.width = args.width;
-    settings.height = args.height;
-    settings.path = choosePath(args.path, *context);
-    settings.background = {args.background[0], args.background[1], args.background[2]};
-    settings.radiusScale = args.radiusScale;
-    auto renderer = unwrap(SplatRenderer::create(*context, settings));
+    Engine& engine = **created;
 
     const float fov = static_cast<float>(args.fovDegrees * kDegree);
     Camera camera;
@@ -106,21 +74,32 @@ void runRender(const RenderArgs& args) {
         camera.up = {args.camera[6], args.camera[7], args.camera[8]};
         camera.fovY = fov;
     } else {
-        camera = frameSphere(scene.bounds(), float(args.width) / float(args.height), fov,
+        camera = frameSphere(engine.bounds(), float(args.engine.width) / float(args.engine.height), fov,
                              static_cast<float>(args.orbitDegrees * kDegree));
     }
-    FrameStats stats;
-    const RgbaImage image = unwrap(renderer->render(scene, camera, &stats));
+    // One frame; with --adaptive in lockstep: refined for this camera until settled.
+    FrameOptions frameOptions;
+    frameOptions.lockstep = true;
+    frameOptions.readBack = true;
+    frameOptions.measureSplats = args.adaptive;
+    const FrameReport drawn = unwrap(engine.frame(camera, frameOptions));
+    const RgbaImage image = unwrap(engine.image(drawn.frame));
+    engine.finish();
+    const std::vector<FrameReport> reports = engine.reports();
+    const PassTimes gpu = reports.empty() ? PassTimes{} : reports.back().gpu;
     unwrap(writePng(args.output, image));
     fmt::print(
         "{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
         "normalization {:.1f} ms -> {}\n",
-        name, stats.splats, stats.splatsDrawn, args.width, args.height, context->deviceName(),
-        settings.path == RenderPath::Compute ? "compute" : "graphics", stats.visibilityMs,
-        stats.accumulationMs, stats.normalizationMs, args.output);
-    if (context->validationMessages() > 0)
-        throw CommandError(fmt::format("{} validation message(s); the last: {}",
-                                       context->validationMessages(), context->lastValidationMessage()));
+        name, engine.tree().pointCount(), drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(),
+        settings.render.path == RenderPath::Compute ? "compute" : "graphics", gpu.visibilityMs,
+        gpu.accumulationMs, gpu.normalizationMs, args.output);
+    if (args.adaptive)
+        fmt::print("{}: refined for this camera to splats of at most {:.2f} px ({:.2f} % above {} px): {} nodes, "
+                   "{} points from {} in {:.0f} ms; {} drawn\n",
+                   name, drawn.maxSplatPx, 100.0 * drawn.overThreshold, args.engine.threshold, engine.tree().nodeCount(),
+                   engine.tree().pointCount(), pointsIn, drawn.refineWaitMs, drawn.splatsDrawn);
+    checkValidation(*context);
 }
 
 } // namespace
@@ -131,8 +110,8 @@ void addRenderCommand(CLI::App& app) {
         app.add_subcommand("render", "Render a point set offscreen as surface splats into a PNG (Vulkan)");
     cmd->add_option("input", args->input, "input PLY; omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PNG")->capture_default_str();
-    cmd->add_option("--width", args->width, "image width in pixels")->capture_default_str();
-    cmd->add_option("--height", args->height, "image height in pixels")->capture_default_str();
+    cmd->add_option("--width", args->engine.width, "image width in pixels")->capture_default_str();
+    cmd->add_option("--height", args->engine.height, "image height in pixels")->capture_default_str();
     auto* camera = cmd->add_option("--camera", args->camera, "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz")
                        ->delimiter(',')
                        ->expected(9);
@@ -146,12 +125,6 @@ void addRenderCommand(CLI::App& app) {
                     "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
     addFillHoleOption(*cmd, args->holes);
-    cmd->add_option("--path", args->path,
-                    "compute (atomics), graphics (raster pipeline), or auto: compute where the device can")
-        ->check(CLI::IsMember({"auto", "compute", "graphics"}))
-        ->capture_default_str();
-    cmd->add_option("--device", args->device,
-                    "Vulkan device whose name contains this text (default: a GPU, else lavapipe)");
     cmd->add_option("--background", args->background, "background colour r,g,b in [0, 1]")
         ->delimiter(',')
         ->expected(3)
@@ -159,9 +132,10 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--radius-scale", args->radiusScale, "splat radius as a multiple of the point radius")
         ->check(CLI::Range(0.01, 100.0))
         ->capture_default_str();
-    cmd->add_flag("--validation", args->validation,
-                  "load the Vulkan validation layer; any message fails the command");
     cmd->add_flag("--flip-normals", args->flipNormals, "negate every normal (shows why orientation matters)");
+    cmd->add_flag("--adaptive", args->adaptive,
+                  "refine, for this camera, exactly what it needs (the real-time engine, until settled)");
+    addEngineOptions(*cmd, args->engine, true, true);
     cmd->callback([args] { runRender(*args); });
 }
 

@@ -1,7 +1,7 @@
 #include "pnsplat/engine/splat_renderer.h"
 
 #include <array>
-#include <chrono>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -140,15 +140,22 @@ struct SplatRenderer::Impl {
     Context& context;
     RenderSettings settings;
     VkDevice device;
-    Buffer uniforms, ranges, readback;
-    Unique<VkQueryPool> timestamps;
+    // What one frame in flight owns (frames.h): written by the CPU while the other frame draws.
+    struct Slot {
+        Buffer uniforms, ranges, readback;
+        Unique<VkQueryPool> timestamps;
+        VkDescriptorSet set = VK_NULL_HANDLE;
+        std::uint32_t workItems = 0; // of its frame (compute path)
+        std::uint64_t frame = ~std::uint64_t{0};
+        bool readBack = false;
+    };
+    std::array<Slot, kFramesInFlight> slots;
     Unique<VkDescriptorSetLayout> setLayout;
     Unique<VkPipelineLayout> pipelineLayout;
     Unique<VkDescriptorPool> descriptorPool;
-    VkDescriptorSet set = VK_NULL_HANDLE;
-    std::uint32_t workItems = 0; // of the current frame (compute path)
-    // The compute path's depth and sum buffers are cleared (by the last complete frame's
-    // normalization pass); false at first and after a frame that failed part-way.
+    // The compute path's depth and sum buffers are cleared (by the last frame's normalization pass,
+    // which runs before the next frame's passes on the one queue); false at first and after a frame
+    // that failed part-way.
     bool buffersCleared = false;
     std::array<Unique<VkPipeline>, 3> pipelines; // visibility, accumulation, normalization
     // Compute path.
@@ -173,26 +180,28 @@ struct SplatRenderer::Impl {
     void createPlainPoints();
     Unique<VkPipeline> computePipeline(VkShaderModule module);
     Unique<VkPipeline> graphicsPipeline(const GraphicsPipelineDesc& desc);
-    void ensureRangeCapacity(std::size_t nodes);
-    void writeDescriptors(const SplatScene& scene);
-    void recordCompute(VkCommandBuffer cmd, int pass, bool cleared);
-    void recordGraphics(VkCommandBuffer cmd, int pass,
-                        const std::vector<std::array<std::uint32_t, 2>>& draws);
-    RgbaImage render(const SplatScene& scene, const Camera& camera, FrameStats& stats);
+    void ensureRangeCapacity(Slot& slot, std::size_t items);
+    void writeDescriptors(const Slot& slot, const Buffer& splats);
+    void recordCompute(VkCommandBuffer cmd, const Slot& slot, int pass, bool cleared);
+    void recordGraphics(VkCommandBuffer cmd, const Slot& slot, int pass, std::span<const DrawRange> draws);
+    void submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges, const Camera& camera,
+                DepthRange depth, const FrameOutput& output);
 };
 
 void SplatRenderer::Impl::createCommon() {
-    uniforms = createBuffer(context, sizeof(gpu::FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
-                            MemoryUse::Upload);
-    ensureRangeCapacity(1);
-    readback = createBuffer(context, pixelCount() * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUse::Readback);
-    if (context.properties().limits.timestampComputeAndGraphics) {
+    for (Slot& slot : slots) {
+        slot.uniforms = createBuffer(context, sizeof(gpu::FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                                     MemoryUse::Upload);
+        ensureRangeCapacity(slot, 1);
+        slot.readback =
+            createBuffer(context, pixelCount() * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUse::Readback);
+        if (!context.properties().limits.timestampComputeAndGraphics) continue;
         VkQueryPoolCreateInfo info{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
         info.queryType = VK_QUERY_TYPE_TIMESTAMP;
         info.queryCount = 6;
         VkQueryPool pool = VK_NULL_HANDLE;
         PNSPLAT_VK_CHECK(vkCreateQueryPool(device, &info, nullptr, &pool));
-        timestamps = Unique<VkQueryPool>(device, pool, vkDestroyQueryPool);
+        slot.timestamps = Unique<VkQueryPool>(device, pool, vkDestroyQueryPool);
     }
 
     // One set for all three passes of a path: 0 frame uniforms, 1 splats, then the path's own.
@@ -223,11 +232,12 @@ void SplatRenderer::Impl::createCommon() {
     PNSPLAT_VK_CHECK(vkCreatePipelineLayout(device, &pipelineInfo, nullptr, &pipelineLayoutHandle));
     pipelineLayout = Unique<VkPipelineLayout>(device, pipelineLayoutHandle, vkDestroyPipelineLayout);
 
-    const std::array<VkDescriptorPoolSize, 3> sizes{{{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                                     {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
-                                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}}};
+    const std::array<VkDescriptorPoolSize, 3> sizes{
+        {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, kFramesInFlight},
+         {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5 * kFramesInFlight},
+         {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2 * kFramesInFlight}}};
     VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-    poolInfo.maxSets = 1;
+    poolInfo.maxSets = kFramesInFlight;
     poolInfo.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
     poolInfo.pPoolSizes = sizes.data();
     VkDescriptorPool pool = VK_NULL_HANDLE;
@@ -237,7 +247,7 @@ void SplatRenderer::Impl::createCommon() {
     alloc.descriptorPool = pool;
     alloc.descriptorSetCount = 1;
     alloc.pSetLayouts = &layout;
-    PNSPLAT_VK_CHECK(vkAllocateDescriptorSets(device, &alloc, &set));
+    for (Slot& slot : slots) PNSPLAT_VK_CHECK(vkAllocateDescriptorSets(device, &alloc, &slot.set));
 }
 
 Unique<VkPipeline> SplatRenderer::Impl::computePipeline(VkShaderModule module) {
@@ -465,13 +475,14 @@ void SplatRenderer::Impl::createPlainPoints() {
                                      renderPasses[0].get(), 1, true, true, false});
 }
 
-void SplatRenderer::Impl::ensureRangeCapacity(std::size_t nodes) {
-    const VkDeviceSize bytes = std::max<std::size_t>(nodes, 1) * 2 * sizeof(std::uint32_t);
-    if (ranges.size >= bytes) return;
-    ranges = createBuffer(context, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUse::Upload);
+void SplatRenderer::Impl::ensureRangeCapacity(Slot& slot, std::size_t items) {
+    const VkDeviceSize bytes = std::max<std::size_t>(items, 1) * 2 * sizeof(std::uint32_t);
+    if (slot.ranges.size >= bytes) return;
+    // The slot's last frame has finished (FrameRing::begin): its old buffer can go at once.
+    slot.ranges = createBuffer(context, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUse::Upload);
 }
 
-void SplatRenderer::Impl::writeDescriptors(const SplatScene& scene) {
+void SplatRenderer::Impl::writeDescriptors(const Slot& slot, const Buffer& splats) {
     std::vector<VkDescriptorBufferInfo> buffers;
     buffers.reserve(6);
     std::vector<VkDescriptorImageInfo> images;
@@ -480,17 +491,17 @@ void SplatRenderer::Impl::writeDescriptors(const SplatScene& scene) {
     const auto writeBuffer = [&](std::uint32_t binding, VkDescriptorType type, const Buffer& buffer) {
         buffers.push_back({buffer.buffer.get(), 0, VK_WHOLE_SIZE});
         VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-        w.dstSet = set;
+        w.dstSet = slot.set;
         w.dstBinding = binding;
         w.descriptorCount = 1;
         w.descriptorType = type;
         w.pBufferInfo = &buffers.back();
         writes.push_back(w);
     };
-    writeBuffer(0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, uniforms);
-    writeBuffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, scene.splats());
+    writeBuffer(0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, slot.uniforms);
+    writeBuffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, splats);
     if (compute()) {
-        writeBuffer(2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, ranges);
+        writeBuffer(2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slot.ranges);
         writeBuffer(3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits);
         writeBuffer(4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum);
         writeBuffer(5, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output);
@@ -499,7 +510,7 @@ void SplatRenderer::Impl::writeDescriptors(const SplatScene& scene) {
             images.push_back({sampler.get(), (binding == 2 ? accumColour : accumNormal).view.get(),
                               VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
             VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-            w.dstSet = set;
+            w.dstSet = slot.set;
             w.dstBinding = binding;
             w.descriptorCount = 1;
             w.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
@@ -510,34 +521,37 @@ void SplatRenderer::Impl::writeDescriptors(const SplatScene& scene) {
     vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
 }
 
-void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, int pass, bool cleared) {
+void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, const Slot& slot, int pass, bool cleared) {
     constexpr VkPipelineStageFlags kCompute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
     if (pass == 0 && !cleared) {
         bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT,
-                      VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
-                      VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+                      VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT);
         vkCmdFillBuffer(cmd, depthBits.buffer.get(), 0, VK_WHOLE_SIZE, gpu::kDepthCleared);
         vkCmdFillBuffer(cmd, accum.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
+    } else if (pass == 2) {
+        // The output buffer was last read by the previous frame's copies.
+        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
     } else {
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
     }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines[pass].get());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout.get(), 0, 1, &set, 0,
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout.get(), 0, 1, &slot.set, 0,
                             nullptr);
     if (pass < 2) {
         // Work items in rows of at most maxComputeWorkGroupCount[0] groups.
         const std::uint32_t row =
-            std::min(workItems, context.properties().limits.maxComputeWorkGroupCount[0]);
-        if (workItems > 0) vkCmdDispatch(cmd, row, (workItems + row - 1) / row, 1);
+            std::min(slot.workItems, context.properties().limits.maxComputeWorkGroupCount[0]);
+        if (slot.workItems > 0) vkCmdDispatch(cmd, row, (slot.workItems + row - 1) / row, 1);
     } else {
         vkCmdDispatch(cmd, (settings.width + 31) / 32, (settings.height + 31) / 32, 1);
     }
 }
 
-void SplatRenderer::Impl::recordGraphics(VkCommandBuffer cmd, int pass,
-                                         const std::vector<std::array<std::uint32_t, 2>>& draws) {
+void SplatRenderer::Impl::recordGraphics(VkCommandBuffer cmd, const Slot& slot, int pass,
+                                         std::span<const DrawRange> draws) {
     std::array<VkClearValue, 3> clears{};
     std::uint32_t clearCount = 0;
     if (plain()) {
@@ -558,121 +572,112 @@ void SplatRenderer::Impl::recordGraphics(VkCommandBuffer cmd, int pass,
     begin.pClearValues = clears.data();
     vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines[pass].get());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout.get(), 0, 1, &set, 0,
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout.get(), 0, 1, &slot.set, 0,
                             nullptr);
     if (plain()) {
-        for (const auto& [first, count] : draws) vkCmdDraw(cmd, count, 1, first, 0);
+        for (const DrawRange& d : draws) vkCmdDraw(cmd, d.count, 1, d.first, 0);
     } else if (pass < 2) {
-        for (const auto& [first, count] : draws) vkCmdDraw(cmd, 6 * count, 1, 6 * first, 0);
+        for (const DrawRange& d : draws) vkCmdDraw(cmd, 6 * d.count, 1, 6 * d.first, 0);
     } else {
         vkCmdDraw(cmd, 3, 1, 0, 0);
     }
     vkCmdEndRenderPass(cmd);
 }
 
-RgbaImage SplatRenderer::Impl::render(const SplatScene& scene, const Camera& camera, FrameStats& stats) {
-    using Clock = std::chrono::steady_clock;
+void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,
+                                 const Camera& camera, DepthRange range, const FrameOutput& out) {
+    Slot& slot = slots[frames.slot()];
+    slot.frame = frames.index();
+    slot.readBack = out.readBack;
     const float aspect = float(settings.width) / float(settings.height);
-    const float maxRadius = scene.maxRadius() * settings.radiusScale;
-    Sphere bounds = scene.bounds();
-    bounds.radius += maxRadius;
-    const DepthRange range = depthRange(camera, bounds);
-    const glm::mat4 view = camera.view();
     const float tanY = std::tan(camera.fovY * 0.5f);
-    const Frustum frustum{tanY * aspect, tanY, range};
 
-    // Visible nodes, merged into runs of consecutive splats: one draw each on the graphics path;
-    // cut into work items of at most kLocalSize splats, one workgroup each, on the compute path
-    // (so no workgroup idles on a node's short tail).
-    std::vector<std::array<std::uint32_t, 2>> draws;
-    stats = {};
-    stats.splats = scene.size();
-    stats.nodes = scene.nodes().size();
-    for (const SceneNode& node : scene.nodes()) {
-        const glm::vec3 c = glm::vec3(view * glm::vec4(node.bounds.centre, 1.0f));
-        if (settings.cullNodes && !frustum.intersects(c, node.bounds.radius + maxRadius)) continue;
-        ++stats.nodesVisible;
-        stats.splatsDrawn += node.count;
-        if (!draws.empty() && draws.back()[0] + draws.back()[1] == node.first)
-            draws.back()[1] += node.count;
-        else
-            draws.push_back({node.first, node.count});
+    // Adjacent ranges merged: one draw each on the graphics path; cut into work items of at most
+    // kLocalSize splats, one workgroup each, on the compute path (so no workgroup idles on a long
+    // run's tail).
+    std::vector<DrawRange> draws;
+    for (const DrawRange& r : ranges) {
+        if (r.count == 0) continue;
+        if (!draws.empty() && draws.back().first + draws.back().count == r.first) {
+            draws.back().count += r.count;
+        } else {
+            draws.push_back(r);
+        }
     }
-    ensureRangeCapacity(scene.nodes().size() + scene.size() / gpu::kLocalSize + 1);
-    auto* items = static_cast<std::array<std::uint32_t, 2>*>(ranges.mapped);
-    workItems = 0;
-    for (const auto& [first, count] : draws)
-        for (std::uint32_t done = 0; done < count; done += gpu::kLocalSize)
-            items[workItems++] = {first + done, std::min(gpu::kLocalSize, count - done)};
+    std::size_t items = 0;
+    for (const DrawRange& d : draws) items += (d.count + gpu::kLocalSize - 1) / gpu::kLocalSize;
+    ensureRangeCapacity(slot, items);
+    auto* item = static_cast<std::array<std::uint32_t, 2>*>(slot.ranges.mapped);
+    slot.workItems = 0;
+    for (const DrawRange& d : draws)
+        for (std::uint32_t done = 0; done < d.count; done += gpu::kLocalSize)
+            item[slot.workItems++] = {d.first + done, std::min(gpu::kLocalSize, d.count - done)};
 
     gpu::FrameUniforms frame{};
-    frame.view = view;
+    frame.view = camera.view();
     frame.projection = projection(camera.fovY, aspect, range);
     frame.background = {settings.background, 1.0f};
     frame.viewport = {float(settings.width), float(settings.height), 1.0f / float(settings.width),
                       1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
     frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, 0.0f};
-    frame.flags = {settings.normalize ? 1u : 0u, workItems, 0u, 0u};
-    std::memcpy(uniforms.mapped, &frame, sizeof(frame));
-    writeDescriptors(scene);
+    frame.flags = {settings.normalize ? 1u : 0u, slot.workItems, 0u, 0u};
+    std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
+    writeDescriptors(slot, splats);
 
-    const auto start = Clock::now();
     const bool cleared = buffersCleared;
-    buffersCleared = false; // until the normalization pass has run to the end
+    buffersCleared = false; // until the normalization pass has been submitted
     for (int pass = 0; pass < passCount(); ++pass) {
-        context.submitAndWait([&](VkCommandBuffer cmd) {
-            if (timestamps) {
-                vkCmdResetQueryPool(cmd, timestamps.get(), std::uint32_t(2 * pass), 2);
-                vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps.get(),
-                                    std::uint32_t(2 * pass));
-            }
-            if (compute())
-                recordCompute(cmd, pass, cleared);
-            else
-                recordGraphics(cmd, pass, draws);
-            if (timestamps)
-                vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.get(),
-                                    std::uint32_t(2 * pass + 1));
-            if (pass + 1 < passCount()) return;
-            // Read back the 8-bit result.
+        const VkCommandBuffer cmd = frames.commandBuffer();
+        const bool last = pass + 1 == passCount();
+        if (pass == 0) {
+            // Splats copied into the buffer earlier in this frame, before any pass reads them.
+            bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                          VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                          VK_ACCESS_SHADER_READ_BIT);
+        }
+        if (slot.timestamps) {
+            vkCmdResetQueryPool(cmd, slot.timestamps.get(), std::uint32_t(2 * pass), 2);
+            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, slot.timestamps.get(),
+                                std::uint32_t(2 * pass));
+        }
+        if (compute()) {
+            recordCompute(cmd, slot, pass, cleared);
+        } else {
+            recordGraphics(cmd, slot, pass, draws);
+        }
+        if (slot.timestamps)
+            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, slot.timestamps.get(),
+                                std::uint32_t(2 * pass + 1));
+        if (last) {
+            FrameOutput::Source source;
             if (compute()) {
                 bufferBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                               VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
-                const VkBufferCopy region{0, 0, pixelCount() * 4};
-                vkCmdCopyBuffer(cmd, output.buffer.get(), readback.buffer.get(), 1, &region);
+                source.buffer = output.buffer.get();
             } else {
-                VkBufferImageCopy region{};
-                region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-                region.imageExtent = {settings.width, settings.height, 1};
-                vkCmdCopyImageToBuffer(cmd, outputImage.image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                       readback.buffer.get(), 1, &region);
+                source.image = outputImage.image.get(); // TRANSFER_SRC_OPTIMAL after the render pass
             }
-            bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-                          VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
-        });
+            if (out.readBack) {
+                if (compute()) {
+                    const VkBufferCopy region{0, 0, pixelCount() * 4};
+                    vkCmdCopyBuffer(cmd, output.buffer.get(), slot.readback.buffer.get(), 1, &region);
+                } else {
+                    VkBufferImageCopy region{};
+                    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+                    region.imageExtent = {settings.width, settings.height, 1};
+                    vkCmdCopyImageToBuffer(cmd, outputImage.image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                           slot.readback.buffer.get(), 1, &region);
+                }
+                bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                              VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+            }
+            if (out.record) out.record(cmd, source);
+        }
+        frames.submit(cmd, last, last ? out.wait : VK_NULL_HANDLE, last ? out.waitStage : 0,
+                      last ? out.signal : VK_NULL_HANDLE);
     }
     buffersCleared = compute();
-    RgbaImage image(settings.width, settings.height);
-    std::memcpy(image.pixels.data(), readback.mapped, image.pixels.size());
-    stats.wallMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-
-    if (timestamps) {
-        // Only the queries this path wrote: waiting on one never written would never return.
-        std::array<std::uint64_t, 6> ticks{};
-        const std::uint32_t queries = std::uint32_t(2 * passCount());
-        PNSPLAT_VK_CHECK(vkGetQueryPoolResults(
-            device, timestamps.get(), 0, queries, queries * sizeof(std::uint64_t), ticks.data(),
-            sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-        const double period = double(context.properties().limits.timestampPeriod) * 1e-6;
-        const auto span = [&](int pass) {
-            return pass < passCount() ? double(ticks[2 * pass + 1] - ticks[2 * pass]) * period : 0.0;
-        };
-        stats.visibilityMs = span(0); // the whole draw for PlainPoints
-        stats.accumulationMs = span(1);
-        stats.normalizationMs = span(2);
-    }
-    return image;
 }
 
 Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
@@ -721,17 +726,38 @@ const RenderSettings& SplatRenderer::settings() const {
     return impl_->settings;
 }
 
-Result<RgbaImage> SplatRenderer::render(const SplatScene& scene, const Camera& camera, FrameStats* stats) {
-    if (!camera.valid())
-        return Error{
-            "camera: eye and target must differ (by a distance single precision can measure), up must "
-            "not be parallel to the view direction, and the field of view must lie in (0, 180) degrees"};
-    FrameStats local;
-    try {
-        return impl_->render(scene, camera, stats != nullptr ? *stats : local);
-    } catch (const VulkanError& e) {
-        return Error{std::string("Vulkan: ") + e.what()};
-    }
+void SplatRenderer::submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,
+                           const Camera& camera, DepthRange depth, const FrameOutput& output) {
+    assert(camera.valid());
+    impl_->submit(frames, splats, ranges, camera, depth, output);
+}
+
+PassTimes SplatRenderer::passTimes(std::uint64_t frame) const {
+    const Impl::Slot& slot = impl_->slots[frame % kFramesInFlight];
+    PassTimes times;
+    if (!slot.timestamps || slot.frame != frame) return times;
+    // Only the queries this path wrote: waiting on one never written would never return.
+    std::array<std::uint64_t, 6> ticks{};
+    const auto queries = std::uint32_t(2 * impl_->passCount());
+    PNSPLAT_VK_CHECK(vkGetQueryPoolResults(impl_->device, slot.timestamps.get(), 0, queries,
+                                           queries * sizeof(std::uint64_t), ticks.data(), sizeof(std::uint64_t),
+                                           VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    const double period = double(impl_->context.properties().limits.timestampPeriod) * 1e-6;
+    const auto span = [&](int pass) {
+        return pass < impl_->passCount() ? double(ticks[2 * pass + 1] - ticks[2 * pass]) * period : 0.0;
+    };
+    times.visibilityMs = span(0); // the whole draw for PlainPoints
+    times.accumulationMs = span(1);
+    times.normalizationMs = span(2);
+    return times;
+}
+
+RgbaImage SplatRenderer::image(std::uint64_t frame) const {
+    const Impl::Slot& slot = impl_->slots[frame % kFramesInFlight];
+    assert(slot.frame == frame && slot.readBack);
+    RgbaImage image(impl_->settings.width, impl_->settings.height);
+    std::memcpy(image.pixels.data(), slot.readback.mapped, image.pixels.size());
+    return image;
 }
 
 } // namespace pnsplat::engine

@@ -8,6 +8,8 @@
 #include <string>
 
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <cmath>
 
 namespace pnsplat {
 
@@ -76,6 +78,27 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
 
 } // namespace
 
+float drawnRadiusOf(std::span<const float> radii) {
+    if (radii.empty()) return 0.0f;
+    std::vector<float> sorted(radii.begin(), radii.end());
+    const auto at = sorted.begin() + static_cast<std::ptrdiff_t>(
+                                         std::min(sorted.size() - 1, std::size_t(kDrawnRadiusQuantile * float(sorted.size()))));
+    std::nth_element(sorted.begin(), at, sorted.end());
+    return *at;
+}
+
+void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& angle) {
+    glm::vec3 sum(0.0f);
+    for (const glm::vec3 n : normals) sum += n;
+    const float length = glm::length(sum);
+    angle = 3.14159265f;
+    if (!(length > 1e-3f * float(normals.size()))) return;
+    axis = sum / length;
+    float lowest = 1.0f;
+    for (const glm::vec3 n : normals) lowest = std::min(lowest, glm::dot(n, axis));
+    angle = std::acos(std::clamp(lowest, -1.0f, 1.0f)) + 1e-3f; // a little margin for rounding
+}
+
 std::vector<SplitPart> splitNode(std::span<const glm::vec3> points, const Region& region,
                                  std::uint32_t maxNodePoints) {
     std::vector<std::uint32_t> all(points.size());
@@ -93,20 +116,26 @@ std::vector<SplitPart> splitNode(std::span<const glm::vec3> points, const Region
     return parts;
 }
 
-Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings) {
+Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, bool forRefinement) {
     if (settings.maxNodePoints < 16)
         return Error{"nodes must hold at least 16 points (got " + std::to_string(settings.maxNodePoints) + ")"};
-    if (auto valid = validateForRefinement(input); !valid) return valid.error();
+    if (forRefinement) {
+        if (auto valid = validateForRefinement(input); !valid) return valid.error();
+    } else if (input.normal.size() != input.size() || input.radius.size() != input.size()) {
+        return Error{"the point set lacks normals or radii"};
+    }
     NodeTree tree;
     tree.settings_ = settings;
     tree.inputPoints_ = input.size();
     // The segments of P0 (section 6), each given to the root that holds its first point.
-    std::vector<SegmentEnds> segments = findSegments(input, settings.refine);
+    std::vector<SegmentEnds> segments;
+    if (forRefinement) segments = findSegments(input, settings.refine);
 
     // Roots: halves at the median along the longest axis until each holds at most maxNodePoints.
     std::vector<SplitPart> pending{SplitPart{Region{}, std::vector<std::uint32_t>(input.size())}};
     std::iota(pending[0].indices.begin(), pending[0].indices.end(), 0u);
     std::vector<SplitPart> roots;
+    if (input.empty()) pending.clear(); // a tree only drawn may be empty: no roots
     while (!pending.empty()) {
         SplitPart part = std::move(pending.back());
         pending.pop_back();
@@ -117,7 +146,18 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings) 
         const Box box = boxOf(input.position, part.indices);
         std::vector<SplitPart> halves =
             splitAlong(input.position, part.indices, axesByExtent(box)[0], 2, part.region);
-        assert(halves.size() == 2); // distinct positions: the longest axis has two coordinates at least
+        if (halves.size() < 2) {
+            // Only coincident points left (possible in a tree only drawn; refinement requires
+            // distinct positions): roots of consecutive points sharing the region.
+            for (std::size_t first = 0; first < part.indices.size(); first += settings.maxNodePoints) {
+                const auto begin = part.indices.begin() + static_cast<std::ptrdiff_t>(first);
+                const auto end = part.indices.begin() + static_cast<std::ptrdiff_t>(
+                                                             std::min<std::size_t>(part.indices.size(),
+                                                                                   first + settings.maxNodePoints));
+                roots.push_back(SplitPart{part.region, std::vector<std::uint32_t>(begin, end)});
+            }
+            continue;
+        }
         // Lower half last, so that it is taken first: roots in space order.
         pending.push_back(std::move(halves[1]));
         pending.push_back(std::move(halves[0]));
@@ -134,6 +174,8 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings) 
         node.lo = box.lo;
         node.hi = box.hi;
         node.maxRadius = std::ranges::max(node.points.radius);
+        node.drawnRadius = drawnRadiusOf(node.points.radius);
+        normalConeOf(node.points.normal, node.coneAxis, node.coneAngle);
         tree.pointCount_ += node.points.size();
         tree.roots_.push_back(id);
     }
@@ -252,6 +294,8 @@ bool NodeTree::attach(NodeJobResult&& result) {
         child.lo = box.lo;
         child.hi = box.hi;
         child.maxRadius = std::ranges::max(child.points.radius);
+        child.drawnRadius = drawnRadiusOf(child.points.radius);
+        normalConeOf(child.points.normal, child.coneAxis, child.coneAngle);
         pointCount_ += child.points.size();
     }
     Node& node = nodes_[result.node];

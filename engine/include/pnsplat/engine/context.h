@@ -41,6 +41,7 @@ class Context {
     VkPhysicalDevice physicalDevice() const { return physical_; }
     VkDevice device() const { return device_; }
     VkQueue queue() const { return queue_; }
+    std::uint32_t queueFamily() const { return queueFamily_; }
     const VkPhysicalDeviceProperties& properties() const { return properties_; }
     const std::string& deviceName() const { return name_; }
     // The driver as "name version" (e.g. "llvmpipe Mesa 22.3.6").

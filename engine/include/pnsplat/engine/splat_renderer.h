@@ -5,20 +5,24 @@
 //    normalization. The default: on lavapipe it is several times faster than the raster pipeline.
 //  - Graphics: each splat drawn as its bounding square in the disk plane (no size limit),
 //    depth test and additive blending into float targets, a full-screen normalization.
-// Nodes outside the view frustum are skipped on the CPU before either path.
+// The renderer draws ranges of a splat buffer (the engine's cache, engine.h, which chooses them);
+// it keeps per-frame resources for kFramesInFlight frames (frames.h), so that frames pipeline.
 //
-// Thread use: one thread at a time per renderer; render() waits for the GPU and returns the image.
+// Thread use: the render thread only.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <span>
 
 #include <glm/vec3.hpp>
 
 #include "pnsplat/engine/camera.h"
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/image.h"
-#include "pnsplat/engine/splat_scene.h"
+#include "pnsplat/engine/buffer.h"
+#include "pnsplat/engine/frames.h"
 
 namespace pnsplat::engine {
 
@@ -46,26 +50,55 @@ struct RenderSettings {
     bool cullNodes = true; // false draws every node (a switch for tests of the culling)
 };
 
-struct FrameStats {
-    std::size_t splats = 0, splatsDrawn = 0; // in the scene; in its visible nodes
-    std::size_t nodes = 0, nodesVisible = 0;
-    // Per pass, from GPU timestamps around each pass (each pass is its own submission, since
-    // lavapipe writes timestamps between compute dispatches late); 0 when the device has none.
+// The GPU time of each pass of one frame, from timestamps around each pass (each pass is its own
+// submission, since lavapipe writes timestamps between compute dispatches late); 0 when the device
+// has no timestamps. PlainPoints has one pass (visibility).
+struct PassTimes {
     double visibilityMs = 0.0, accumulationMs = 0.0, normalizationMs = 0.0;
-    double wallMs = 0.0; // first submission to the image in host memory, read-back included
+};
+
+// A run of consecutive splats of the splat buffer to draw.
+struct DrawRange {
+    std::uint32_t first = 0, count = 0;
+};
+
+// Where the 8-bit image of a frame goes besides the renderer: `record` is called with the last
+// command buffer of the frame after the normalization pass, with the image to copy from (a swapchain
+// shell blits it into its image there); the last submission waits for `wait` at `waitStage` and
+// signals `signal` (each may be VK_NULL_HANDLE).
+struct FrameOutput {
+    // The compute path's result is a buffer of width × height RGBA8 texels, rows top to bottom, ready
+    // for transfer reads; the graphics path's an RGBA8 image in TRANSFER_SRC_OPTIMAL layout.
+    struct Source {
+        VkBuffer buffer = VK_NULL_HANDLE;
+        VkImage image = VK_NULL_HANDLE;
+    };
+    bool readBack = false; // keep the frame's image for image()
+    std::function<void(VkCommandBuffer, const Source&)> record;
+    VkSemaphore wait = VK_NULL_HANDLE;
+    VkPipelineStageFlags waitStage = 0;
+    VkSemaphore signal = VK_NULL_HANDLE;
 };
 
 class SplatRenderer {
   public:
-    // Fails for a zero or too large image size, a compute path the device cannot run, or a Vulkan error.
+    // Fails for a zero or too large image size, a compute path the device cannot run, or a Vulkan
+    // error.
     static Result<std::unique_ptr<SplatRenderer>> create(Context& context, const RenderSettings& settings);
     ~SplatRenderer();
     SplatRenderer(const SplatRenderer&) = delete;
     SplatRenderer& operator=(const SplatRenderer&) = delete;
 
-    // Renders `scene` (created on the same context) seen from `camera`; an invalid camera is an
-    // error, a camera that sees nothing gives the background.
-    Result<RgbaImage> render(const SplatScene& scene, const Camera& camera, FrameStats* stats = nullptr);
+    // Records and submits the passes of the current frame of `frames` (begun by the caller), drawing
+    // `ranges` of `splats` (a storage buffer of gpu::Splat) from `camera` (valid) with the depth
+    // range `depth`. Does not wait: the frame's fence signals when it is done. Throws VulkanError.
+    void submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges, const Camera& camera,
+                DepthRange depth, const FrameOutput& output);
+    // The pass times and, when read back, the image of frame `frame` of `frames`; the frame must have
+    // finished (FrameRing::completed() > frame) and its slot not have been begun again since.
+    PassTimes passTimes(std::uint64_t frame) const;
+    RgbaImage image(std::uint64_t frame) const;
+
     const RenderSettings& settings() const;
 
   private:

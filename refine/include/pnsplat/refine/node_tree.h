@@ -36,6 +36,13 @@ namespace pnsplat {
 
 using NodeId = std::uint32_t;
 inline constexpr NodeId kNoNode = UINT32_MAX;
+inline constexpr float kDrawnRadiusQuantile = 0.99f;
+
+// The kDrawnRadiusQuantile quantile of `radii` (0 when empty).
+float drawnRadiusOf(std::span<const float> radii);
+// The cone of `normals` (unit): axis their normalised sum, half-angle the largest angle to it (π
+// when the sum is too short to be an axis).
+void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& angle);
 
 struct NodeSettings {
     // A node is split so that its children hold at most this many points (the paper: "one or two
@@ -51,6 +58,14 @@ struct Node {
     Region region;                        // the part of space the node owns
     glm::vec3 lo{0.0f}, hi{0.0f};         // the box of its points (refit)
     float maxRadius = 0.0f;               // of its points
+    // The radius that kDrawnRadiusQuantile of its points do not exceed: what its level of detail is
+    // chosen by (a few points of much larger radius, such as those whose new one-ring stayed empty,
+    // would otherwise refine a whole node another level or two).
+    float drawnRadius = 0.0f;
+    // A cone around coneAxis of half-angle coneAngle (radians) holds every normal of its points; at
+    // π/2 or more it tells nothing. A renderer skips a node seen from behind (one-sided splats).
+    glm::vec3 coneAxis{0.0f, 0.0f, 1.0f};
+    float coneAngle = 3.14159265f;
     std::uint32_t level = 0;              // its points are P(level) in its region
     NodeId parent = kNoNode;              // kNoNode for a root
     std::array<NodeId, 4> children{kNoNode, kNoNode, kNoNode, kNoNode};
@@ -86,10 +101,11 @@ struct NodeJobResult {
 
 class NodeTree {
   public:
-    // The roots over `input` (which must pass validateForRefinement): split at medians along the
-    // longest axis until each holds at most settings.maxNodePoints; the segments of P0 found
-    // (findSegments, with settings.refine.threads workers). Errors: invalid settings.
-    static Result<NodeTree> create(PointSet input, const NodeSettings& settings);
+    // The roots over `input`: split at medians along the longest axis until each holds at most
+    // settings.maxNodePoints. For refinement the input must pass validateForRefinement (else its
+    // error) and the segments of P0 are found (findSegments, with settings.refine.threads workers);
+    // otherwise (a tree only drawn) it needs normals and radii, and may be empty (no roots).
+    static Result<NodeTree> create(PointSet input, const NodeSettings& settings, bool forRefinement = true);
 
     const NodeSettings& settings() const { return settings_; }
     std::span<const NodeId> roots() const { return roots_; }

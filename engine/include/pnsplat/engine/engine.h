@@ -1,0 +1,136 @@
+// The real-time engine (paper section 7; docs/ARCHITECTURE.md, "Real-time refinement"): one frame
+// loop for `pnsplat render`, `pnsplat bench` and the viewer.
+//
+// Each frame: finished refinements join the node tree (node_tree.h); the nodes are selected for
+// the camera (frustum culling; level of detail by projected splat size, with hysteresis);
+// visible nodes whose splats are larger than the threshold are queued for refinement, coarsest
+// level first, then largest on screen (breadth-first), on the worker threads (node_workers.h);
+// chunks of nodes to draw go into the ring-buffer cache (chunk_cache.h); the three passes draw the
+// selected chunks (splat_renderer.h). The render thread never waits for a refinement: a node is
+// drawn once its children are all uploaded, its parent until then. With `lockstep` a frame instead
+// refines and uploads until nothing more is wanted for its camera (settled), which makes frames
+// reproducible. Frames are pipelined (frames.h): frame() waits only for the frame that used the
+// same resources kFramesInFlight frames before.
+//
+// Without `adaptive` the engine draws the input as it is (the nodes of the input, no refinement):
+// `pnsplat render` without --adaptive.
+//
+// Thread use: create, frame and everything else on one thread (the render thread).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "pnsplat/engine/camera.h"
+#include "pnsplat/engine/context.h"
+#include "pnsplat/engine/image.h"
+#include "pnsplat/engine/splat_renderer.h"
+#include "pnsplat/refine/node_tree.h"
+#include "pnsplat/refine/point_set.h"
+#include "pnsplat/refine/result.h"
+
+namespace pnsplat::engine {
+
+// The colour of splats of a model without colour (sRGB).
+inline constexpr std::uint32_t kDefaultColour = 0xC8C8C8u;
+
+struct EngineSettings {
+    RenderSettings render;
+    bool adaptive = true;
+    // Largest splat diameter wanted on screen, in pixels (> 0): nodes whose splats may be larger are
+    // refined.
+    float threshold = 2.0f;
+    // A node drawn refined (its children) goes back to being drawn itself once its own splats are
+    // below threshold × hysteresis, in (0, 1]: a still camera never flips between two levels.
+    float hysteresis = 0.8f;
+    // The GPU cache, in bytes (32 bytes a splat); must hold the input's points.
+    std::size_t cacheBytes = std::size_t{96} << 20;
+    // Points the node tree keeps on the CPU, as a multiple of the cache's capacity: the nodes drawn,
+    // their ancestors and recently drawn nodes (the least recently drawn are released first).
+    float cpuCacheFactor = 2.0f;
+    // Refinement worker threads (>= 1); see docs/LAVAPIPE-REALTIME.md for the default's measurements.
+    unsigned workers = 1;
+    // Most bytes uploaded to the cache per frame (not in lockstep), so that a burst of refined
+    // nodes does not stall one frame.
+    std::size_t uploadBytesPerFrame = std::size_t{16} << 20;
+    NodeSettings nodes;
+    bool forceStaging = false; // write the cache through staging even where it is host-visible (tests)
+};
+
+struct FrameOptions {
+    bool lockstep = false;      // refine and upload until settled before drawing (see above)
+    bool readBack = false;      // keep the image: image() after the frame has finished
+    bool measureSplats = false; // FrameReport::maxSplatPx and overThreshold (a pass over the splats drawn)
+    FrameOutput output;         // where else the image goes (a swapchain); readBack is taken from above
+};
+
+// What one frame did. The CPU parts are known when frame() returns; the GPU pass times when the
+// frame has finished (reports()).
+struct FrameReport {
+    std::uint64_t frame = 0;
+    double cpuMs = 0.0;                     // frame() from entry to submission
+    double selectionMs = 0.0, uploadMs = 0.0; // of that: choosing nodes; writing chunks
+    double refineWaitMs = 0.0;              // of that, in lockstep: waiting for the workers
+    PassTimes gpu;
+    std::size_t splatsDrawn = 0, nodesVisible = 0;
+    std::size_t nodesRefined = 0, pointsGenerated = 0; // refinements that joined the tree this frame
+    std::size_t nodesUploaded = 0, bytesUploaded = 0, evictions = 0;
+    std::size_t cacheBytesUsed = 0, queueLength = 0; // after the frame; jobs waiting or running
+    std::size_t treeNodes = 0, treePoints = 0;       // on the CPU
+    bool settled = false; // nothing was wanted for this camera: no refinement, no upload
+    // With measureSplats: the largest projected splat diameter drawn (pixels) and the share of the
+    // splats drawn (in front of the camera) above the threshold.
+    float maxSplatPx = 0.0f;
+    double overThreshold = 0.0;
+};
+
+class Engine {
+  public:
+    // `points` need normals and radii (completeInput); with settings.adaptive they must pass
+    // validateForRefinement. Errors: settings out of range, a cache too small for the input or too
+    // large for the device, a Vulkan error.
+    static Result<std::unique_ptr<Engine>> create(Context& context, PointSet points, const EngineSettings& settings);
+    ~Engine();
+    Engine(const Engine&) = delete;
+    Engine& operator=(const Engine&) = delete;
+
+    // One frame for `camera` (which must be valid(): else an error, nothing drawn).
+    Result<FrameReport> frame(const Camera& camera, const FrameOptions& options = {});
+    // New render settings (image size, path, splat look) for the frames that follow: waits for the
+    // frames in flight, then makes the passes anew. On error the old settings stay.
+    Result<void> setRenderSettings(const RenderSettings& render);
+    // Reports of the frames that have finished since the last call (GPU times filled), in order.
+    std::vector<FrameReport> reports();
+    // Waits for every frame submitted; then reports() returns all of them.
+    void finish();
+    // The image of `frame`, which was drawn with readBack: waits for it. Only until its frame slot
+    // is used again (kFramesInFlight frames later).
+    Result<RgbaImage> image(std::uint64_t frame);
+
+    // The sphere enclosing the input (cameras are framed on it).
+    Sphere bounds() const;
+    const EngineSettings& settings() const;
+    const NodeTree& tree() const;
+    // The nodes drawn by the last frame.
+    std::span<const NodeId> drawn() const;
+    // Test access. Waits for the GPU, reads the cache buffer back and compares every resident
+    // node's chunk with the splats of its points on the CPU: the number of nodes compared, or an
+    // error naming the first node that differs.
+    Result<std::size_t> verifyCache();
+    // Test access: splat ranges drawn by frames in flight that a chunk write has overlapped (must
+    // stay 0: the cache evicts no chunk a frame in flight reads).
+    std::size_t overwritesInFlight() const;
+
+  private:
+    struct Impl;
+    explicit Engine(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> impl_;
+};
+
+// Writes the splats of `points` [begin, end) (normals, radii, optional colours) as gpu::Splat
+// (32 bytes each) into `out`. The splats of a node's chunk, for uploads and their checks.
+void packSplats(const PointSet& points, std::size_t begin, std::size_t end, void* out);
+
+} // namespace pnsplat::engine

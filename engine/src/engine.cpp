@@ -1,0 +1,588 @@
+// The real-time engine (engine.h).
+#include "pnsplat/engine/engine.h"
+
+#include <algorithm>
+#include <cassert>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <deque>
+#include <string>
+
+#include <fmt/format.h>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include "chunk_cache.h"
+#include "gpu_types.h"
+#include "pnsplat/refine/node_workers.h"
+
+namespace pnsplat::engine {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double millisecondsSince(Clock::time_point t) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+constexpr std::uint64_t kNever = 0; // frame stamps are frame index + 1
+constexpr float kHalfPi = 1.57079632679f;
+
+} // namespace
+
+void packSplats(const PointSet& points, std::size_t begin, std::size_t end, void* out) {
+    auto* splats = static_cast<gpu::Splat*>(out);
+    for (std::size_t i = begin; i < end; ++i) {
+        std::uint32_t colour = kDefaultColour;
+        if (points.hasColour()) {
+            const glm::u8vec3 c = points.colour[i];
+            colour = std::uint32_t{c.x} | std::uint32_t{c.y} << 8 | std::uint32_t{c.z} << 16;
+        }
+        splats[i - begin] = gpu::Splat{points.position[i], points.radius[i], points.normal[i], colour};
+    }
+}
+
+struct Engine::Impl {
+    Context& context;
+    EngineSettings settings;
+    NodeTree tree;
+    // Declared in the order they must be destroyed last to first: the frames (waiting for the GPU)
+    // go first, then the workers (joined), then what the GPU read.
+    std::unique_ptr<SplatRenderer> renderer;
+    std::unique_ptr<ChunkCache> cache;
+    std::unique_ptr<NodeWorkers> workers;
+    std::unique_ptr<FrameRing> frames;
+
+    // Per node slot of the tree.
+    struct NodeState {
+        Chunk chunk;
+        bool resident = false, permanent = false;
+        bool descended = false;   // drawn through its children last time it was visited
+        bool jobInFlight = false; // a refinement of it is with the workers
+        std::uint64_t lastVisited = kNever; // frame + 1 of the last selection that passed through it
+        std::uint64_t lastDrawn = kNever;
+        std::uint64_t uploaded = kNever; // frame + 1 of its upload
+    };
+    std::vector<NodeState> state;
+
+    Sphere modelBounds;
+    float rootMaxRadius = 0.0f;
+    std::vector<NodeId> drawnNodes;
+    std::deque<FrameReport> submitted; // frames in flight, oldest first
+    std::vector<FrameReport> finished;
+    // Test check: the ranges each frame in flight draws, to see that no write overlaps them.
+    std::array<std::vector<DrawRange>, kFramesInFlight> slotDraws;
+    std::array<std::uint64_t, kFramesInFlight> slotFrame{};
+    std::size_t overwrites = 0;
+
+    Impl(Context& c, const EngineSettings& s, NodeTree t) : context(c), settings(s), tree(std::move(t)) {}
+
+    NodeState& stateOf(NodeId id) {
+        if (state.size() <= id) state.resize(tree.slotCount());
+        return state[id];
+    }
+    // The oldest frame (as frame + 1) that may still read the cache: pinned from there on.
+    std::uint64_t oldestInUse() { return frames->completed() + 1; }
+
+    // Selection output.
+    struct Wanted {
+        NodeId node;
+        std::uint32_t level;
+        float size;
+    };
+    struct Selection {
+        std::vector<NodeId> draw;
+        std::vector<Wanted> refine, upload;
+    };
+    Selection select(const Camera& camera);
+    void integrate(FrameReport& report);
+    std::size_t dispatch(const std::vector<Wanted>& wanted, bool lockstep);
+    std::size_t upload(const std::vector<Wanted>& wanted, bool lockstep, FrameReport& report,
+                       VkCommandBuffer& uploads);
+    void releaseUnused();
+    void collectFinished();
+    void measureSplats(const Camera& camera, FrameReport& report) const;
+};
+
+Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points, const EngineSettings& settings) {
+    if (!(settings.threshold > 0.0f) || !std::isfinite(settings.threshold))
+        return Error{fmt::format("the splat size threshold must be a positive number of pixels (got {})",
+                                 settings.threshold)};
+    if (!(settings.hysteresis > 0.0f && settings.hysteresis <= 1.0f))
+        return Error{fmt::format("the hysteresis must lie in (0, 1] (got {})", settings.hysteresis)};
+    if (settings.workers < 1) return Error{"at least one refinement worker is needed"};
+    if (!(settings.cpuCacheFactor >= 1.0f)) return Error{"the CPU cache factor must be at least 1"};
+    if (points.empty() && settings.adaptive) return Error{"there are no points to refine"};
+    const std::size_t inputPoints = points.size();
+    const std::size_t splatBytes = sizeof(gpu::Splat);
+    const std::size_t deviceSplats = context.properties().limits.maxStorageBufferRange / splatBytes;
+    std::size_t capacity = settings.cacheBytes / splatBytes;
+    if (!settings.adaptive) capacity = std::max<std::size_t>(inputPoints, 1); // no ring: the input only
+    const auto mib = [](double bytes) { return bytes / double(1 << 20); };
+    if (inputPoints > deviceSplats)
+        return Error{fmt::format("{} splats exceed the device's storage buffer range of {} splats ({:.0f} MiB)",
+                                 inputPoints, deviceSplats, mib(double(deviceSplats * splatBytes)))};
+    if (capacity < inputPoints)
+        return Error{fmt::format("a cache of {:.1f} MiB cannot hold the input's {} points ({:.1f} MiB, 32 bytes "
+                                 "each), which stay resident; give it at least {:.0f} MiB",
+                                 mib(double(settings.cacheBytes)), inputPoints,
+                                 mib(double(inputPoints * splatBytes)),
+                                 std::ceil(mib(double(inputPoints * splatBytes)) * 2.0))};
+    if (capacity > deviceSplats)
+        return Error{fmt::format("a cache of {:.0f} MiB exceeds the device's storage buffer range of {:.0f} MiB",
+                                 mib(double(settings.cacheBytes)), mib(double(deviceSplats * splatBytes)))};
+
+    auto tree = NodeTree::create(std::move(points), settings.nodes, settings.adaptive);
+    if (!tree) return tree.error();
+    auto renderer = SplatRenderer::create(context, settings.render);
+    if (!renderer) return renderer.error();
+    auto impl = std::make_unique<Impl>(context, settings, std::move(tree).value());
+    impl->renderer = std::move(renderer).value();
+    try {
+        impl->cache = std::make_unique<ChunkCache>(context, static_cast<std::uint32_t>(capacity), settings.forceStaging);
+        impl->frames = std::make_unique<FrameRing>(context);
+        if (settings.adaptive) impl->workers = std::make_unique<NodeWorkers>(settings.workers, settings.nodes);
+        // The input's chunks, at the front of the cache for good; uploaded with the first frame's
+        // transfers (or directly).
+        glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+        impl->frames->begin();
+        VkCommandBuffer uploads = VK_NULL_HANDLE;
+        std::vector<gpu::Splat> splats;
+        for (const NodeId root : impl->tree.roots()) {
+            const Node& node = impl->tree.node(root);
+            lo = glm::min(lo, node.lo);
+            hi = glm::max(hi, node.hi);
+            impl->rootMaxRadius = std::max(impl->rootMaxRadius, node.maxRadius);
+            const auto chunk = impl->cache->allocatePermanent(static_cast<std::uint32_t>(node.points.size()));
+            assert(chunk);
+            splats.resize(node.points.size());
+            packSplats(node.points, 0, node.points.size(), splats.data());
+            impl->cache->write(*chunk, splats, *impl->frames, uploads);
+            Impl::NodeState& s = impl->stateOf(root);
+            s.chunk = *chunk;
+            s.resident = s.permanent = true;
+        }
+        if (uploads != VK_NULL_HANDLE) {
+            impl->frames->submit(uploads, true);
+        } else {
+            // Nothing to submit: an empty submission signals the frame's fence.
+            impl->frames->submit(impl->frames->commandBuffer(), true);
+        }
+        impl->modelBounds = impl->tree.roots().empty() ? Sphere{glm::vec3(0.0f), 1.0f}
+                                                       : Sphere{(lo + hi) * 0.5f, glm::length(hi - lo) * 0.5f};
+    } catch (const VulkanError& e) {
+        return Error{std::string("Vulkan: ") + e.what()};
+    }
+    return std::unique_ptr<Engine>(new Engine(std::move(impl)));
+}
+
+Engine::Engine(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Engine::~Engine() = default;
+
+Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
+    Selection out;
+    const glm::mat4 view = camera.view();
+    const float aspect = float(settings.render.width) / float(settings.render.height);
+    const float tanY = std::tan(camera.fovY * 0.5f);
+    const DepthRange range = depthRange(camera, {modelBounds.centre, modelBounds.radius * 1.05f +
+                                                                         2.0f * rootMaxRadius *
+                                                                             settings.render.radiusScale});
+    const Frustum frustum{tanY * aspect, tanY, range};
+    const float focal = float(settings.render.height) / (2.0f * tanY); // pixels per unit at depth 1
+    const float scale = settings.render.radiusScale;
+    const std::uint64_t stamp = frames->index() + 1;
+
+    // In the frustum, and not seen from behind: splats are one-sided (splat_common.glsl skips
+    // those with n · (p - eye) >= 0), so a node all of whose splats face away draws nothing. The
+    // directions from the eye to the node's sphere lie within asin(R / d) of the direction d to its
+    // centre, its normals within coneAngle of coneAxis: if the two angles and the angle between the
+    // axes sum below π/2, every n · (p - eye) is positive.
+    const auto visible = [&](const Node& node) {
+        if (!settings.render.cullNodes) return true;
+        const glm::vec3 centre = (node.lo + node.hi) * 0.5f;
+        const float radius = glm::length(node.hi - node.lo) * 0.5f + node.maxRadius * scale;
+        if (!frustum.intersects(glm::vec3(view * glm::vec4(centre, 1.0f)), radius)) return false;
+        const glm::vec3 toCentre = centre - camera.eye;
+        const float distance = glm::length(toCentre);
+        if (node.coneAngle >= kHalfPi || !(distance > radius)) return true;
+        const float between = std::acos(std::clamp(glm::dot(toCentre / distance, node.coneAxis), -1.0f, 1.0f));
+        return between + std::asin(radius / distance) + node.coneAngle >= kHalfPi;
+    };
+    // The splat diameter of a node on screen that kDrawnRadiusQuantile of its splats stay within, at
+    // most: that radius at the depth of the nearest corner of its box (depth is linear, so its
+    // minimum over the box is at a corner).
+    const auto projected = [&](const Node& node) {
+        float nearest = std::numeric_limits<float>::max();
+        for (int corner = 0; corner < 8; ++corner) {
+            const glm::vec3 p{corner & 1 ? node.hi.x : node.lo.x, corner & 2 ? node.hi.y : node.lo.y,
+                              corner & 4 ? node.hi.z : node.lo.z};
+            nearest = std::min(nearest, -(view * glm::vec4(p, 1.0f)).z);
+        }
+        return 2.0f * node.drawnRadius * scale * focal / std::max(nearest, range.near);
+    };
+    const float threshold = settings.threshold;
+    const auto visit = [&](const auto& self, NodeId id) -> void {
+        const Node& node = tree.node(id);
+        if (!visible(node)) return;
+        NodeState& s = stateOf(id);
+        s.lastVisited = stamp;
+        const float size = projected(node);
+        if (!node.isLeaf() && size > threshold * (s.descended ? settings.hysteresis : 1.0f)) {
+            bool ready = true;
+            for (const NodeId c : node.childIds()) {
+                if (stateOf(c).resident || !visible(tree.node(c))) continue;
+                out.upload.push_back({c, tree.node(c).level, size});
+                ready = false;
+            }
+            if (ready) {
+                s.descended = true;
+                for (const NodeId c : node.childIds()) self(self, c);
+                return;
+            }
+        } else if (node.isLeaf() && settings.adaptive && size > threshold && node.level < tree.settings().maxLevel) {
+            out.refine.push_back({id, node.level, size});
+        }
+        s.descended = false;
+        s.lastDrawn = stamp;
+        out.draw.push_back(id);
+    };
+    for (const NodeId root : tree.roots()) visit(visit, root);
+    // Breadth-first: coarsest level first, then largest on screen; ties by id (deterministic).
+    const auto order = [](const Wanted& a, const Wanted& b) {
+        return a.level != b.level ? a.level < b.level : a.size != b.size ? a.size > b.size : a.node < b.node;
+    };
+    std::sort(out.refine.begin(), out.refine.end(), order);
+    std::sort(out.upload.begin(), out.upload.end(), order);
+    return out;
+}
+
+void Engine::Impl::integrate(FrameReport& report) {
+    if (!workers) return;
+    for (NodeJobResult& result : workers->takeResults()) {
+        const NodeId id = result.node;
+        if (tree.isLive(id)) stateOf(id).jobInFlight = false;
+        const std::size_t before = tree.isLive(id) ? tree.node(id).points.size() : 0;
+        if (!tree.attach(std::move(result))) continue;
+        ++report.nodesRefined;
+        std::size_t after = 0;
+        for (const NodeId c : tree.node(id).childIds()) {
+            stateOf(c) = NodeState{};
+            after += tree.node(c).points.size();
+        }
+        report.pointsGenerated += after - before;
+    }
+}
+
+// Submits jobs for the wanted nodes, or for the coarser leaves they wait for (balance rule). Returns
+// the number submitted.
+std::size_t Engine::Impl::dispatch(const std::vector<Wanted>& wanted, bool lockstep) {
+    const std::size_t capacity = lockstep ? std::numeric_limits<std::size_t>::max() : 2 * workers->threads() + 1;
+    std::vector<NodeJob> jobs;
+    std::vector<NodeId> blockers, pending;
+    const auto full = [&] { return workers->outstanding() + jobs.size() >= capacity; };
+    for (const Wanted& w : wanted) {
+        if (full()) break;
+        pending.assign(1, w.node);
+        // Depth-first through the blockers: each node is ready or names the coarser leaves it waits
+        // for, which lie at lower levels, so this ends.
+        while (!pending.empty() && !full()) {
+            const NodeId id = pending.back();
+            pending.pop_back();
+            NodeState& s = stateOf(id);
+            if (s.jobInFlight) continue;
+            blockers.clear();
+            if (tree.ready(id, blockers)) {
+                jobs.push_back(tree.makeJob(id));
+                s.jobInFlight = true;
+            } else {
+                pending.insert(pending.end(), blockers.begin(), blockers.end());
+            }
+        }
+    }
+    const std::size_t count = jobs.size();
+    workers->submit(std::move(jobs));
+    return count;
+}
+
+// Uploads the wanted nodes' chunks (within the frame's budget unless in lockstep). Returns the
+// number uploaded.
+std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockstep, FrameReport& report,
+                                 VkCommandBuffer& uploads) {
+    const std::uint64_t pinnedFrom = oldestInUse();
+    const std::uint64_t stamp = frames->index() + 1;
+    const auto pinned = [&](std::uint32_t owner) {
+        const NodeState& s = state[owner];
+        return s.lastVisited >= pinnedFrom || s.uploaded == stamp;
+    };
+    std::vector<std::uint32_t> evicted;
+    std::vector<gpu::Splat> splats;
+    std::size_t count = 0;
+    for (const Wanted& w : wanted) {
+        NodeState& s = stateOf(w.node);
+        if (s.resident) continue;
+        const Node& node = tree.node(w.node);
+        const std::size_t bytes = node.points.size() * sizeof(gpu::Splat);
+        if (!lockstep && report.bytesUploaded > 0 && report.bytesUploaded + bytes > settings.uploadBytesPerFrame) break;
+        evicted.clear();
+        const auto chunk = cache->allocate(static_cast<std::uint32_t>(node.points.size()), w.node, pinned, evicted);
+        if (!chunk) continue; // the cache is full of what is drawn: this node waits
+        for (const std::uint32_t owner : evicted) state[owner].resident = false;
+        report.evictions += evicted.size();
+        // Test check: nothing a frame in flight draws is overwritten.
+        for (std::uint32_t k = 0; k < kFramesInFlight; ++k) {
+            if (slotFrame[k] + 1 < pinnedFrom || slotFrame[k] == 0) continue;
+            for (const DrawRange& d : slotDraws[k])
+                if (d.first < chunk->first + chunk->count && chunk->first < d.first + d.count) ++overwrites;
+        }
+        splats.resize(node.points.size());
+        packSplats(node.points, 0, node.points.size(), splats.data());
+        cache->write(*chunk, splats, *frames, uploads);
+        s.chunk = *chunk;
+        s.resident = true;
+        s.uploaded = stamp;
+        ++count;
+        ++report.nodesUploaded;
+        report.bytesUploaded += bytes;
+    }
+    return count;
+}
+
+// Keeps the tree's points within cpuCacheFactor × the cache's capacity: releases the children of
+// nodes whose children are leaves, no selection in use passed through and no job is refining,
+// least recently visited first.
+void Engine::Impl::releaseUnused() {
+    const auto budget = static_cast<std::size_t>(settings.cpuCacheFactor * float(cache->capacity()));
+    if (tree.pointCount() <= budget) return;
+    const std::uint64_t pinnedFrom = oldestInUse();
+    struct Candidate {
+        std::uint64_t lastVisited;
+        NodeId node;
+    };
+    std::vector<Candidate> candidates;
+    for (NodeId id = 0; id < tree.slotCount(); ++id) {
+        if (!tree.isLive(id) || tree.node(id).isLeaf()) continue;
+        std::uint64_t last = kNever;
+        bool releasable = true;
+        for (const NodeId c : tree.node(id).childIds()) {
+            const NodeState& s = stateOf(c);
+            if (!tree.node(c).isLeaf() || s.jobInFlight || s.lastVisited >= pinnedFrom || s.uploaded >= pinnedFrom) {
+                releasable = false;
+                break;
+            }
+            last = std::max(last, s.lastVisited);
+        }
+        if (releasable) candidates.push_back({last, id});
+    }
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.lastVisited != b.lastVisited ? a.lastVisited < b.lastVisited : a.node < b.node;
+    });
+    for (const Candidate& c : candidates) {
+        if (tree.pointCount() <= budget) break;
+        for (const NodeId child : tree.node(c.node).childIds()) {
+            NodeState& s = stateOf(child);
+            if (s.resident) cache->release(s.chunk);
+            s = NodeState{};
+        }
+        tree.release(c.node);
+        stateOf(c.node).descended = false;
+    }
+}
+
+void Engine::Impl::collectFinished() {
+    const std::uint64_t done = frames->completed();
+    while (!submitted.empty() && submitted.front().frame < done) {
+        FrameReport report = submitted.front();
+        submitted.pop_front();
+        report.gpu = renderer->passTimes(report.frame);
+        finished.push_back(report);
+    }
+}
+
+void Engine::Impl::measureSplats(const Camera& camera, FrameReport& report) const {
+    const glm::mat4 view = camera.view();
+    const float tanY = std::tan(camera.fovY * 0.5f);
+    const float focal = float(settings.render.height) / (2.0f * tanY);
+    const DepthRange range = depthRange(camera, {modelBounds.centre, modelBounds.radius * 1.05f +
+                                                                         2.0f * rootMaxRadius *
+                                                                             settings.render.radiusScale});
+    const float scale = 2.0f * settings.render.radiusScale * focal;
+    std::size_t inFront = 0, over = 0;
+    float largest = 0.0f;
+    for (const NodeId id : drawnNodes) {
+        const PointSet& points = tree.node(id).points;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            const float depth = -(view * glm::vec4(points.position[i], 1.0f)).z;
+            if (!(depth > range.near)) continue;
+            const float size = scale * points.radius[i] / depth;
+            ++inFront;
+            over += size > settings.threshold;
+            largest = std::max(largest, size);
+        }
+    }
+    report.maxSplatPx = largest;
+    report.overThreshold = inFront > 0 ? double(over) / double(inFront) : 0.0;
+}
+
+Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& options) {
+    if (!camera.valid())
+        return Error{"camera: eye and target must differ (by a distance single precision can measure), up must "
+                     "not be parallel to the view direction, and the field of view must lie in (0, 180) degrees"};
+    Impl& m = *impl_;
+    const Clock::time_point start = Clock::now();
+    try {
+        // The frame that used this slot last must be done: its report first, then the slot.
+        m.frames->wait(m.frames->index() + 1 >= kFramesInFlight ? m.frames->index() + 1 - kFramesInFlight : 0);
+        m.collectFinished();
+        FrameReport report;
+        report.frame = m.frames->begin();
+        VkCommandBuffer uploads = VK_NULL_HANDLE;
+        Impl::Selection selection;
+        for (std::size_t round = 0;; ++round) {
+            m.integrate(report);
+            const Clock::time_point selecting = Clock::now();
+            selection = m.select(camera);
+            report.selectionMs += millisecondsSince(selecting);
+            const std::size_t dispatched =
+                m.workers && !selection.refine.empty() ? m.dispatch(selection.refine, options.lockstep) : 0;
+            const Clock::time_point uploading = Clock::now();
+            const std::size_t uploaded = m.upload(selection.upload, options.lockstep, report, uploads);
+            report.uploadMs += millisecondsSince(uploading);
+            report.settled = selection.refine.empty() && selection.upload.empty() &&
+                             (!m.workers || m.workers->outstanding() == 0);
+            if (!options.lockstep || report.settled) break;
+            if (m.workers && m.workers->outstanding() > 0) {
+                const Clock::time_point waiting = Clock::now();
+                m.workers->waitIdle();
+                report.refineWaitMs += millisecondsSince(waiting);
+            } else if (dispatched == 0 && uploaded == 0) {
+                break; // nothing can move (a full cache, or the deepest level): draw what there is
+            }
+        }
+        m.drawnNodes = std::move(selection.draw);
+        m.releaseUnused();
+
+        std::vector<DrawRange> ranges;
+        ranges.reserve(m.drawnNodes.size());
+        for (const NodeId id : m.drawnNodes) {
+            const Chunk chunk = m.state[id].chunk;
+            ranges.push_back({chunk.first, chunk.count});
+            report.splatsDrawn += chunk.count;
+        }
+        // Draw runs in cache order (adjacent chunks merge into one draw).
+        std::sort(ranges.begin(), ranges.end(), [](const DrawRange& a, const DrawRange& b) { return a.first < b.first; });
+        report.nodesVisible = m.drawnNodes.size();
+        if (options.measureSplats) m.measureSplats(camera, report);
+        if (uploads != VK_NULL_HANDLE) m.frames->submit(uploads, false);
+        const DepthRange range =
+            depthRange(camera, {m.modelBounds.centre,
+                                m.modelBounds.radius * 1.05f + 2.0f * m.rootMaxRadius * m.settings.render.radiusScale});
+        FrameOutput output = options.output;
+        output.readBack = options.readBack;
+        m.slotDraws[m.frames->slot()] = ranges;
+        m.slotFrame[m.frames->slot()] = report.frame;
+        m.renderer->submit(*m.frames, m.cache->buffer(), ranges, camera, range, output);
+
+        report.cacheBytesUsed = std::size_t{m.cache->used()} * sizeof(gpu::Splat);
+        report.queueLength = m.workers ? m.workers->outstanding() : 0;
+        report.treeNodes = m.tree.nodeCount();
+        report.treePoints = m.tree.pointCount();
+        report.cpuMs = millisecondsSince(start);
+        m.submitted.push_back(report);
+        return report;
+    } catch (const VulkanError& e) {
+        return Error{std::string("Vulkan: ") + e.what()};
+    }
+}
+
+Result<void> Engine::setRenderSettings(const RenderSettings& render) {
+    Impl& m = *impl_;
+    try {
+        m.frames->waitAll();
+        m.collectFinished(); // their pass times, before the old passes go
+    } catch (const VulkanError& e) {
+        return Error{std::string("Vulkan: ") + e.what()};
+    }
+    auto renderer = SplatRenderer::create(m.context, render);
+    if (!renderer) return renderer.error();
+    m.renderer = std::move(renderer).value();
+    m.settings.render = render;
+    return {};
+}
+
+std::vector<FrameReport> Engine::reports() {
+    impl_->collectFinished();
+    return std::exchange(impl_->finished, {});
+}
+
+void Engine::finish() {
+    impl_->frames->waitAll();
+}
+
+Result<RgbaImage> Engine::image(std::uint64_t frame) {
+    Impl& m = *impl_;
+    if (frame > m.frames->index() || frame + kFramesInFlight <= m.frames->index())
+        return Error{fmt::format("frame {} is no longer (or not yet) held", frame)};
+    try {
+        m.frames->wait(frame);
+        return m.renderer->image(frame);
+    } catch (const VulkanError& e) {
+        return Error{std::string("Vulkan: ") + e.what()};
+    }
+}
+
+Sphere Engine::bounds() const {
+    return impl_->modelBounds;
+}
+const EngineSettings& Engine::settings() const {
+    return impl_->settings;
+}
+const NodeTree& Engine::tree() const {
+    return impl_->tree;
+}
+std::span<const NodeId> Engine::drawn() const {
+    return impl_->drawnNodes;
+}
+std::size_t Engine::overwritesInFlight() const {
+    return impl_->overwrites;
+}
+
+Result<std::size_t> Engine::verifyCache() {
+    Impl& m = *impl_;
+    try {
+        m.frames->waitAll();
+        const Buffer& buffer = m.cache->buffer();
+        const VkDeviceSize bytes = buffer.size;
+        Buffer readback = createBuffer(m.context, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUse::Readback);
+        m.context.submitAndWait([&](VkCommandBuffer cmd) {
+            const VkBufferCopy region{0, 0, bytes};
+            vkCmdCopyBuffer(cmd, buffer.buffer.get(), readback.buffer.get(), 1, &region);
+            VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+            barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+            barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+            vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier, 0,
+                                 nullptr, 0, nullptr);
+        });
+        const auto* gpu = static_cast<const gpu::Splat*>(readback.mapped);
+        std::vector<gpu::Splat> expected;
+        std::size_t compared = 0;
+        for (NodeId id = 0; id < m.tree.slotCount(); ++id) {
+            if (!m.tree.isLive(id) || id >= m.state.size() || !m.state[id].resident) continue;
+            const Node& node = m.tree.node(id);
+            const Chunk chunk = m.state[id].chunk;
+            if (chunk.count != node.points.size())
+                return Error{fmt::format("node {}: chunk of {} splats for {} points", id, chunk.count, node.points.size())};
+            expected.resize(chunk.count);
+            packSplats(node.points, 0, node.points.size(), expected.data());
+            if (std::memcmp(expected.data(), gpu + chunk.first, chunk.count * sizeof(gpu::Splat)) != 0)
+                return Error{fmt::format("node {} (level {}): its chunk at splat {} differs from its points", id,
+                                         node.level, chunk.first)};
+            ++compared;
+        }
+        return compared;
+    } catch (const VulkanError& e) {
+        return Error{std::string("Vulkan: ") + e.what()};
+    }
+}
+
+} // namespace pnsplat::engine

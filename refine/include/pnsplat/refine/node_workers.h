@@ -1,0 +1,56 @@
+// The refinement workers of the real-time refinement: threads that run node jobs (node_tree.h)
+// while the render thread draws.
+//
+// Contract: submit() hands jobs to the pool in the order given (the caller sorts them: the
+// engine's breadth-first priority); each runs NodeTree::run on one worker thread, alone, and its
+// result waits in a queue until takeResults(). A job's result depends only on the job, so which
+// worker runs it and how many there are changes nothing. Workers run below the render thread's
+// priority where the system allows (Linux: nice +kWorkerNice), so that a busy pool does not steal
+// the frame. submit, takeResults, outstanding and waitIdle are for one thread (the render thread).
+#pragma once
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "pnsplat/refine/node_tree.h"
+
+namespace pnsplat {
+
+inline constexpr int kWorkerNice = 5;
+
+class NodeWorkers {
+  public:
+    // threads >= 1.
+    NodeWorkers(unsigned threads, const NodeSettings& settings);
+    ~NodeWorkers(); // drops the jobs not started, waits for the running ones
+    NodeWorkers(const NodeWorkers&) = delete;
+    NodeWorkers& operator=(const NodeWorkers&) = delete;
+
+    unsigned threads() const { return static_cast<unsigned>(threads_.size()); }
+    void submit(std::vector<NodeJob> jobs);
+    // The results of the jobs finished since the last call, in the order they finished.
+    std::vector<NodeJobResult> takeResults();
+    // Jobs submitted whose results have not been taken yet (waiting, running or finished).
+    std::size_t outstanding() const { return outstanding_; }
+    // Waits until every submitted job has finished.
+    void waitIdle();
+
+  private:
+    void loop();
+
+    NodeSettings settings_;
+    std::vector<std::thread> threads_;
+    std::mutex mutex_;
+    std::condition_variable wake_, done_;
+    std::deque<NodeJob> queue_;
+    std::vector<NodeJobResult> results_;
+    std::size_t running_ = 0;
+    std::size_t outstanding_ = 0; // render thread only
+    bool stopping_ = false;
+};
+
+} // namespace pnsplat

@@ -1,0 +1,81 @@
+// The refinement workers of the real-time refinement (node_workers.h).
+#include "pnsplat/refine/node_workers.h"
+
+#include <cassert>
+
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
+namespace pnsplat {
+
+NodeWorkers::NodeWorkers(unsigned threads, const NodeSettings& settings) : settings_(settings) {
+    assert(threads >= 1);
+    threads_.reserve(threads);
+    for (unsigned t = 0; t < threads; ++t) threads_.emplace_back([this] { loop(); });
+}
+
+NodeWorkers::~NodeWorkers() {
+    {
+        std::lock_guard lock(mutex_);
+        stopping_ = true;
+        queue_.clear();
+    }
+    wake_.notify_all();
+    for (std::thread& t : threads_) t.join();
+}
+
+void NodeWorkers::loop() {
+#ifdef __linux__
+    // Below the render thread (Linux schedules threads one by one: this thread only); a failure
+    // only leaves the priority as it was.
+    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kWorkerNice);
+#endif
+    for (;;) {
+        NodeJob job;
+        {
+            std::unique_lock lock(mutex_);
+            wake_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+            if (stopping_) return;
+            job = std::move(queue_.front());
+            queue_.pop_front();
+            ++running_;
+        }
+        NodeJobResult result = NodeTree::run(std::move(job), settings_);
+        {
+            std::lock_guard lock(mutex_);
+            results_.push_back(std::move(result));
+            --running_;
+        }
+        done_.notify_all();
+    }
+}
+
+void NodeWorkers::submit(std::vector<NodeJob> jobs) {
+    if (jobs.empty()) return;
+    outstanding_ += jobs.size();
+    {
+        std::lock_guard lock(mutex_);
+        for (NodeJob& job : jobs) queue_.push_back(std::move(job));
+    }
+    wake_.notify_all();
+}
+
+std::vector<NodeJobResult> NodeWorkers::takeResults() {
+    std::vector<NodeJobResult> taken;
+    {
+        std::lock_guard lock(mutex_);
+        taken.swap(results_);
+    }
+    outstanding_ -= taken.size();
+    return taken;
+}
+
+void NodeWorkers::waitIdle() {
+    std::unique_lock lock(mutex_);
+    done_.wait(lock, [&] { return queue_.empty() && running_ == 0; });
+}
+
+} // namespace pnsplat

@@ -1,0 +1,125 @@
+// `pnsplat bench view`: the real-time engine offscreen along a camera path, one JSON object per
+// frame on standard output, then a summary line.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <fmt/core.h>
+#include <fmt/format.h>
+
+#include "camera_path.h"
+#include "commands.h"
+#include "engine_setup.h"
+#include "frame_json.h"
+#include "pnsplat/engine/image.h"
+
+namespace pnsplat::tools {
+
+namespace {
+
+struct BenchViewArgs {
+    std::string input;
+    std::string cameraPath = "orbit";
+    std::size_t frames = 0; // 0: the path's own (orbit and zoom: 240)
+    std::string capture;
+    bool lockstep = false;
+    bool measure = true;
+    EngineArgs engine;
+};
+
+constexpr std::size_t kDefaultFrames = 240;
+
+void runBenchView(BenchViewArgs args) {
+    using Clock = std::chrono::steady_clock;
+    std::string name;
+    PointSet points = loadForRendering(args.input, name);
+    const std::size_t inputPoints = points.size();
+    auto context = createContext(args.engine);
+    const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
+    auto created = engine::Engine::create(*context, std::move(points), settings);
+    if (!created) throw CommandError(name + ": " + created.error().message);
+    engine::Engine& engine = **created;
+
+    const float aspect = float(args.engine.width) / float(args.engine.height);
+    const float fov = 40.0f * std::numbers::pi_v<float> / 180.0f;
+    const std::size_t frames = args.frames > 0 ? args.frames : kDefaultFrames;
+    CameraPath path = args.cameraPath == "orbit"  ? CameraPath::orbit(engine.bounds(), aspect, fov, frames)
+                      : args.cameraPath == "zoom" ? CameraPath::zoom(engine.bounds(), aspect, fov, frames)
+                                                  : CameraPath::load(args.cameraPath);
+    const std::size_t count = args.frames > 0 ? args.frames : path.frames();
+    if (!args.capture.empty()) {
+        std::error_code error;
+        std::filesystem::create_directories(args.capture, error);
+        if (error) throw CommandError(args.capture + ": cannot create the capture folder: " + error.message());
+    }
+    fmt::print(stderr, "bench view: {} ({} points) along {} ({} frames) at {}x{} on {} ({}), {} worker(s){}\n",
+               name, inputPoints, args.cameraPath, count, args.engine.width, args.engine.height,
+               context->deviceName(), context->driverName(), settings.workers, args.lockstep ? ", lockstep" : "");
+
+    engine::FrameOptions options;
+    options.lockstep = args.lockstep;
+    options.measureSplats = args.measure;
+    options.readBack = !args.capture.empty();
+    FrameSeries series;
+    const Clock::time_point start = Clock::now();
+    std::vector<Clock::time_point> starts; // by frame of the run (the engine's frames count on)
+    std::uint64_t firstFrame = 0;
+    const auto emit = [&](const std::vector<engine::FrameReport>& reports) {
+        for (const engine::FrameReport& report : reports) {
+            // A frame lasts from its start to the next one's (the last: to the end of the run).
+            const std::size_t k = report.frame - firstFrame;
+            const Clock::time_point end = k + 1 < starts.size() ? starts[k + 1] : Clock::now();
+            const double frameMs = std::chrono::duration<double, std::milli>(end - starts[k]).count();
+            fmt::print("{}\n", frameJson(report, frameMs));
+            series.add(report, frameMs);
+        }
+        std::fflush(stdout);
+    };
+    for (std::size_t k = 0; k < count; ++k) {
+        starts.push_back(Clock::now());
+        const engine::FrameReport report = unwrap(engine.frame(path.at(k), options));
+        if (k == 0) firstFrame = report.frame;
+        if (!args.capture.empty()) {
+            const engine::RgbaImage image = unwrap(engine.image(report.frame));
+            unwrap(engine::writePng(fmt::format("{}/frame-{:05}.png", args.capture, k), image));
+        }
+        emit(engine.reports());
+    }
+    engine.finish();
+    emit(engine.reports());
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    fmt::print("{}\n", series.summaryJson(seconds, settings, context->deviceName(), context->driverName()));
+    checkValidation(*context);
+}
+
+} // namespace
+
+void addBenchViewCommand(CLI::App& bench) {
+    auto args = std::make_shared<BenchViewArgs>();
+    args->engine.width = 640;
+    args->engine.height = 480;
+    CLI::App* view = bench.add_subcommand(
+        "view", "The real-time engine offscreen along a camera path: one JSON line per frame, then a summary");
+    view->add_option("input", args->input, "input PLY; omitted: the embedded default model");
+    view->add_option("--camera-path", args->cameraPath,
+                     "orbit (a turn about the model), zoom (towards it and back), or a keyframe file "
+                     "(docs/CAMERA_PATHS.md)")
+        ->capture_default_str();
+    view->add_option("--frames", args->frames, "frames to draw (default: 240, or the file's)")
+        ->check(CLI::Range(std::size_t{1}, std::size_t{10000000}));
+    view->add_option("--width", args->engine.width, "image width in pixels")->capture_default_str();
+    view->add_option("--height", args->engine.height, "image height in pixels")->capture_default_str();
+    view->add_option("--capture", args->capture, "write every frame as DIR/frame-NNNNN.png");
+    view->add_flag("--lockstep", args->lockstep,
+                   "each frame refines and uploads until settled before drawing (reproducible frames)");
+    view->add_flag("!--no-measure", args->measure,
+                   "skip measuring each splat drawn (max_splat_px, over_threshold: a pass on the CPU)");
+    addEngineOptions(*view, args->engine, true, false);
+    view->callback([args] { runBenchView(*args); });
+}
+
+} // namespace pnsplat::tools

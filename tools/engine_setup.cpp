@@ -1,0 +1,82 @@
+#include "engine_setup.h"
+
+#include <fmt/core.h>
+
+#include "commands.h"
+#include "pnsplat/refine/shapes.h"
+#include "refine_run.h"
+
+namespace pnsplat::tools {
+
+PointSet loadForRendering(const std::string& input, std::string& name) {
+    PointSet points;
+    if (input.empty()) {
+        name = "the default model";
+        points = makeDefaultModel();
+    } else {
+        name = input;
+        points = readInput(input);
+    }
+    completeInput(points, 0, name);
+    return points;
+}
+
+void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requiresFlag) {
+    cmd.add_option("--path", args.path,
+                   "compute (atomics), graphics (raster pipeline), or auto: compute where the device can")
+        ->check(CLI::IsMember({"auto", "compute", "graphics"}))
+        ->capture_default_str();
+    cmd.add_option("--device", args.device,
+                   "Vulkan device whose name contains this text (default: a GPU, else lavapipe)");
+    cmd.add_flag("--validation", args.validation,
+                 "load the Vulkan validation layer; any message fails the command");
+    if (!adaptive) return;
+    const std::string with = requiresFlag ? "with --adaptive: " : "";
+    cmd.add_option("--threshold", args.threshold, with + "largest splat diameter wanted on screen, pixels")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    cmd.add_option("--cache-mb", args.cacheMb, with + "the GPU cache of points, MiB (32 bytes a point)")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    cmd.add_option("--workers", args.workers, with + "refinement worker threads")
+        ->check(CLI::Range(1u, 64u))
+        ->capture_default_str();
+    cmd.add_flag("--fast", args.fast, with + "the paper's faster variants (all four) for the levels refined");
+}
+
+std::unique_ptr<engine::Context> createContext(const EngineArgs& args) {
+    engine::ContextOptions options;
+    options.deviceName = args.device;
+#ifndef NDEBUG
+    options.validation = true;
+#endif
+    options.validation |= args.validation;
+    return unwrap(engine::Context::create(options));
+}
+
+engine::RenderPath choosePath(const std::string& path, const engine::Context& context) {
+    if (path == "graphics") return engine::RenderPath::Graphics;
+    if (path == "compute" || context.hasInt64Atomics()) return engine::RenderPath::Compute;
+    return engine::RenderPath::Graphics;
+}
+
+engine::EngineSettings engineSettings(const EngineArgs& args, const engine::Context& context, bool adaptive) {
+    engine::EngineSettings settings;
+    settings.render.width = args.width;
+    settings.render.height = args.height;
+    settings.render.path = choosePath(args.path, context);
+    settings.adaptive = adaptive;
+    settings.threshold = args.threshold;
+    settings.cacheBytes = static_cast<std::size_t>(args.cacheMb * double(1 << 20));
+    settings.workers = args.workers;
+    if (args.fast) settings.nodes.refine = RefineOptions::fast();
+    return settings;
+}
+
+void checkValidation(const engine::Context& context) {
+    if (context.validationMessages() > 0)
+        throw CommandError(fmt::format("{} validation message(s); the last: {}", context.validationMessages(),
+                                       context.lastValidationMessage()));
+}
+
+} // namespace pnsplat::tools

@@ -1,0 +1,100 @@
+#include "frame_json.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+
+#include <fmt/format.h>
+
+namespace pnsplat::tools {
+
+double quantile(std::vector<double> values, double q) {
+    if (values.empty()) return 0.0;
+    std::sort(values.begin(), values.end());
+    const auto rank = static_cast<std::size_t>(std::ceil(q * double(values.size())));
+    return values[std::min(values.size() - 1, rank > 0 ? rank - 1 : 0)];
+}
+
+double median(std::vector<double> values) {
+    if (values.empty()) return 0.0;
+    std::sort(values.begin(), values.end());
+    return values[values.size() / 2];
+}
+
+std::string cpuName() {
+    std::ifstream in("/proc/cpuinfo");
+    std::string line;
+    while (std::getline(in, line)) {
+        if (line.rfind("model name", 0) != 0) continue;
+        const std::size_t colon = line.find(':');
+        if (colon != std::string::npos && colon + 2 <= line.size()) return line.substr(colon + 2);
+    }
+    return "unknown";
+}
+
+std::string frameJson(const engine::FrameReport& r, double frameMs) {
+    return fmt::format(
+        R"({{"frame": {}, "frame_ms": {:.2f}, "cpu_ms": {:.2f}, "selection_ms": {:.2f}, "upload_ms": {:.2f}, )"
+        R"("refine_wait_ms": {:.2f}, "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, "normalization_ms": {:.2f}, )"
+        R"("splats_drawn": {}, "nodes_visible": {}, "nodes_refined": {}, "points_generated": {}, )"
+        R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
+        R"("tree_nodes": {}, "tree_points": {}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, "settled": {}}})",
+        r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpu.visibilityMs,
+        r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.nodesVisible, r.nodesRefined,
+        r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed, r.evictions, r.queueLength,
+        r.treeNodes, r.treePoints, r.maxSplatPx, r.overThreshold, r.settled ? "true" : "false");
+}
+
+void FrameSeries::add(const engine::FrameReport& report, double frameMs) {
+    frames_.push_back({report, frameMs});
+}
+
+std::string FrameSeries::summaryJson(double seconds, const engine::EngineSettings& settings,
+                                     const std::string& device, const std::string& driver) const {
+    std::vector<double> ms, selection, upload, visibility, accumulation, normalization, splats;
+    std::size_t generated = 0, uploads = 0, uploadBytes = 0, evictions = 0, busyGenerated = 0;
+    double busyMs = 0.0, worstOver = 0.0;
+    float largest = 0.0f;
+    for (std::size_t k = 0; k < frames_.size(); ++k) {
+        const engine::FrameReport& r = frames_[k].report;
+        ms.push_back(frames_[k].ms);
+        selection.push_back(r.selectionMs);
+        upload.push_back(r.uploadMs);
+        visibility.push_back(r.gpu.visibilityMs);
+        accumulation.push_back(r.gpu.accumulationMs);
+        normalization.push_back(r.gpu.normalizationMs);
+        splats.push_back(double(r.splatsDrawn));
+        generated += r.pointsGenerated;
+        uploads += r.nodesUploaded;
+        uploadBytes += r.bytesUploaded;
+        evictions += r.evictions;
+        largest = std::max(largest, r.maxSplatPx);
+        worstOver = std::max(worstOver, r.overThreshold);
+        // Refinement was queued during this frame: what joins the tree at the next frame's start was
+        // made in this frame's time.
+        if (r.queueLength > 0 && k + 1 < frames_.size()) {
+            busyMs += frames_[k].ms;
+            busyGenerated += frames_[k + 1].report.pointsGenerated;
+        }
+    }
+    return fmt::format(
+        R"({{"summary": true, "frames": {}, "seconds": {:.3f}, "frame_ms_median": {:.2f}, "frame_ms_p95": {:.2f}, )"
+        R"("fps_median": {:.1f}, "points_generated": {}, "points_per_second": {:.0f}, )"
+        R"("points_per_second_while_queued": {:.0f}, "queued_seconds": {:.3f}, "uploads_per_second": {:.1f}, )"
+        R"("upload_mb_per_second": {:.2f}, "evictions": {}, "splats_drawn_median": {:.0f}, )"
+        R"("selection_ms_median": {:.2f}, "upload_ms_median": {:.2f}, "visibility_ms_median": {:.2f}, )"
+        R"("accumulation_ms_median": {:.2f}, "normalization_ms_median": {:.2f}, "max_splat_px_max": {:.3f}, )"
+        R"("over_threshold_max": {:.5f}, "threshold_px": {}, "cache_mb": {:.1f}, "workers": {}, "width": {}, )"
+        R"("height": {}, "path": "{}", "device": "{}", "driver": "{}", "cpu": "{}"}})",
+        frames_.size(), seconds, median(ms), quantile(ms, 0.95), median(ms) > 0 ? 1000.0 / median(ms) : 0.0,
+        generated, seconds > 0 ? double(generated) / seconds : 0.0,
+        busyMs > 0 ? double(busyGenerated) / (busyMs * 1e-3) : 0.0, busyMs * 1e-3,
+        seconds > 0 ? double(uploads) / seconds : 0.0,
+        seconds > 0 ? double(uploadBytes) / double(1 << 20) / seconds : 0.0, evictions, median(splats),
+        median(selection), median(upload), median(visibility), median(accumulation), median(normalization),
+        largest, worstOver, settings.threshold, double(settings.cacheBytes) / double(1 << 20), settings.workers,
+        settings.render.width, settings.render.height,
+        settings.render.path == engine::RenderPath::Compute ? "compute" : "graphics", device, driver, cpuName());
+}
+
+} // namespace pnsplat::tools

@@ -1,0 +1,39 @@
+// The JSON of the real-time engine's frames, for `bench view` and the viewer's --stats: one line per
+// frame, and a summary of a series.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "pnsplat/engine/engine.h"
+
+namespace pnsplat::tools {
+
+// One line: the frame's fields (frame_ms is the wall time from its start to the next frame's).
+std::string frameJson(const engine::FrameReport& report, double frameMs);
+
+// Frames of one run, summarised.
+class FrameSeries {
+  public:
+    void add(const engine::FrameReport& report, double frameMs);
+    std::size_t size() const { return frames_.size(); }
+    // median and 95th percentile frame time; points generated per second over the run and over the
+    // frames that began with refinements queued; uploads per second; the per-frame split (medians).
+    std::string summaryJson(double seconds, const engine::EngineSettings& settings, const std::string& device,
+                            const std::string& driver) const;
+
+  private:
+    struct Frame {
+        engine::FrameReport report;
+        double ms;
+    };
+    std::vector<Frame> frames_;
+};
+
+// The median and the q-quantile (0..1, nearest rank) of `values` (0 when empty).
+double median(std::vector<double> values);
+double quantile(std::vector<double> values, double q);
+// The processor's name from /proc/cpuinfo ("unknown" elsewhere), for JSON records.
+std::string cpuName();
+
+} // namespace pnsplat::tools

@@ -25,18 +25,6 @@ std::uint32_t spread(std::uint32_t v) {
     return v;
 }
 
-Sphere boundingSphere(std::span<const glm::vec3> positions, const std::uint32_t* order, std::size_t count) {
-    glm::vec3 lo(positions[order[0]]), hi(lo);
-    for (std::size_t k = 1; k < count; ++k) {
-        lo = glm::min(lo, positions[order[k]]);
-        hi = glm::max(hi, positions[order[k]]);
-    }
-    Sphere sphere{(lo + hi) * 0.5f, 0.0f};
-    for (std::size_t k = 0; k < count; ++k)
-        sphere.radius = std::max(sphere.radius, glm::length(positions[order[k]] - sphere.centre));
-    return sphere;
-}
-
 } // namespace
 
 Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) {
@@ -55,7 +43,7 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
     std::iota(order.begin(), order.end(), 0u);
     std::vector<std::uint32_t> code(count);
     if (count > 0) {
-        scene.bounds_ = boundingSphere(points.position, order.data(), count);
+        scene.bounds_ = boundingSphere(points.position);
         const Sphere& bounds = scene.bounds_;
         if (!std::isfinite(bounds.radius) || !std::isfinite(bounds.centre.x) ||
             !std::isfinite(bounds.centre.y) || !std::isfinite(bounds.centre.z))
@@ -91,7 +79,7 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
     std::vector<std::uint32_t> sortedCode(count);
     for (std::size_t k = 0; k < count; ++k) sortedCode[k] = code[order[k]];
     const auto addNode = [&](std::size_t first, std::size_t n) {
-        scene.nodes_.push_back({boundingSphere(points.position, order.data() + first, n),
+        scene.nodes_.push_back({boundingSphere(points.position, std::span(order).subspan(first, n)),
                                 static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(n)});
     };
     const auto split = [&](const auto& self, std::size_t begin, std::size_t end, int shift) -> void {

@@ -129,22 +129,31 @@ std::vector<std::string> lines(const std::string& text) {
     return result;
 }
 
-enum class Usage { Allowed, NotAllowed };
+// The program's exit statuses (README, "Exit status"; tools/commands.h).
+enum class Exit { Differs = 1, Usage = 2, Failure = 3 };
 
-// A clean failure: a normal exit with a non-zero status below 128 (not a signal), and on stderr
-// exactly one line "pnsplat: ...", or (Usage::Allowed, for option errors) CLI11's usage error:
-// one message line followed by "Run with --help for more information.".
-::testing::AssertionResult failsCleanly(const RunResult& r, Usage usage = Usage::NotAllowed) {
+// A clean failure: a normal exit with the expected status (usage errors 2, failures 3) and on
+// stderr exactly one line "pnsplat: ...".
+::testing::AssertionResult failsCleanly(const RunResult& r, Exit expected = Exit::Failure) {
     if (!r.exited) return ::testing::AssertionFailure() << "crashed or killed by a signal; stderr: " << r.err;
-    if (r.exitCode == 0) return ::testing::AssertionFailure() << "exit status 0; stderr: " << r.err;
+    if (r.exitCode != int(expected))
+        return ::testing::AssertionFailure()
+               << "exit status " << r.exitCode << ", not " << int(expected) << "; stderr: " << r.err;
     const std::vector<std::string> l = lines(r.err);
     if (l.size() == 1 && l[0].rfind("pnsplat: ", 0) == 0 && l[0].size() > 9)
         return ::testing::AssertionSuccess();
-    if (usage == Usage::Allowed && l.size() == 2 && !l[0].empty() &&
-        l[1] == "Run with --help for more information.")
-        return ::testing::AssertionSuccess();
     return ::testing::AssertionFailure() << "stderr is not one error line (" << l.size() << " lines):\n"
                                          << r.err;
+}
+
+// The value of `key` in a one-line JSON object: a string's text without its quotes, or a number's
+// or literal's text ("" when absent).
+std::string jsonField(const std::string& json, const std::string& key) {
+    const std::size_t at = json.find("\"" + key + "\": ");
+    if (at == std::string::npos) return "";
+    std::size_t begin = at + key.size() + 4;
+    if (json[begin] == '"') return json.substr(begin + 1, json.find('"', begin + 1) - begin - 1);
+    return json.substr(begin, json.find_first_of(",}", begin) - begin);
 }
 
 std::string headerAscii(std::size_t count) {
@@ -163,13 +172,14 @@ TEST(CliHelp, ProgramAndSubcommandsPrintTheirOptions) {
     const std::vector<Case> cases = {
         {"--help", {"refine", "eval", "bench", "render", "diff"}},
         {"render --help",
-         {"--output", "--width", "--height", "--camera", "--orbit", "--fov", "--refine-levels", "--fill-hole",
-          "--path", "--device"}},
+         {"--output", "--width", "--height", "--camera", "--orbit", "--elevation", "--up", "--frame", "--fov",
+          "--refine-levels", "--fill-hole", "--path", "--device", "--json"}},
         {"diff --help", {"--heatmap", "--max-rmse"}},
         {"bench render --help", {"--sizes", "--splat-pixels", "--repeat", "--output"}},
         {"refine --help",
          {"--output", "--levels", "--target-points", "--threads", "--fast", "--neighbourhood",
-          "--no-smoothing", "--euclidean-geodesic", "--plain-angle", "--centroid-candidates", "--fill-hole"}},
+          "--no-smoothing", "--euclidean-geodesic", "--plain-angle", "--centroid-candidates", "--fill-hole",
+          "--json"}},
         {"eval --help",
          {"--reference", "--input", "--output", "--flat-normals", "sphere:R", "torus:R,r", "uniformity_cv",
           "holes"}},
@@ -207,7 +217,7 @@ TEST(CliRefine, LevelsAndTargetPointsAreExclusive) {
     const TempDir dir;
     const fs::path out = dir / "out.ply";
     const RunResult r = run("refine -o " + quote(out) + " --levels 2 --target-points 20000");
-    EXPECT_TRUE(failsCleanly(r, Usage::Allowed));
+    EXPECT_TRUE(failsCleanly(r, Exit::Usage));
     EXPECT_FALSE(fs::exists(out));
 }
 
@@ -235,7 +245,7 @@ TEST(CliRefine, EvenOutAddsLevelsAfterTheUniformOnes) {
     for (const char* bad : {"0.5", "-1", "abc", "2x", "101"}) {
         const fs::path none = dir / "none.ply";
         const RunResult r3 = run("refine -l 1 --even-out " + std::string(bad) + " -o " + quote(none));
-        EXPECT_TRUE(failsCleanly(r3, Usage::Allowed)) << "--even-out " << bad;
+        EXPECT_TRUE(failsCleanly(r3, Exit::Usage)) << "--even-out " << bad;
         EXPECT_FALSE(fs::exists(none)) << "--even-out " << bad;
     }
     const auto a = readPly(plain), b = readPly(even);
@@ -264,6 +274,33 @@ TEST(CliRefine, OversizedRadiiRefineWithAWarning) {
     EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
     EXPECT_NE(r.err.find("warning"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("radii look too large"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--estimate-radii"), std::string::npos) << r.err;
+    // Following the advice helps: no neighbourhood is cut.
+    const RunResult estimated = run("refine " + quote(in) + " -l 1 --estimate-radii -o " + quote(out));
+    ASSERT_TRUE(estimated.exited && estimated.exitCode == 0) << estimated.err;
+    EXPECT_EQ(estimated.err, "");
+}
+
+// Estimated radii that still reach more than kMaxNeighbours points (a sparse grid of spacing 1
+// around a dense 40 x 40 patch of spacing 0.01): the warning names the uneven sampling and does
+// not advise --estimate-radii, which would change nothing.
+TEST(CliRefine, CutNeighbourhoodsWithEstimatedRadiiAdviseNothingUseless) {
+    const TempDir dir;
+    std::ostringstream body;
+    std::size_t count = 0;
+    for (int i = -6; i <= 6; ++i)
+        for (int j = -6; j <= 6; ++j, ++count) body << i << " " << j << " 0 0 0 1\n";
+    for (int i = 0; i < 40; ++i)
+        for (int j = 0; j < 40; ++j, ++count) body << 2.3 + 0.01 * i << " " << 2.3 + 0.01 * j << " 0 0 0 1\n";
+    const fs::path in = dir / "uneven.ply", out = dir / "out.ply";
+    writeText(in, headerAscii(count) + body.str());
+    const RunResult r = run("refine " + quote(in) + " -l 1 -o " + quote(out));
+    std::cout << "[refine, uneven sampling] exit " << r.exitCode << ": " << r.err;
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+    EXPECT_NE(r.err.find("warning"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("sampling is very uneven"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("--estimate-radii"), std::string::npos) << r.err;
 }
 
 // --fill-hole on a sphere with a hole (3,000 uniform points minus those within 0.7 of the north
@@ -292,14 +329,19 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
         inside += glm::length(x - glm::vec3(0.0f, 0.0f, 1.0f)) < 0.56f;
     EXPECT_GT(inside, 1000u); // measured 2,325; 12 with the uniform levels first
 
-    for (const std::string holes :
-         {"0,0,1", "0,0,1 --fill-hole 0.7", "0,0,1,0.7,2", "0,0,1,0", "0,0,1,-1", "0,0,1,nan", "0,0,1,x",
-          "0,,1,0.7", "0,0,9,0.7", "0,0,1,0.7 --fill-hole 0,0,-1,0.3"}) {
+    // Malformed texts are usage errors; balls that do not fit the input, failures.
+    const std::vector<std::pair<std::string, Exit>> bads = {
+        {"0,0,1", Exit::Usage},       {"0,0,1 --fill-hole 0.7", Exit::Usage},
+        {"0,0,1,0.7,2", Exit::Usage}, {"0,0,1,0", Exit::Usage},
+        {"0,0,1,-1", Exit::Usage},    {"0,0,1,nan", Exit::Usage},
+        {"0,0,1,x", Exit::Usage},     {"0,,1,0.7", Exit::Usage},
+        {"0,0,9,0.7", Exit::Failure}, {"0,0,1,0.7 --fill-hole 0,0,-1,0.3", Exit::Failure}};
+    for (const auto& [holes, status] : bads) {
         SCOPED_TRACE(holes);
         const RunResult bad =
             run("refine " + quote(in) + " -l 1 --fill-hole " + holes + " -o " + quote(dir / "bad.ply"));
         std::cout << "[refine --fill-hole " << holes << "] exit " << bad.exitCode << ": " << bad.err;
-        EXPECT_TRUE(failsCleanly(bad, Usage::Allowed));
+        EXPECT_TRUE(failsCleanly(bad, status));
         EXPECT_FALSE(fs::exists(dir / "bad.ply"));
     }
 }
@@ -380,8 +422,7 @@ TEST(CliRefine, ThreadCountDoesNotChangeTheFile) {
 
 struct BadInput {
     std::string name;
-    std::string content; // the input file's bytes; empty: no file at all
-    Usage usage = Usage::NotAllowed;
+    std::string content;   // the input file's bytes; empty: no file at all
     std::string says = ""; // a phrase the message must contain, when not empty
 };
 
@@ -402,7 +443,7 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
     const std::string truncated = valid.substr(0, bodyStart + (valid.size() - bodyStart) / 2 + 5);
 
     std::vector<BadInput> cases = {
-        {"missing file", "", Usage::Allowed},
+        {"missing file", ""},
         {"truncated binary", truncated},
         {"header cut short", valid.substr(0, bodyStart / 2)},
         {"malformed vertex count",
@@ -415,15 +456,15 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
         {"no normals, points on a line",
          "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
          "end_header\n0 0 0\n1 0 0\n2 0 0\n3 0 0\n",
-         Usage::NotAllowed, "no normal can be estimated"},
+         "no normal can be estimated"},
         {"no normals, extent beyond single precision",
          "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
          "end_header\n0 0 0\n1e30 0 0\n0 1e30 0\n1e30 1e30 1e30\n",
-         Usage::NotAllowed, "beyond single precision"},
+         "beyond single precision"},
         {"nx without ny nz",
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nend_header\n0 0 0 1\n1 0 0 1\n0 1 0 1\n",
-         Usage::NotAllowed, "no 'ny' property"},
+         "no 'ny' property"},
         {"NaN coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\nnan 1 0 0 0 1\n1 1 0 0 0 1\n"},
         {"infinite coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 inf 0 0 0 1\n1 1 0 0 0 1\n"},
         {"zero normal", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 0\n0 1 0 0 0 1\n1 1 0 0 0 1\n"},
@@ -435,10 +476,10 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
         // Squared distances overflow (1e60) or underflow (1e-60) in single precision: no radius.
         {"coordinates beyond single precision",
          headerAscii(4) + "0 0 0 0 0 1\n1e30 0 0 0 0 1\n0 1e30 0 0 0 1\n1e30 1e30 0 0 0 1\n",
-         Usage::NotAllowed, "no radius can be estimated"},
+         "no radius can be estimated"},
         {"coordinates below single precision",
          headerAscii(4) + "0 0 0 0 0 1\n1e-30 0 0 0 0 1\n0 1e-30 0 0 0 1\n1e-30 1e-30 0 0 0 1\n",
-         Usage::NotAllowed, "no radius can be estimated"},
+         "no radius can be estimated"},
         {"negative radius",
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
@@ -451,7 +492,7 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
         const std::set<std::string> before = dir.entries();
         const RunResult r = run("refine " + quote(in) + " -l 1 -o " + quote(out));
         std::cout << "[refine, " << c.name << "] exit " << r.exitCode << ": " << r.err;
-        EXPECT_TRUE(failsCleanly(r, c.usage));
+        EXPECT_TRUE(failsCleanly(r));
         EXPECT_FALSE(fs::exists(out));
         EXPECT_EQ(dir.entries(), before) << "files left behind";
         EXPECT_NE(r.err.find(in.string()), std::string::npos) << "the message names the file: " << r.err;
@@ -477,19 +518,21 @@ TEST(CliBadInput, EvalRejectsBadReferencesAndInputs) {
     const TempDir dir;
     const fs::path refined = dir / "refined.ply", report = dir / "report.json";
     ASSERT_TRUE(writePly(refined, sampleSphereUniform(600, 1.0f)).ok());
-    const std::vector<std::string> references = {"sphere:abc",
-                                                 "sphere:-1",
-                                                 "sphere:",
-                                                 "torus:1",
-                                                 "torus:0.5,1",
-                                                 "cube:2",
-                                                 (dir / "missing-mesh.ply").string()};
-    for (const std::string& ref : references) {
+    // A malformed spec is a usage error; a mesh file that is not there, a failure.
+    const std::vector<std::pair<std::string, Exit>> references = {
+        {"sphere:abc", Exit::Usage},
+        {"sphere:-1", Exit::Usage},
+        {"sphere:", Exit::Usage},
+        {"torus:1", Exit::Usage},
+        {"torus:0.5,1", Exit::Usage},
+        {"cube:2", Exit::Usage},
+        {(dir / "missing-mesh.ply").string(), Exit::Failure}};
+    for (const auto& [ref, status] : references) {
         SCOPED_TRACE(ref);
         const RunResult r =
             run("eval " + quote(refined) + " --reference " + quote(ref) + " -o " + quote(report));
         std::cout << "[eval --reference " << ref << "] exit " << r.exitCode << ": " << r.err;
-        EXPECT_TRUE(failsCleanly(r, Usage::Allowed));
+        EXPECT_TRUE(failsCleanly(r, status));
         EXPECT_FALSE(fs::exists(report));
         EXPECT_EQ(r.out, "");
     }
@@ -497,11 +540,11 @@ TEST(CliBadInput, EvalRejectsBadReferencesAndInputs) {
     const RunResult noRefined =
         run("eval " + quote(dir / "missing.ply") + " --reference sphere:1 -o " + quote(report));
     std::cout << "[eval missing.ply] exit " << noRefined.exitCode << ": " << noRefined.err;
-    EXPECT_TRUE(failsCleanly(noRefined, Usage::Allowed));
+    EXPECT_TRUE(failsCleanly(noRefined));
     const RunResult noInput = run("eval " + quote(refined) + " --reference sphere:1 --input " +
                                   quote(dir / "missing-input.ply") + " -o " + quote(report));
     std::cout << "[eval --input missing-input.ply] exit " << noInput.exitCode << ": " << noInput.err;
-    EXPECT_TRUE(failsCleanly(noInput, Usage::Allowed));
+    EXPECT_TRUE(failsCleanly(noInput));
     EXPECT_FALSE(fs::exists(report));
 }
 
@@ -576,7 +619,7 @@ TEST(CliEval, HoleMapMarksTheRemovedCap) {
     const RunResult unwritable = run("eval " + quote(holed) + " --reference sphere:1 -o " + quote(report) +
                                      " --hole-map " + quote(dir / "missing" / "map.ply"));
     std::cout << "[eval --hole-map missing/map.ply] exit " << unwritable.exitCode << ": " << unwritable.err;
-    EXPECT_TRUE(failsCleanly(unwritable, Usage::Allowed));
+    EXPECT_TRUE(failsCleanly(unwritable));
     EXPECT_FALSE(fs::exists(report));
 }
 
@@ -614,7 +657,7 @@ TEST(CliRender, RendersComparesAndFailsPastTheThreshold) {
     EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
     EXPECT_NE(r.out.find("\"psnr\": null"), std::string::npos) << r.out;
     r = run("diff " + quote(a) + " " + quote(b) + " --max-rmse 0.5 --heatmap " + quote(heat));
-    EXPECT_TRUE(r.exited && r.exitCode == 1) << r.out << r.err;
+    EXPECT_TRUE(failsCleanly(r, Exit::Differs)) << r.out;
     EXPECT_NE(r.err.find("RMSE"), std::string::npos) << r.err;
     EXPECT_TRUE(fs::exists(heat));
 }
@@ -625,15 +668,25 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
     struct Case {
         std::string name, content, args;
         std::string says = ""; // a phrase the message must contain, when not empty
+        Exit status = Exit::Failure;
     };
     const std::vector<Case> cases = {
         {"missing file", "", ""},
         {"NaN coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\nnan 1 0 0 0 1\n1 1 0 0 0 1\n", ""},
         {"empty set", headerAscii(0), ""},
         {"truncated", headerAscii(4) + "0 0 0 0 0 1\n1 0", ""},
-        {"zero-sized image", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--width 0"},
+        {"zero-sized image", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--width 0",
+         "--width", Exit::Usage},
         {"eye on the target", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n",
-         "--camera 1,1,1,1,1,1,0,1,0"},
+         "--camera 1,1,1,1,1,1,0,1,0", "eye is on the target", Exit::Usage},
+        {"up along the line of sight", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n",
+         "--camera 0,0,5,0,0,0,0,0,1", "--camera", Exit::Usage},
+        {"unknown up axis", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n", "--up w", "--up",
+         Exit::Usage},
+        {"--camera with --frame", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n",
+         "--camera 0,0,5,0,0,0,0,1,0 --frame x.ply", "excludes", Exit::Usage},
+        {"missing --frame file", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n",
+         "--frame missing-frame.ply", "missing-frame.ply"},
         {"extent beyond single precision", // with radii: the estimate would fail first
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
@@ -642,7 +695,7 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
         {"coincident points", headerAscii(3) + "1 2 3 0 0 1\n1 2 3 0 0 1\n1 2 3 0 0 1\n", "",
          "1 distinct position"},
         {"three numbers for a hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
-         "--fill-hole 1,2,3", "expected X,Y,Z,R"},
+         "--fill-hole 1,2,3", "expected X,Y,Z,R", Exit::Usage},
         {"a point inside the hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
          "--fill-hole 0.1,0,0,0.5", "lies inside hole 1"},
     };
@@ -651,16 +704,141 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
         if (!c.content.empty()) writeText(in, c.content);
         const RunResult r = run("render " + quote(in) + " " + c.args + " -o " + quote(out));
         std::cout << "[render, " << c.name << "] exit " << r.exitCode << ": " << r.err;
-        EXPECT_TRUE(r.exited && r.exitCode != 0);
-        EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+        EXPECT_TRUE(failsCleanly(r, c.status));
         EXPECT_NE(r.err.find(c.says), std::string::npos)
             << "the message says \"" << c.says << "\": " << r.err;
         EXPECT_FALSE(fs::exists(out));
         fs::remove(in);
     }
+    // A missing image is a failure (3), not "the images differ" (1).
     const RunResult r = run("diff " + quote(dir / "none.png") + " " + quote(dir / "none.png"));
-    EXPECT_TRUE(r.exited && r.exitCode == 1);
-    EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+    EXPECT_TRUE(failsCleanly(r));
+    EXPECT_NE(r.err.find("none.png"), std::string::npos) << r.err;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Exit statuses (issue 20): 0 success, 1 `diff` differs, 2 usage errors, 3 failures; documented in
+// --help. A mistyped command is named with the nearest one.
+
+TEST(CliExit, UsageErrorsExitWithTwoAndSuggestTheCommand) {
+    const RunResult help = run("--help");
+    ASSERT_TRUE(help.exited && help.exitCode == 0);
+    EXPECT_NE(help.out.find("Exit status: 0 success; 1 `diff` found the images differ"), std::string::npos)
+        << help.out;
+    EXPECT_NE(help.out.find("2 usage error"), std::string::npos) << help.out;
+    EXPECT_NE(help.out.find("3 failure"), std::string::npos) << help.out;
+    struct Case {
+        std::string args, says;
+    };
+    const std::vector<Case> cases = {
+        {"rendr", "'rendr' is not a pnsplat command; did you mean 'render'?"},
+        {"refien -l 2", "did you mean 'refine'?"},
+        {"bench rendr", "'rendr' is not a pnsplat bench command; did you mean 'render'?"},
+        {"xyz", "(commands: refine, eval, render, diff, bench)"},
+        {"", "subcommand is required"},
+        {"render --bogus", "--bogus"},
+        {"diff only-one.png", "is required"},
+        {"render --up w", "--up"},
+        {"refine --levels 0", "--levels"},
+    };
+    for (const Case& c : cases) {
+        const RunResult r = run(c.args);
+        std::cout << "[" << c.args << "] exit " << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r, Exit::Usage)) << c.args;
+        EXPECT_NE(r.err.find(c.says), std::string::npos) << c.args << ": " << r.err;
+        EXPECT_EQ(r.out, "") << c.args;
+    }
+}
+
+// --target-points at or below the input's size would refine nothing: a usage error, no output.
+TEST(CliRefine, TargetPointsNotAboveTheInputIsAUsageError) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    for (const char* target : {"2000", "500"}) {
+        const RunResult r = run("refine --target-points " + std::string(target) + " -o " + quote(out));
+        std::cout << "[refine --target-points " << target << "] exit " << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r, Exit::Usage));
+        EXPECT_NE(r.err.find("the default model has 2000 points"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(out));
+    }
+    const RunResult above = run("refine --target-points 2001 -o " + quote(out));
+    EXPECT_TRUE(above.exited && above.exitCode == 0) << above.err;
+}
+
+// --json: the summary as one JSON line on stdout, its counts those of the file written.
+TEST(CliRefine, JsonSummaryIsOneLine) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    const RunResult r = run("refine -l 1 --json -o " + quote(out));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    std::cout << "[refine -l 1 --json] " << r.out;
+    ASSERT_EQ(lines(r.out).size(), 1u) << r.out;
+    EXPECT_EQ(r.out.front(), '{');
+    EXPECT_EQ(r.out.substr(r.out.size() - 2), "}\n");
+    const auto data = readPly(out);
+    ASSERT_TRUE(data.ok());
+    EXPECT_EQ(jsonField(r.out, "points_out"), std::to_string(data->points.size()));
+    EXPECT_EQ(jsonField(r.out, "points_in"), "2000");
+    EXPECT_EQ(jsonField(r.out, "levels"), "1");
+    EXPECT_EQ(jsonField(r.out, "input"), "null");
+    EXPECT_EQ(jsonField(r.out, "output"), out.string());
+    for (const char* key : {"distinct_in", "evening_out_levels", "hole_filling_levels", "holes", "rim_points",
+                            "refine_seconds", "seconds", "points_per_second", "capped_neighbourhoods"})
+        EXPECT_NE(jsonField(r.out, key), "") << key << " missing from " << r.out;
+}
+
+// Acceptance 5 of issue 20: `render --frame` gives a sparse file and its refinement the same camera,
+// printed (as a --camera value, in the JSON summary and in the prose one) and asserted; the sparse
+// file framed by itself is the default; the printed value gives the same picture again.
+TEST(CliRender, FrameGivesASparseFileAndItsRefinementTheSameCamera) {
+    const TempDir dir;
+    const fs::path sparse = dir / "sparse.ply", refined = dir / "refined.ply";
+    // A tall, bent body, positions only (normals and radii estimated, as for a scan).
+    std::ostringstream text;
+    text
+        << "ply\nformat ascii 1.0\nelement vertex 800\nproperty float x\nproperty float y\nproperty float z\n"
+        << "end_header\n"
+        << std::setprecision(9);
+    for (const glm::vec3& p : sampleSphereUniform(800, 1.0f).position)
+        text << 0.6f * p.x << " " << 2.0f * p.y + 0.3f * p.x * p.x << " " << 1.2f * p.z << "\n";
+    writeText(sparse, text.str());
+    RunResult r = run("refine " + quote(sparse) + " -l 2 -o " + quote(refined));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    const auto render = [&](const std::string& args, const fs::path& png) {
+        const RunResult result = run("render " + args + " --width 96 --height 64 --json -o " + quote(png));
+        EXPECT_TRUE(result.exited && result.exitCode == 0) << args << ": " << result.err;
+        EXPECT_EQ(lines(result.out).size(), 1u) << result.out;
+        std::cout << "[render " << args << "] " << result.out;
+        return result.out;
+    };
+    const std::string own = render(quote(sparse), dir / "own.png");
+    const std::string sparseFramed = render(quote(sparse) + " --frame " + quote(sparse), dir / "sparse.png");
+    const std::string refinedFramed =
+        render(quote(refined) + " --frame " + quote(sparse), dir / "refined.png");
+    const std::string refinedOwn = render(quote(refined), dir / "refined-own.png");
+    const std::string camera = jsonField(sparseFramed, "camera");
+    ASSERT_EQ(std::count(camera.begin(), camera.end(), ','), 8) << sparseFramed;
+    EXPECT_EQ(jsonField(refinedFramed, "camera"), camera);
+    EXPECT_EQ(jsonField(own, "camera"), camera);
+    EXPECT_EQ(jsonField(refinedFramed, "frame"), sparse.string());
+    EXPECT_EQ(jsonField(own, "frame"), "null");
+    EXPECT_EQ(jsonField(refinedFramed, "up"), "+y");
+    EXPECT_EQ(jsonField(refinedFramed, "eye_side"), "+x"); // x is the thinnest: its broad side
+    EXPECT_NE(jsonField(refinedFramed, "splats"), jsonField(sparseFramed, "splats"));
+    EXPECT_NE(jsonField(refinedOwn, "camera"), camera); // framed by its own bounds, as before --frame
+
+    // The printed value is a ready --camera: the same picture, bit for bit.
+    render(quote(refined) + " --camera " + camera, dir / "again.png");
+    r = run("diff " + quote(dir / "refined.png") + " " + quote(dir / "again.png"));
+    EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.out.find("\"psnr\": null"), std::string::npos) << r.out;
+
+    // Without --json: the summary, then the camera line.
+    r = run("render " + quote(refined) + " --frame " + quote(sparse) + " --width 96 --height 64 -o " +
+            quote(dir / "prose.png"));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    ASSERT_EQ(lines(r.out).size(), 2u) << r.out;
+    EXPECT_EQ(lines(r.out)[1].rfind("camera: --camera " + camera + " (up +y", 0), 0u) << r.out;
 }
 
 // A camera inside the model or looking away from it gives a picture (the background), not an error.

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <string>
 
+#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 
 #include "gpu_test.h"
@@ -357,6 +358,210 @@ TEST_F(GoldenTest, RefinedSparseModelIsCloserToTheDenseRender) {
     EXPECT_LE(medianDiameter(refiner.points()), 2.0f);
     EXPECT_GT(refined.psnr, direct.psnr + 2.0);
     EXPECT_GT(refined.ssim, direct.ssim + 0.02);
+}
+
+// ---- The camera `pnsplat render` chooses (engine::chooseViewpoint; issue 20, acceptance 5) ----
+
+// A solid standing on a flat base, built along +z and turned so that +z goes to `up`: a cylinder
+// of radius 1 over z in [0, 3], closed below by a flat disk and above by a hemisphere; points
+// about 0.1 apart, outward normals.
+PointSet standingSolid(glm::vec3 up) {
+    PointSet p;
+    const auto add = [&](glm::vec3 x, glm::vec3 n) {
+        p.position.push_back(x);
+        p.normal.push_back(n);
+    };
+    for (int k = 0; k < 63; ++k) {
+        const float a = 2.0f * kPi * float(k) / 63.0f;
+        const glm::vec3 n(std::cos(a), std::sin(a), 0.0f);
+        for (int j = 0; j <= 30; ++j) add(n + glm::vec3(0.0f, 0.0f, 0.1f * float(j)), n);
+        for (int j = 1; j < 16; ++j) { // the hemisphere, by latitude
+            const float b = 0.5f * kPi * float(j) / 16.0f;
+            const glm::vec3 m = std::cos(b) * n + glm::vec3(0.0f, 0.0f, std::sin(b));
+            if (k % std::max(1, int(1.0f / std::cos(b))) == 0) add(m + glm::vec3(0.0f, 0.0f, 3.0f), m);
+        }
+    }
+    add({0.0f, 0.0f, 4.0f}, {0.0f, 0.0f, 1.0f});
+    for (float x = -0.95f; x < 1.0f; x += 0.1f)
+        for (float y = -0.95f; y < 1.0f; y += 0.1f)
+            if (x * x + y * y < 0.95f) add({x, y, 0.0f}, {0.0f, 0.0f, -1.0f});
+    // The rotation taking +z to `up` (a half turn about x for -z).
+    const glm::vec3 z(0.0f, 0.0f, 1.0f);
+    const glm::vec3 axis =
+        glm::length(glm::cross(z, up)) > 0.5f ? glm::cross(z, up) : glm::vec3(1.0f, 0.0f, 0.0f);
+    const float angle = std::acos(glm::dot(z, up));
+    const glm::mat3 turn(glm::rotate(glm::mat4(1.0f), angle, glm::normalize(axis)));
+    for (auto& x : p.position) x = turn * x;
+    for (auto& n : p.normal) n = turn * n;
+    return p;
+}
+
+// A unit hemisphere below z = 0 closed by a flat disk at z = 0 facing +z, mirrored in z when
+// `mirrored` (the disk then faces -z); points about 0.1 apart.
+PointSet domeWithFlatFace(bool mirrored) {
+    PointSet p;
+    const float s = mirrored ? -1.0f : 1.0f;
+    for (float x = -0.95f; x < 1.0f; x += 0.1f)
+        for (float y = -0.95f; y < 1.0f; y += 0.1f)
+            if (x * x + y * y < 1.0f) {
+                p.position.push_back({x, y, 0.0f});
+                p.normal.push_back({0.0f, 0.0f, s});
+                const glm::vec3 d(
+                    x, y, -s * std::sqrt(1.0f - x * x - y * y)); // the dome, its area twice the disk's
+                for (const float t : {1.0f, 0.98f}) {
+                    const glm::vec3 n = glm::normalize(glm::vec3(t * d.x, t * d.y, d.z));
+                    p.position.push_back(n);
+                    p.normal.push_back(n);
+                }
+            }
+    return p;
+}
+
+TEST(CameraTest, ViewpointStandsASolidOnItsBase) {
+    for (const glm::vec3 up : {glm::vec3(1, 0, 0), glm::vec3(-1, 0, 0), glm::vec3(0, 1, 0),
+                               glm::vec3(0, -1, 0), glm::vec3(0, 0, 1), glm::vec3(0, 0, -1)}) {
+        SCOPED_TRACE(::testing::Message() << "up " << up.x << "," << up.y << "," << up.z);
+        const PointSet solid = standingSolid(up);
+        const engine::Viewpoint view = engine::chooseViewpoint(solid.position, solid.normal);
+        EXPECT_EQ(view.up, up);
+        EXPECT_TRUE(view.upFromBase);
+        EXPECT_EQ(glm::dot(view.front, up), 0.0f);
+        // A given up axis is kept; the eye still looks across it.
+        const engine::Viewpoint given = engine::chooseViewpoint(solid.position, solid.normal, glm::abs(up));
+        EXPECT_EQ(given.up, glm::abs(up));
+        EXPECT_FALSE(given.upFromBase);
+        EXPECT_EQ(glm::dot(given.front, up), 0.0f);
+    }
+}
+
+TEST(CameraTest, ViewpointAvoidsAFlatFaceAndDefaultsToYUpFromZ) {
+    const PointSet flatOnTop = domeWithFlatFace(false), flatBelow = domeWithFlatFace(true);
+    const engine::Viewpoint a = engine::chooseViewpoint(flatOnTop.position, flatOnTop.normal);
+    EXPECT_EQ(a.up, glm::vec3(0, 1, 0));
+    EXPECT_FALSE(a.upFromBase);
+    EXPECT_EQ(a.front, glm::vec3(0, 0, -1)); // looks at the dome, not at the disk
+    EXPECT_TRUE(a.frontFlipped);
+    const engine::Viewpoint b = engine::chooseViewpoint(flatBelow.position, flatBelow.normal);
+    EXPECT_EQ(b.front, glm::vec3(0, 0, 1));
+    EXPECT_FALSE(b.frontFlipped);
+    // Without normals the side is not chosen; without points, the default.
+    EXPECT_EQ(engine::chooseViewpoint(flatOnTop.position, {}).front, glm::vec3(0, 0, 1));
+    const engine::Viewpoint none = engine::chooseViewpoint({}, {});
+    EXPECT_EQ(none.up, glm::vec3(0, 1, 0));
+    EXPECT_EQ(none.front, glm::vec3(0, 0, 1));
+    // A round model (the default one) keeps the usual view: y up, eye on +z.
+    const PointSet model = makeDefaultModel();
+    const engine::Viewpoint round = engine::chooseViewpoint(model.position, model.normal);
+    EXPECT_EQ(round.up, glm::vec3(0, 1, 0));
+    EXPECT_EQ(round.front, glm::vec3(0, 0, 1));
+}
+
+// The viewpoints of ../shared/data's models, pinned after looking at each render: the nefertiti
+// stands on its base along +z (seen in profile), the fandisk is seen from its shaped side (its
+// flat back faces +z), the lion and the rocker arm from their broad side.
+TEST(CameraTest, ViewpointsOfTheRealModels) {
+    struct Case {
+        std::string file;
+        glm::vec3 up, front;
+    };
+    const std::vector<Case> cases = {
+        {"nefertiti-3500-random.ply", {0, 0, 1}, {1, 0, 0}},
+        {"nefertiti-reference.ply", {0, 0, 1}, {1, 0, 0}},
+        {"fandisk-1500-uniform.ply", {-1, 0, 0}, {0, 0, -1}},
+        {"fandisk-reference.ply", {-1, 0, 0}, {0, 0, -1}},
+        {"bunny-3500-random.ply", {0, 1, 0}, {0, 0, 1}},
+        {"lion-3500-random.ply", {0, 1, 0}, {1, 0, 0}},
+        {"igea-600-uniform.ply", {0, 1, 0}, {0, 0, 1}},
+        {"rockerarm-2000-uniform.ply", {0, 1, 0}, {1, 0, 0}},
+        {"banana-1500-random.ply", {0, 1, 0}, {0, 0, 1}},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.file);
+        PNSPLAT_REQUIRE_DATA(c.file);
+        auto data = readPly(test::dataDir() / c.file);
+        ASSERT_TRUE(data.ok()) << data.error().message;
+        const engine::Viewpoint view = engine::chooseViewpoint(data->points.position, data->points.normal);
+        EXPECT_EQ(view.up, c.up);
+        EXPECT_EQ(view.front, c.front);
+    }
+}
+
+// What a render shows, on a white background.
+struct Silhouette {
+    double width = 0.0, height = 0.0; // of the covered pixels' bounding box, in pixels
+    double shadeSteps = 0.0; // share of the inner covered pixels whose grey level steps by more than 8
+                             // to the next pixel right or below: creases and folds; a flat face has few
+};
+
+Silhouette silhouette(const RgbaImage& image) {
+    const auto grey = [&](std::uint32_t x, std::uint32_t y) {
+        const glm::u8vec4 p = image.at(x, y);
+        return p.x == 255 && p.y == 255 && p.z == 255 ? -1 : (int(p.x) + int(p.y) + int(p.z)) / 3;
+    };
+    std::uint32_t x0 = image.width, x1 = 0, y0 = image.height, y1 = 0;
+    std::size_t inner = 0, steps = 0;
+    for (std::uint32_t y = 0; y < image.height; ++y)
+        for (std::uint32_t x = 0; x < image.width; ++x) {
+            const int g = grey(x, y);
+            if (g < 0) continue;
+            x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+            if (x == 0 || y == 0 || x + 1 == image.width || y + 1 == image.height) continue;
+            const int right = grey(x + 1, y), below = grey(x, y + 1);
+            if (right < 0 || below < 0 || grey(x - 1, y) < 0 || grey(x, y - 1) < 0) continue;
+            ++inner;
+            steps += std::max(std::abs(right - g), std::abs(below - g)) > 8;
+        }
+    if (x1 < x0) return {};
+    return {double(x1 - x0 + 1), double(y1 - y0 + 1), inner > 0 ? double(steps) / double(inner) : 0.0};
+}
+
+class DefaultViewTest : public GpuTest {
+  protected:
+    // The model's render from the camera `pnsplat render` chooses, and from the old default (y up,
+    // eye on +z), at 240x180 with a 40 degree field.
+    std::pair<Silhouette, Silhouette> chosenAndOld(const std::string& file) {
+        auto data = readPly(test::dataDir() / file);
+        EXPECT_TRUE(data.ok());
+        if (!data) return {};
+        const PointSet points = withRadii(data->points);
+        RenderSettings s;
+        s.width = 240;
+        s.height = 180;
+        s.background = {1.0f, 1.0f, 1.0f};
+        const engine::Sphere bounds = engine::boundingSphere(points.position);
+        const float fov = 40.0f * kPi / 180.0f;
+        const Camera chosen = engine::frameSphere(bounds, 240.0f / 180.0f, fov, 0.0f,
+                                                  engine::chooseViewpoint(points.position, points.normal));
+        const Camera old = engine::frameSphere(bounds, 240.0f / 180.0f, fov, 0.0f);
+        const Silhouette a = silhouette(render(points, s, chosen)), b = silhouette(render(points, s, old));
+        std::cout << "[" << file << "] chosen camera: box " << a.width << " x " << a.height
+                  << ", shade steps " << a.shadeSteps << "; old default: box " << b.width << " x " << b.height
+                  << ", shade steps " << b.shadeSteps << "\n";
+        return {a, b};
+    }
+};
+
+// The z-up nefertiti stands upright: its box spans 90 % of the image's height (its height along z
+// is the largest extent: 495 mm, over 363 and 239) and is 1.3 times taller than wide (495 / 363
+// in profile). From the old default, the top of its head, it is neither (measured: 121 x 175
+// pixels against 112 x 132).
+TEST_F(DefaultViewTest, NefertitiStandsUpright) {
+    PNSPLAT_REQUIRE_DATA("nefertiti-3500-random.ply");
+    const auto [chosen, old] = chosenAndOld("nefertiti-3500-random.ply");
+    const auto upright = [](const Silhouette& s) {
+        return s.height > 0.9 * 180.0 && s.height > 1.3 * s.width;
+    };
+    EXPECT_TRUE(upright(chosen));
+    EXPECT_FALSE(upright(old));
+}
+
+// The fandisk shows its faces and creases, not its one flat back (the old default; measured: shade
+// steps at 15 % of the inner pixels against 4 %).
+TEST_F(DefaultViewTest, FandiskShowsItsShape) {
+    PNSPLAT_REQUIRE_DATA("fandisk-1500-uniform.ply");
+    const auto [chosen, old] = chosenAndOld("fandisk-1500-uniform.ply");
+    EXPECT_GT(chosen.shadeSteps, 0.08);
+    EXPECT_LT(old.shadeSteps, 0.08);
 }
 
 TEST(ImageTest, IdenticalImagesHaveInfinitePsnrAndUnitSsim) {

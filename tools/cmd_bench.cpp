@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <string>
 #include <thread>
@@ -225,11 +226,12 @@ void runBenchRefine(const BenchArgs& args) {
     writeJson(args.output, json);
 }
 
+// The defaults finish within two minutes on lavapipe with two cores (4M splats take four more).
 struct BenchRenderArgs {
-    std::vector<std::size_t> sizes{100000, 1000000, 4000000};
+    std::vector<std::size_t> sizes{100000, 1000000};
     std::vector<float> splatPixels{2.0f, 4.0f, 8.0f};
     std::uint32_t width = 1280, height = 720;
-    unsigned repeat = 5;
+    unsigned repeat = 3;
     std::string device;
     std::string output;
 };
@@ -265,7 +267,9 @@ RenderTiming timeRenders(engine::Engine& engine, const engine::RenderSettings& s
 
 // Splats of a sphere seen whole at 1280x720 (it fills the image height), every splat given the
 // radius that projects to `pixels` in diameter at the sphere's front; against the same points
-// drawn once as plain 1-pixel points by the raster pipeline.
+// drawn once as plain 1-pixel points by the raster pipeline. Progress goes to stderr; each record
+// is printed on stdout as one JSON line as soon as it is measured (the first line describes the
+// run), so a stopped run keeps what it measured; -o receives the whole document at the end.
 void runBenchRender(const BenchRenderArgs& args) {
     engine::ContextOptions contextOptions;
     contextOptions.deviceName = args.device;
@@ -275,11 +279,21 @@ void runBenchRender(const BenchRenderArgs& args) {
     const engine::Camera camera = engine::frameSphere({{0, 0, 0}, 1.0f}, aspect, fov, 0.0f);
     const float front = glm::length(camera.eye) - 1.0f;
     const float focalPixels = float(args.height) * 0.5f / std::tan(fov * 0.5f);
-    fmt::print(stderr, "bench render: {}x{} on {} ({}), {} timed runs each\n", args.width, args.height,
-               context->deviceName(), context->driverName(), args.repeat);
+    const std::size_t configs = args.sizes.size() * args.splatPixels.size() * 2;
+    fmt::print(stderr, "bench render: {}x{} on {} ({}), {} configurations, {} timed runs each\n", args.width,
+               args.height, context->deviceName(), context->driverName(), configs, args.repeat);
+    const std::string header = fmt::format(
+        R"({{"benchmark": "render", "width": {}, "height": {}, "device": "{}", "driver": "{}", "cpu": "{}", "repeat": {}, "default_path": "compute"}})",
+        args.width, args.height, context->deviceName(), context->driverName(), cpuName(), args.repeat);
+    const auto emit = [](const std::string& line) {
+        fmt::print("{}\n", line);
+        std::fflush(stdout);
+    };
+    emit(header);
 
     std::vector<std::string> runs;
     for (std::size_t n : args.sizes) {
+        fmt::print(stderr, "  {:>8} splats: sampling the sphere, uploading\n", n);
         PointSet sphere = sampleSphereUniform(n, 1.0f);
         const float basePixels = args.splatPixels.front();
         sphere.radius.assign(n, basePixels * front / (2.0f * focalPixels));
@@ -303,9 +317,9 @@ void runBenchRender(const BenchRenderArgs& args) {
                 const char* name = path == engine::RenderPath::Compute ? "compute" : "graphics";
                 fmt::print(stderr,
                            "  {:>8} splats, {} px, {:<8}: {:.1f} + {:.1f} + {:.1f} ms = {:.1f} ms, ratio to "
-                           "points {:.2f}\n",
+                           "points {:.2f} ({}/{})\n",
                            n, pixels, name, t.visibility, t.accumulation, t.normalization, t.gpu(),
-                           t.gpu() / baseline.gpu());
+                           t.gpu() / baseline.gpu(), runs.size() + 1, configs);
                 runs.push_back(fmt::format(
                     R"({{"splats": {}, "splat_pixels": {}, "path": "{}", "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, )"
                     R"("normalization_ms": {:.2f}, "passes_ms": {:.2f}, "wall_ms": {:.2f}, "splats_per_second": {:.0f}, )"
@@ -313,17 +327,16 @@ void runBenchRender(const BenchRenderArgs& args) {
                     n, pixels, name, t.visibility, t.accumulation, t.normalization, t.gpu(), t.wall,
                     double(n) / (t.gpu() * 1e-3), baseline.gpu(), baseline.wall, t.gpu() / baseline.gpu(),
                     t.wall / baseline.wall));
+                emit(runs.back());
             }
         }
     }
-    const std::string json = fmt::format(
-        R"({{"benchmark": "render", "width": {}, "height": {}, "device": "{}", "driver": "{}", "cpu": "{}", "repeat": {}, )"
-        R"("default_path": "compute", "runs": [
+    if (args.output.empty()) return;
+    const std::string json = fmt::format(R"({}, "runs": [
   {}
 ]}})"
-        "\n",
-        args.width, args.height, context->deviceName(), context->driverName(), cpuName(), args.repeat,
-        fmt::join(runs, ",\n  "));
+                                         "\n",
+                                         header.substr(0, header.size() - 1), fmt::join(runs, ",\n  "));
     writeJson(args.output, json);
 }
 
@@ -349,7 +362,8 @@ void addBenchCommand(CLI::App& app) {
     auto renderArgs = std::make_shared<BenchRenderArgs>();
     CLI::App* render = bench->add_subcommand(
         "render",
-        "Time per pass and splats per second for both paths, against plain 1-pixel points (Vulkan)");
+        "Time per pass and splats per second for both paths, against plain 1-pixel points (Vulkan); one JSON "
+        "line per record on standard output as it is measured");
     render->add_option("--sizes", renderArgs->sizes, "splat counts")->delimiter(',')->capture_default_str();
     render->add_option("--splat-pixels", renderArgs->splatPixels, "splat diameters in pixels")
         ->delimiter(',')
@@ -365,7 +379,10 @@ void addBenchCommand(CLI::App& app) {
         ->check(CLI::Range(1u, 100u))
         ->capture_default_str();
     render->add_option("--device", renderArgs->device, "Vulkan device whose name contains this text");
-    render->add_option("-o,--output", renderArgs->output, "write the JSON here instead of standard output");
+    render->add_option(
+        "-o,--output", renderArgs->output,
+        "also write the whole JSON document here at the end (standard output gets one line per "
+        "record as it is measured)");
     render->callback([renderArgs] { runBenchRender(*renderArgs); });
 }
 

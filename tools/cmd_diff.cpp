@@ -31,7 +31,8 @@ void runDiff(const DiffArgs& args) {
         "\"height\": {}}}\n",
         psnr, d.ssim, d.rmse, d.differingShare, a.width, a.height);
     if (args.maxRmse >= 0.0 && d.rmse > args.maxRmse)
-        throw CommandError(fmt::format("images differ: RMSE {:.4f} exceeds {:.4f}", d.rmse, args.maxRmse));
+        throw CommandError(fmt::format("images differ: RMSE {:.4f} exceeds {:.4f}", d.rmse, args.maxRmse),
+                           kExitDiffers);
 }
 
 } // namespace
@@ -43,7 +44,8 @@ void addDiffCommand(CLI::App& app) {
     cmd->add_option("a", args->a, "first PNG")->required();
     cmd->add_option("b", args->b, "second PNG")->required();
     cmd->add_option("--heatmap", args->heatmap, "write the per-pixel difference as a heat map PNG");
-    cmd->add_option("--max-rmse", args->maxRmse, "exit with status 1 when RMSE (0..255 units) exceeds this")
+    cmd->add_option("--max-rmse", args->maxRmse,
+                    "exit with status 1 when RMSE (0..255 units) exceeds this (errors: 2 or 3)")
         ->check(CLI::NonNegativeNumber);
     cmd->add_option("--pixel-threshold", args->pixelThreshold,
                     "a pixel differs when a channel differs by more than this (0..255)")

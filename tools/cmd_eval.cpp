@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -53,7 +54,14 @@ PointSet holeMap(PointSet refined, const QualityReport& report) {
 }
 
 void runEval(const EvalArgs& args) {
-    Reference reference = unwrap(parseReference(args.reference));
+    Result<Reference> parsed = parseReference(args.reference);
+    if (!parsed) {
+        // A spec ("sphere:abc", "cube:2") is a usage error; a file that cannot be read, a failure.
+        const bool spec =
+            args.reference.find(':') != std::string::npos && !std::filesystem::exists(args.reference);
+        throw CommandError(parsed.error().message, spec ? kExitUsage : kExitFailure);
+    }
+    Reference reference = std::move(parsed).value();
     PointSet refined = unwrap(readPly(args.refined)).points;
     if (refined.size() < 2)
         throw CommandError(fmt::format("{}: needs at least 2 points to measure spacing", args.refined));

@@ -11,6 +11,7 @@
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/text.h"
 #include "refine_run.h"
 
 namespace pnsplat::tools {
@@ -31,6 +32,7 @@ struct RefineArgs {
     bool noSmoothing = false;
     bool ascii = false;
     bool estimateRadii = false;
+    bool json = false;
     double thetaFDegrees = 30.0;
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
@@ -66,6 +68,12 @@ void runRefine(const RefineArgs& args) {
 
     const auto start = Clock::now();
     const std::size_t inputCount = points.size();
+    if (args.targetPoints != 0 && args.targetPoints <= inputCount)
+        throw CommandError(
+            fmt::format("{} has {} points: --target-points {} asks for no more, so nothing would be "
+                        "refined (give a larger target, or --levels)",
+                        inputName, inputCount, args.targetPoints),
+            kExitUsage);
     job.levels = args.levels != 0 ? args.levels : (args.targetPoints != 0 ? 64u : kDefaultLevels);
     job.targetPoints = args.targetPoints;
     job.evenOutFactor = args.evenOut;
@@ -85,26 +93,43 @@ void runRefine(const RefineArgs& args) {
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate =
         refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;
-    std::string levelDetail =
-        run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
-    if (!job.holes.empty())
-        levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them", job.holes.size(),
-                                   run.enlargedRadii, run.holeFillingLevels);
-    const std::string distinct =
-        run.inputPoints != inputCount ? fmt::format(" ({} distinct)", run.inputPoints) : std::string();
-    fmt::print("{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), "
-               "{:.3f} s in all -> {}\n",
-               inputName, inputCount, distinct, outputCount, done, levelDetail, refineSeconds, rate, total,
-               output);
-    if (run.cappedNeighbourhoods > 0)
-        fmt::print(stderr,
-                   "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and "
-                   "used the {} "
-                   "nearest; {}\n",
-                   run.cappedNeighbourhoods, run.maxNeighbours, run.maxNeighbours,
-                   job.holes.empty()
-                       ? "the radii look too large for the sampling (--estimate-radii replaces them)"
-                       : "a hole looks too wide for its sampling, and may stay open");
+    if (args.json) {
+        fmt::print(
+            R"({{"input": {}, "output": {}, "points_in": {}, "distinct_in": {}, "points_out": {}, "levels": {}, )"
+            R"("evening_out_levels": {}, "hole_filling_levels": {}, "holes": {}, "rim_points": {}, )"
+            R"("refine_seconds": {:.4f}, "seconds": {:.4f}, "points_per_second": {:.0f}, "capped_neighbourhoods": {}}})"
+            "\n",
+            args.input.empty() ? "null" : jsonString(args.input), jsonString(output), inputCount,
+            run.inputPoints, outputCount, done, run.evenOutLevels, run.holeFillingLevels, job.holes.size(),
+            run.enlargedRadii, refineSeconds, total, rate, run.cappedNeighbourhoods);
+    } else {
+        std::string levelDetail =
+            run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
+        if (!job.holes.empty())
+            levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them",
+                                       job.holes.size(), run.enlargedRadii, run.holeFillingLevels);
+        const std::string distinct =
+            run.inputPoints != inputCount ? fmt::format(" ({} distinct)", run.inputPoints) : std::string();
+        fmt::print(
+            "{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), "
+            "{:.3f} s in all -> {}\n",
+            inputName, inputCount, distinct, outputCount, done, levelDetail, refineSeconds, rate, total,
+            output);
+    }
+    if (run.cappedNeighbourhoods > 0) {
+        // Estimating the radii again changes nothing when they were estimated already.
+        const char* cause =
+            !job.holes.empty() ? "a hole looks too wide for its sampling, and may stay open"
+            : run.radiiEstimated
+                ? "the sampling is very uneven: the estimated radii of some sparse points "
+                  "reach many dense ones"
+                : "the radii look too large for the sampling (--estimate-radii replaces them)";
+        fmt::print(
+            stderr,
+            "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and used "
+            "the {} nearest; {}\n",
+            run.cappedNeighbourhoods, run.maxNeighbours, run.maxNeighbours, cause);
+    }
 }
 
 } // namespace
@@ -123,7 +148,7 @@ void addRefineCommand(CLI::App& app) {
                                    fmt::format("refinement levels (default {})", kDefaultLevels))
                        ->check(CLI::Range(1u, 64u));
     cmd->add_option("-n,--target-points", args->targetPoints,
-                    "refine level by level until at least this many points")
+                    "refine level by level until at least this many points (more than the input has)")
         ->check(CLI::PositiveNumber)
         ->excludes(levels);
     cmd->add_option("--neighbourhood", args->neighbourhood,
@@ -168,6 +193,8 @@ void addRefineCommand(CLI::App& app) {
     addFillHoleOption(*cmd, args->holes);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
+    cmd->add_flag("--json", args->json,
+                  "print the summary as one JSON line on standard output (fields: see README, Use)");
     cmd->callback([args] { runRefine(*args); });
 }
 

@@ -2,6 +2,7 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -13,9 +14,9 @@
 #include "pnsplat/engine/engine.h"
 #include "engine_setup.h"
 #include "pnsplat/engine/image.h"
-#include "pnsplat/engine/splat_renderer.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/text.h"
 #include "refine_run.h"
 
 namespace pnsplat::tools {
@@ -26,7 +27,10 @@ struct RenderArgs {
     std::string input;
     std::string output = "render.png";
     std::vector<float> camera;
+    std::string frame;       // choose the camera for this file's points instead of the input's
+    std::string up = "auto"; // auto, x, y or z
     double orbitDegrees = 0.0;
+    double elevationDegrees = 0.0;
     double fovDegrees = 40.0;
     unsigned refineLevels = 0;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
@@ -35,23 +39,83 @@ struct RenderArgs {
     bool flipNormals = false;
     bool adaptive = false;
     EngineArgs engine;
+    bool json = false;
 };
 
 constexpr double kDegree = std::numbers::pi / 180.0;
+
+// "+x", "-z", ...: the name of an axis direction.
+std::string axisName(glm::vec3 direction) {
+    for (int axis = 0; axis < 3; ++axis)
+        if (direction[axis] != 0.0f)
+            return (direction[axis] > 0.0f ? "+" : "-") + std::string(1, "xyz"[axis]);
+    return "?";
+}
+
+// The camera as the value of --camera that gives it again: each number in its shortest text that
+// reads back as the same float.
+std::string cameraValue(const engine::Camera& c) {
+    return fmt::format("{},{},{},{},{},{},{},{},{}", c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y,
+                       c.target.z, c.up.x, c.up.y, c.up.z);
+}
+
+// The camera of --camera, or the one chosen for `frame` (the input's points or those of --frame,
+// completed, before any refinement): engine::chooseViewpoint and frameSphere. `view` receives the
+// viewpoint chosen (unset for --camera).
+engine::Camera chooseCamera(const RenderArgs& args, const PointSet& frame,
+                            std::optional<engine::Viewpoint>& view) {
+    const float fov = static_cast<float>(args.fovDegrees * kDegree);
+    engine::Camera camera;
+    if (!args.camera.empty()) {
+        camera.eye = {args.camera[0], args.camera[1], args.camera[2]};
+        camera.target = {args.camera[3], args.camera[4], args.camera[5]};
+        camera.up = {args.camera[6], args.camera[7], args.camera[8]};
+        camera.fovY = fov;
+        if (!camera.valid())
+            throw CommandError("--camera: the eye is on the target, or up lies along the line of sight",
+                               kExitUsage);
+        return camera;
+    }
+    std::optional<glm::vec3> up;
+    if (args.up != "auto") {
+        up = glm::vec3(0.0f);
+        (*up)[args.up[0] - 'x'] = 1.0f;
+    }
+    view = engine::chooseViewpoint(frame.position, frame.normal, up);
+    return engine::frameSphere(engine::boundingSphere(frame.position), float(args.engine.width) / float(args.engine.height),
+                               fov, static_cast<float>(args.orbitDegrees * kDegree), *view,
+                               static_cast<float>(args.elevationDegrees * kDegree));
+}
+
+// How the viewpoint was chosen, for the summary.
+std::string viewpointReason(const engine::Viewpoint& view, const RenderArgs& args) {
+    const char* up =
+        args.up != "auto" ? "given" : (view.upFromBase ? "the model's base" : "no base stands out");
+    return fmt::format("up {}: {}; eye on {}{}", axisName(view.up), up, axisName(view.front),
+                       view.frontFlipped ? " (a flat face fills the other side)" : "");
+}
 
 void runRender(const RenderArgs& args) {
     using namespace engine;
     std::string name;
     PointSet points = loadForRendering(args.input, name);
+    std::string frameName;
+    const PointSet frame = args.frame.empty() ? PointSet() : loadForRendering(args.frame, frameName);
+    std::optional<Viewpoint> view;
+    const Camera camera = chooseCamera(args, args.frame.empty() ? points : frame, view);
+
     const std::size_t inputCount = points.size();
+    unsigned levels = 0;
     if (args.refineLevels > 0 || !args.holes.empty()) {
         RefineJob job;
         job.levels = args.refineLevels;
         job.holes = parseHoles(args.holes);
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
-        fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount, points.size(),
-                   run.levels, run.seconds);
+        levels = run.levels;
+        if (!args.json)
+            fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount,
+                       points.size(), run.levels, run.seconds);
     }
     if (args.flipNormals)
         for (auto& n : points.normal) n = -n;
@@ -66,19 +130,7 @@ void runRender(const RenderArgs& args) {
     if (!created) throw CommandError(name + ": " + created.error().message);
     Engine& engine = **created;
 
-    const float fov = static_cast<float>(args.fovDegrees * kDegree);
-    Camera camera;
-    if (!args.camera.empty()) {
-        camera.eye = {args.camera[0], args.camera[1], args.camera[2]};
-        camera.target = {args.camera[3], args.camera[4], args.camera[5]};
-        camera.up = {args.camera[6], args.camera[7], args.camera[8]};
-        camera.fovY = fov;
-    } else {
-        camera = frameSphere(engine.bounds(), float(args.engine.width) / float(args.engine.height), fov,
-                             static_cast<float>(args.orbitDegrees * kDegree));
-    }
-    // One frame; with --adaptive in lockstep: refined for this camera until settled.
-    FrameOptions frameOptions;
+    FrameOptions frameOptions; // one frame; with --adaptive in lockstep: refined for this camera until settled
     frameOptions.lockstep = true;
     frameOptions.readBack = true;
     frameOptions.measureSplats = args.adaptive;
@@ -88,18 +140,38 @@ void runRender(const RenderArgs& args) {
     const std::vector<FrameReport> reports = engine.reports();
     const PassTimes gpu = reports.empty() ? PassTimes{} : reports.back().gpu;
     unwrap(writePng(args.output, image));
-    fmt::print(
-        "{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
-        "normalization {:.1f} ms -> {}\n",
-        name, engine.tree().pointCount(), drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(),
-        settings.render.path == RenderPath::Compute ? "compute" : "graphics", gpu.visibilityMs,
-        gpu.accumulationMs, gpu.normalizationMs, args.output);
-    if (args.adaptive)
-        fmt::print("{}: refined for this camera to splats of at most {:.2f} px ({:.2f} % above {} px): {} nodes, "
-                   "{} points from {} in {:.0f} ms; {} drawn\n",
-                   name, drawn.maxSplatPx, 100.0 * drawn.overThreshold, args.engine.threshold, engine.tree().nodeCount(),
-                   engine.tree().pointCount(), pointsIn, drawn.refineWaitMs, drawn.splatsDrawn);
     checkValidation(*context);
+    const char* path = settings.render.path == RenderPath::Compute ? "compute" : "graphics";
+    const std::size_t splats = engine.tree().pointCount();
+    if (args.json) {
+        fmt::print(
+            R"({{"input": {}, "output": {}, "input_points": {}, "levels": {}, "splats": {}, "splats_in_view": {}, )"
+            R"("width": {}, "height": {}, "device": {}, "path": "{}", "visibility_ms": {:.3f}, "accumulation_ms": {:.3f}, )"
+            R"("normalization_ms": {:.3f}, "camera": "{}", "fov_degrees": {}, "frame": {}, "up": {}, "eye_side": {}, )"
+            R"("adaptive": {}, "threshold_px": {}, "nodes": {}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, )"
+            R"("refine_ms": {:.1f}}})"
+            "\n",
+            args.input.empty() ? "null" : jsonString(args.input), jsonString(args.output), inputCount, levels,
+            splats, drawn.splatsDrawn, args.engine.width, args.engine.height, jsonString(context->deviceName()),
+            path, gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, cameraValue(camera),
+            jsonNumber(args.fovDegrees), args.frame.empty() ? "null" : jsonString(args.frame),
+            view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
+            args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
+            drawn.maxSplatPx, drawn.overThreshold, drawn.refineWaitMs);
+        return;
+    }
+    fmt::print("{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
+               "normalization {:.1f} ms -> {}\n",
+               name, splats, drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(), path,
+               gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, args.output);
+    if (args.adaptive)
+        fmt::print("{}: refined for this camera until its splats are at most {} px wide ({:.2f} % above; the "
+                   "largest {:.2f} px): {} nodes, {} points from {} in {:.0f} ms\n",
+                   name, args.engine.threshold, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
+                   engine.tree().nodeCount(), splats, pointsIn, drawn.refineWaitMs);
+    if (view)
+        fmt::print("camera: --camera {} ({}{})\n", cameraValue(camera), viewpointReason(*view, args),
+                   args.frame.empty() ? "" : ", framing " + args.frame);
 }
 
 } // namespace
@@ -110,12 +182,31 @@ void addRenderCommand(CLI::App& app) {
         app.add_subcommand("render", "Render a point set offscreen as surface splats into a PNG (Vulkan)");
     cmd->add_option("input", args->input, "input PLY; omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PNG")->capture_default_str();
-    cmd->add_option("--width", args->engine.width, "image width in pixels")->capture_default_str();
-    cmd->add_option("--height", args->engine.height, "image height in pixels")->capture_default_str();
-    auto* camera = cmd->add_option("--camera", args->camera, "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz")
+    cmd->add_option("--width", args->engine.width, "image width in pixels")
+        ->check(CLI::Range(1u, 16384u))
+        ->capture_default_str();
+    cmd->add_option("--height", args->engine.height, "image height in pixels")
+        ->check(CLI::Range(1u, 16384u))
+        ->capture_default_str();
+    auto* camera = cmd->add_option("--camera", args->camera,
+                                   "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz (as render prints it)")
                        ->delimiter(',')
                        ->expected(9);
-    cmd->add_option("--orbit", args->orbitDegrees, "turn the framing camera about the vertical axis, degrees")
+    cmd->add_option("--frame", args->frame,
+                    "choose the camera for this PLY's points instead of the input's (a sparse input and its "
+                    "refinement framed by the same file are seen from the same camera)")
+        ->excludes(camera);
+    cmd->add_option("--up", args->up,
+                    "the model's up axis; auto: the axis of its broadest base, else y (see README, Use)")
+        ->check(CLI::IsMember({"auto", "x", "y", "z"}))
+        ->excludes(camera)
+        ->capture_default_str();
+    cmd->add_option("--orbit", args->orbitDegrees, "turn the framing camera about the up axis, degrees")
+        ->excludes(camera)
+        ->capture_default_str();
+    cmd->add_option("--elevation", args->elevationDegrees,
+                    "raise the framing camera towards the up axis, degrees")
+        ->check(CLI::Range(-89.0, 89.0))
         ->excludes(camera)
         ->capture_default_str();
     cmd->add_option("--fov", args->fovDegrees, "vertical field of view, degrees")
@@ -136,6 +227,8 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_flag("--adaptive", args->adaptive,
                   "refine, for this camera, exactly what it needs (the real-time engine, until settled)");
     addEngineOptions(*cmd, args->engine, true, true);
+    cmd->add_flag("--json", args->json,
+                  "print the summary as one JSON line on standard output (fields: see README, Use)");
     cmd->callback([args] { runRender(*args); });
 }
 

@@ -1,6 +1,6 @@
 // Subcommands of the `pnsplat` program. Each add*Command registers its options on `app` and a
 // callback; a callback reports failure by throwing CommandError, which main() prints as one line
-// ("pnsplat: <message>") before exiting with status 1.
+// ("pnsplat: <message>") before exiting with the error's status.
 #pragma once
 
 #include <stdexcept>
@@ -18,8 +18,19 @@
 
 namespace pnsplat::tools {
 
-struct CommandError : std::runtime_error {
-    using std::runtime_error::runtime_error;
+// Exit statuses (README, "Exit status"; the footer of --help): 0 success.
+inline constexpr int kExitDiffers = 1; // `diff`: the images differ past --max-rmse
+inline constexpr int kExitUsage = 2;   // the command line asks for something impossible
+inline constexpr int kExitFailure = 3; // a bad or missing file, a device error, no memory
+
+class CommandError : public std::runtime_error {
+  public:
+    explicit CommandError(const std::string& message, int status = kExitFailure)
+        : std::runtime_error(message), status_(status) {}
+    int status() const { return status_; }
+
+  private:
+    int status_;
 };
 
 // Unwraps a Result or throws its error as a CommandError.

@@ -1,23 +1,85 @@
 // pnsplat: refine, render, compare, evaluate and benchmark oriented point sets (see README.md).
+#include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <numeric>
+#include <string>
+#include <string_view>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
 #include "commands.h"
 
+namespace {
+
+// Edits (insertions, deletions, substitutions, swaps of neighbours) that turn a into b.
+std::size_t editDistance(std::string_view a, std::string_view b) {
+    std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+    for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+    for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i)
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1])});
+            if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+                d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+        }
+    return d[a.size()][b.size()];
+}
+
+// The words of the command line that select subcommands must name them: the first word that is
+// not an option, at a level that has subcommands, and is none of them, is reported with the
+// nearest name ("did you mean 'render'?") or the list of names. CLI11 alone would say
+// "A subcommand is required" or "arguments were not expected".
+void checkSubcommandWords(const CLI::App& app, int argc, char** argv) {
+    const CLI::App* level = &app;
+    for (int i = 1; i < argc; ++i) {
+        const std::string word = argv[i];
+        const std::vector<const CLI::App*> subcommands = level->get_subcommands(nullptr);
+        if (word.starts_with('-') || subcommands.empty()) return;
+        const auto named = std::find_if(subcommands.begin(), subcommands.end(),
+                                        [&](const CLI::App* sub) { return sub->check_name(word); });
+        if (named != subcommands.end()) {
+            level = *named;
+            continue;
+        }
+        std::vector<std::string> names;
+        for (const CLI::App* sub : subcommands) names.push_back(sub->get_name());
+        const auto nearest = std::min_element(names.begin(), names.end(), [&](const auto& a, const auto& b) {
+            return editDistance(word, a) < editDistance(word, b);
+        });
+        const std::string where = level == &app ? "pnsplat" : "pnsplat " + level->get_name();
+        if (editDistance(word, *nearest) <= std::max<std::size_t>(2, nearest->size() / 3))
+            throw CLI::ValidationError(
+                fmt::format("'{}' is not a {} command; did you mean '{}'?", word, where, *nearest));
+        throw CLI::ValidationError(fmt::format(
+            "'{}' is not a {} command (commands: {})", word, where,
+            std::accumulate(std::next(names.begin()), names.end(), names.front(),
+                            [](std::string list, const std::string& n) { return list + ", " + n; })));
+    }
+}
+
+} // namespace
+
 int main(int argc, char** argv) {
+    using pnsplat::tools::kExitFailure;
     CLI::App app{"pnsplat: interpolatory sqrt(3)-like refinement of point-based geometry "
                  "(Guennebaud, Barthe, Paulin 2005)"};
     app.require_subcommand(1);
     app.set_version_flag("--version", "pnsplat 0.1.0");
+    app.footer(
+        fmt::format("Exit status: 0 success; {} `diff` found the images differ past --max-rmse; {} usage "
+                    "error\n(an unknown command or option, a bad value); {} failure (a bad or missing file, "
+                    "a device error).\nErrors are one line on standard error.\n",
+                    pnsplat::tools::kExitDiffers, pnsplat::tools::kExitUsage, kExitFailure));
     pnsplat::tools::addRefineCommand(app);
     pnsplat::tools::addEvalCommand(app);
     pnsplat::tools::addRenderCommand(app);
     pnsplat::tools::addDiffCommand(app);
     pnsplat::tools::addBenchCommand(app);
     try {
+        checkSubcommandWords(app, argc, argv);
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
@@ -28,16 +90,16 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         // One line, like every other error.
         fmt::print(stderr, "pnsplat: {} (see --help)\n", e.what());
-        return e.get_exit_code();
+        return pnsplat::tools::kExitUsage;
     } catch (const pnsplat::tools::CommandError& e) {
         fmt::print(stderr, "pnsplat: {}\n", e.what());
-        return 1;
+        return e.status();
     } catch (const std::bad_alloc&) {
         fmt::print(stderr, "pnsplat: out of memory\n");
-        return 1;
+        return kExitFailure;
     } catch (const std::exception& e) {
         fmt::print(stderr, "pnsplat: {}\n", e.what());
-        return 1;
+        return kExitFailure;
     }
     return 0;
 }

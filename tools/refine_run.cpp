@@ -16,7 +16,7 @@ namespace pnsplat::tools {
 
 namespace {
 
-// "X,Y,Z,R": four finite numbers (a leading '+' allowed), R > 0; a CommandError naming the option
+// "X,Y,Z,R": four finite numbers (a leading '+' allowed), R > 0; a usage error naming the option
 // and the text.
 Hole parseHole(std::string_view text) {
     float values[4];
@@ -33,9 +33,10 @@ Hole parseHole(std::string_view text) {
         begin = end + 1;
     }
     if (count != 4)
-        throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text));
+        throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text),
+                           kExitUsage);
     if (!(values[3] > 0.0f))
-        throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text));
+        throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text), kExitUsage);
     return Hole{glm::vec3(values[0], values[1], values[2]), values[3]};
 }
 
@@ -67,7 +68,7 @@ PointSet readInput(const std::string& path) {
     return unwrap(readPly(path, options)).points;
 }
 
-void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
+bool completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
     const Result<InputCompletion> done = pnsplat::completeInput(points, threads, replaceRadii);
     if (!done) throw CommandError(inputName + ": " + done.error().message);
     if (const CoincidentRemoval& removed = done->repeats; removed.points > 0)
@@ -85,14 +86,15 @@ void completeInput(PointSet& points, unsigned threads, const std::string& inputN
                    "along a "
                    "spanning tree ({} connected part(s), each facing +z at its top)\n",
                    inputName, kNormalNearest, done->normalComponents);
+    return done->radiiEstimated;
 }
 
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
     if (points.size() < 3)
         throw CommandError(
             fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
-    completeInput(points, job.options.threads, inputName, job.estimateRadii);
     RefineRun run;
+    run.radiiEstimated = completeInput(points, job.options.threads, inputName, job.estimateRadii);
     run.inputPoints = points.size();
     if (auto valid = validateForRefinement(points); !valid)
         throw CommandError(inputName + ": " + valid.error().message);

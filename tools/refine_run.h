@@ -25,6 +25,7 @@ struct RefineRun {
     std::size_t cappedNeighbourhoods = 0; // over all levels (LevelStats), a sign of radii too large
     std::size_t enlargedRadii = 0;        // rim points of the holes to fill (enlargeAroundHole)
     std::size_t maxNeighbours = 0;        // the bound the neighbourhoods were cut to (RefineOptions)
+    bool radiiEstimated = false;          // the input's radii were estimated (completeInput)
 };
 
 // What to refine and how far: `holes` are filled first (enlargeAroundHoles, fillHoles; paper
@@ -43,7 +44,7 @@ struct RefineJob {
 // `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`.
 void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes);
 // The holes of the option's texts; a text that is not four finite numbers with R > 0 is a
-// CommandError naming the option and the text.
+// CommandError (a usage error) naming the option and the text.
 std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
 
 // The points of a PLY file for refinement or rendering: normals may be absent (completeInput
@@ -52,7 +53,8 @@ PointSet readInput(const std::string& path);
 
 // Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
 // positions dropped and for normals estimated; its errors are a CommandError naming `inputName`.
-void completeInput(PointSet& points, unsigned threads, const std::string& inputName,
+// Returns whether the radii were estimated.
+bool completeInput(PointSet& points, unsigned threads, const std::string& inputName,
                    bool replaceRadii = false);
 
 // Completes the input (completeInput, job.estimateRadii), checks it (CommandError naming

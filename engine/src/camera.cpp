@@ -1,17 +1,68 @@
 #include "pnsplat/engine/camera.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
+#include <limits>
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
+#include <glm/vec2.hpp>
 
 namespace pnsplat::engine {
 
 namespace {
+
 bool finite(glm::vec3 v) {
     return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
+
+template <typename Index>
+Sphere boundingSphereOf(std::span<const glm::vec3> positions, std::size_t count, Index index) {
+    if (count == 0) return {};
+    glm::vec3 lo(positions[index(0)]), hi(lo);
+    for (std::size_t k = 1; k < count; ++k) {
+        lo = glm::min(lo, positions[index(k)]);
+        hi = glm::max(hi, positions[index(k)]);
+    }
+    Sphere sphere{(lo + hi) * 0.5f, 0.0f};
+    for (std::size_t k = 0; k < count; ++k)
+        sphere.radius = std::max(sphere.radius, glm::length(positions[index(k)] - sphere.centre));
+    return sphere;
+}
+
+glm::vec3 axisDirection(int axis, float sign) {
+    glm::vec3 d(0.0f);
+    d[axis] = sign;
+    return d;
+}
+
+// The axis a unit axis direction lies along.
+int axisOf(glm::vec3 direction) {
+    return std::abs(direction.x) > 0.5f ? 0 : (std::abs(direction.y) > 0.5f ? 1 : 2);
+}
+
+// Share of the model's bounding rectangle across `up` (an axis direction) covered by the bounding
+// rectangle of its base (kBaseHeight above the lowest point along up); 0 when the mean of the
+// points does not lie over the base.
+float baseShare(std::span<const glm::vec3> positions, glm::vec3 lo, glm::vec3 hi, glm::vec3 mean, int axis,
+                float sign) {
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    const float height = hi[axis] - lo[axis];
+    const float lowest = sign > 0.0f ? lo[axis] : hi[axis];
+    glm::vec2 baseLo(std::numeric_limits<float>::infinity()), baseHi(-baseLo);
+    for (const glm::vec3& p : positions) {
+        if (std::abs(p[axis] - lowest) > kBaseHeight * height) continue;
+        baseLo = glm::min(baseLo, glm::vec2(p[u], p[v]));
+        baseHi = glm::max(baseHi, glm::vec2(p[u], p[v]));
+    }
+    const float area = (hi[u] - lo[u]) * (hi[v] - lo[v]);
+    if (!(baseHi.x >= baseLo.x) || !(area > 0.0f)) return 0.0f;
+    if (mean[u] < baseLo.x || mean[u] > baseHi.x || mean[v] < baseLo.y || mean[v] > baseHi.y) return 0.0f;
+    return (baseHi.x - baseLo.x) * (baseHi.y - baseLo.y) / area;
+}
+
 } // namespace
 
 bool Camera::valid() const {
@@ -26,18 +77,91 @@ glm::mat4 Camera::view() const {
     return glm::lookAtRH(eye, target, up);
 }
 
-Camera frameSphere(const Sphere& bounds, float aspect, float fovY, float orbit) {
+Sphere boundingSphere(std::span<const glm::vec3> positions) {
+    return boundingSphereOf(positions, positions.size(), [](std::size_t k) { return k; });
+}
+
+Sphere boundingSphere(std::span<const glm::vec3> positions, std::span<const std::uint32_t> indices) {
+    return boundingSphereOf(positions, indices.size(), [&](std::size_t k) { return indices[k]; });
+}
+
+Viewpoint chooseViewpoint(std::span<const glm::vec3> positions, std::span<const glm::vec3> normals,
+                          std::optional<glm::vec3> up) {
+    assert(normals.empty() || normals.size() == positions.size());
+    Viewpoint view;
+    if (positions.empty()) return view;
+    glm::vec3 lo(positions[0]), hi(lo);
+    glm::dvec3 sum(0.0);
+    for (const glm::vec3& p : positions) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+        sum += glm::dvec3(p);
+    }
+    const glm::vec3 extent = hi - lo;
+    const glm::vec3 mean(sum / double(positions.size()));
+
+    // 1. The view axis: z, or a much thinner one; across a given up, the thinner, z first.
+    int viewAxis = 2;
+    if (up) {
+        const int upAxis = axisOf(*up);
+        viewAxis = -1;
+        for (const int axis : {2, 1, 0})
+            if (axis != upAxis && (viewAxis < 0 || extent[axis] < extent[viewAxis])) viewAxis = axis;
+    } else if (std::min(extent.x, extent.y) < kThinnerThanZ * extent.z) {
+        viewAxis = extent.y <= extent.x ? 1 : 0;
+    }
+
+    // 2. Up: given, or the broadest base across the view axis.
+    if (up) {
+        view.up = *up;
+    } else {
+        view.up = axisDirection(viewAxis == 1 ? 2 : 1, 1.0f);
+        float best = kMinBaseShare;
+        for (const int axis : {1, 2, 0}) {
+            if (axis == viewAxis) continue;
+            for (const float sign : {1.0f, -1.0f}) {
+                const float share = baseShare(positions, lo, hi, mean, axis, sign);
+                if (share >= best) {
+                    if (share > best || !view.upFromBase) view.up = axisDirection(axis, sign);
+                    best = share;
+                    view.upFromBase = true;
+                }
+            }
+        }
+    }
+
+    // 3. The side of the view axis: away from a flat face that fills the + side.
+    view.front = axisDirection(viewAxis, 1.0f);
+    std::size_t headOn[2] = {0, 0}; // facing + and - within 10 degrees
+    for (const glm::vec3& n : normals) {
+        headOn[0] += n[viewAxis] >= kHeadOnCosine;
+        headOn[1] += n[viewAxis] <= -kHeadOnCosine;
+    }
+    if (double(headOn[0]) >= double(kFlatFaceShare) * double(positions.size()) && headOn[0] > 2 * headOn[1]) {
+        view.front = -view.front;
+        view.frontFlipped = true;
+    }
+    return view;
+}
+
+Camera frameSphere(const Sphere& bounds, float aspect, float fovY, float orbit, const Viewpoint& view,
+                   float elevation) {
+    assert(std::abs(glm::dot(view.up, view.front)) < 1e-6f && std::abs(elevation) < 1.5707963f);
     // The sphere fits when its distance exceeds radius / sin(half angle) of the narrower field.
     const float halfY = fovY * 0.5f;
     const float halfX = std::atan(std::tan(halfY) * aspect);
     const float half = std::min(halfX, halfY);
     const float radius = bounds.radius > 0.0f ? bounds.radius : 1.0f;
     const float distance = radius / std::sin(half) * 1.05f;
+    // The front turned by `orbit` about up (right-handed), then raised towards up.
+    const glm::vec3 side = glm::cross(view.up, view.front);
+    const glm::vec3 turned = std::cos(orbit) * view.front + std::sin(orbit) * side;
+    const glm::vec3 direction = std::cos(elevation) * turned + std::sin(elevation) * view.up;
     Camera camera;
     camera.fovY = fovY;
     camera.target = bounds.centre;
-    camera.eye = bounds.centre + distance * glm::vec3(std::sin(orbit), 0.0f, std::cos(orbit));
-    camera.up = {0.0f, 1.0f, 0.0f};
+    camera.eye = bounds.centre + distance * direction;
+    camera.up = view.up;
     return camera;
 }
 

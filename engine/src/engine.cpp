@@ -171,6 +171,11 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
         }
         impl->modelBounds = impl->tree.roots().empty() ? Sphere{glm::vec3(0.0f), 1.0f}
                                                        : Sphere{(lo + hi) * 0.5f, glm::length(hi - lo) * 0.5f};
+        const Sphere& b = impl->modelBounds;
+        if (!std::isfinite(b.radius) || !std::isfinite(b.centre.x) || !std::isfinite(b.centre.y) ||
+            !std::isfinite(b.centre.z))
+            return Error{"the points spread farther than single precision can measure (their bounding sphere "
+                         "overflows); scale the model down"};
     } catch (const VulkanError& e) {
         return Error{std::string("Vulkan: ") + e.what()};
     }

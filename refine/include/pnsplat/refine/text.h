@@ -1,10 +1,11 @@
-// Numbers in the text of specs given on command lines ("sphere:R", "torus:R,r", "X,Y,Z,R").
-// Pure functions; any thread.
+// Numbers in the text of specs given on command lines ("sphere:R", "torus:R,r", "X,Y,Z,R"), and
+// values in JSON text. Pure functions; any thread.
 #pragma once
 
 #include <charconv>
 #include <cmath>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <system_error>
 
@@ -18,5 +19,13 @@ inline std::optional<float> parseFloat(std::string_view text) {
     if (ec != std::errc() || ptr != end || !std::isfinite(value)) return std::nullopt;
     return value;
 }
+
+// A JSON number: the shortest text that reads back as `v`; null when not finite (JSON has no
+// infinity or NaN).
+std::string jsonNumber(double v);
+
+// A JSON string literal of `s` (quotes, backslashes and control characters escaped; other bytes,
+// UTF-8 included, as they are).
+std::string jsonString(std::string_view s);
 
 } // namespace pnsplat

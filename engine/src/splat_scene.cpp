@@ -10,20 +10,11 @@
 #include <glm/geometric.hpp>
 
 #include "gpu_types.h"
+#include "pnsplat/refine/morton.h"
 
 namespace pnsplat::engine {
 
 namespace {
-
-// Spreads the low 10 bits of v to every third bit.
-std::uint32_t spread(std::uint32_t v) {
-    v &= 0x3FFu;
-    v = (v | (v << 16)) & 0x030000FFu;
-    v = (v | (v << 8)) & 0x0300F00Fu;
-    v = (v | (v << 4)) & 0x030C30C3u;
-    v = (v | (v << 2)) & 0x09249249u;
-    return v;
-}
 
 Sphere boundingSphere(std::span<const glm::vec3> positions, const std::uint32_t* order, std::size_t count) {
     glm::vec3 lo(positions[order[0]]), hi(lo);
@@ -67,8 +58,8 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
         for (std::size_t i = 0; i < count; ++i) {
             const glm::vec3 g =
                 glm::clamp((points.position[i] - lo) * scale, glm::vec3(0.0f), glm::vec3(1023.0f));
-            code[i] = spread(static_cast<std::uint32_t>(g.x)) | spread(static_cast<std::uint32_t>(g.y)) << 1 |
-                      spread(static_cast<std::uint32_t>(g.z)) << 2;
+            const glm::uvec3 cell(g);
+            code[i] = static_cast<std::uint32_t>(mortonCode(cell.x, cell.y, cell.z)); // 30 bits
         }
         std::stable_sort(order.begin(), order.end(),
                          [&](std::uint32_t a, std::uint32_t b) { return code[a] < code[b]; });

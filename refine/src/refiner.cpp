@@ -48,6 +48,7 @@
 #include "kd_tree.h"
 #include "pnsplat/refine/hierarchy.h"
 #include "pnsplat/refine/huge_pages.h"
+#include "pnsplat/refine/morton.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/worker_pool.h"
@@ -261,17 +262,6 @@ inline std::uint64_t cellKeyOf(glm::vec3 x, glm::vec3 lo, float cellSize) {
     return packCell(c.x, c.y, c.z);
 }
 
-// 21-bit spread for Morton codes: bit k of v goes to bit 3k.
-inline std::uint64_t spreadBits(std::uint64_t v) {
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x1f00000000ffffull;
-    v = (v | v << 16) & 0x1f0000ff0000ffull;
-    v = (v | v << 8) & 0x100f00f00f00f00full;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
-    v = (v | v << 2) & 0x1249249249249249ull;
-    return v;
-}
-
 // The axis-aligned bounding box of `positions`, and its longest side.
 struct Bounds {
     glm::vec3 lo{std::numeric_limits<float>::max()}, hi{std::numeric_limits<float>::lowest()};
@@ -294,13 +284,11 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     const Bounds bounds = boundsOf(input.position);
     const glm::vec3 lo = bounds.lo;
     const float extent = std::max(bounds.extent(), std::numeric_limits<float>::min());
-    const float scale = float((1u << 21) - 1) / extent;
+    const float scale = float((1u << kMortonBits) - 1) / extent;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
     for (std::uint32_t i = 0; i < count; ++i) {
-        const glm::vec3 q = (input.position[i] - lo) * scale;
-        const auto code = spreadBits(std::uint64_t(q.x)) | spreadBits(std::uint64_t(q.y)) << 1 |
-                          spreadBits(std::uint64_t(q.z)) << 2;
-        keyed[i] = {code, i};
+        const glm::uvec3 q((input.position[i] - lo) * scale);
+        keyed[i] = {mortonCode(q.x, q.y, q.z), i};
     }
     std::sort(keyed.begin(), keyed.end());
     order.resize(count);

@@ -22,8 +22,8 @@
 
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
-#include <nanoflann.hpp>
 
+#include "kd_tree.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/text.h"
 #include "pnsplat/refine/worker_pool.h"
@@ -41,38 +41,23 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 // depend on which worker ran which range.
 constexpr std::size_t kChunk = 2048;
 
-// ---- Nearest points: nanoflann over a flat array of positions ----
+// ---- Nearest points: the k-d tree of kd_tree.h ----
 
-struct PositionsAdaptor {
-    std::span<const glm::vec3> positions;
-    std::size_t kdtree_get_point_count() const { return positions.size(); }
-    float kdtree_get_pt(std::size_t i, std::size_t dim) const {
-        return positions[i][static_cast<glm::length_t>(dim)];
-    }
-    template <typename Box>
-    bool kdtree_get_bbox(Box&) const {
-        return false;
-    }
-};
-
-using PointTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PositionsAdaptor>,
-                                                      PositionsAdaptor, 3, std::uint32_t>;
-
-// A kd-tree over `adaptor`'s positions, 16 points per leaf. The pragma silences a GCC 12 false
+// A kd-tree over `cloud`'s positions, 16 points per leaf. The pragma silences a GCC 12 false
 // positive (-Wnull-dereference inside std::vector::resize, inlined from nanoflann's buildIndex).
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #endif
-std::unique_ptr<PointTree> makePointTree(const PositionsAdaptor& adaptor) {
-    return std::make_unique<PointTree>(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+std::unique_ptr<KdTree> makePointTree(const KdCloud& cloud) {
+    return std::make_unique<KdTree>(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
 }
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
 #endif
 
 // Index and squared distance of the point of `tree` nearest to q.
-std::pair<std::uint32_t, float> nearest(const PointTree& tree, glm::vec3 q) {
+std::pair<std::uint32_t, float> nearest(const KdTree& tree, glm::vec3 q) {
     std::uint32_t index = 0;
     float d2 = kInfinity;
     nanoflann::KNNResultSet<float, std::uint32_t> result(1);
@@ -498,9 +483,9 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
         });
     } else {
         // Points only: the nearest reference point's tangent plane stands for the surface.
-        const PositionsAdaptor adaptor{reference.points.position};
+        const KdCloud cloud{reference.points.position};
         report.diagonal = diagonalOf(reference.points.position);
-        const std::unique_ptr<PointTree> tree = makePointTree(adaptor);
+        const std::unique_ptr<KdTree> tree = makePointTree(cloud);
         parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
             for (std::size_t i = begin; i < end; ++i) {
                 const std::uint32_t q = nearest(*tree, refined.position[i]).first;
@@ -538,9 +523,9 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     }
 
     // 2. Uniformity: nearest other refined point of each refined point.
-    const PositionsAdaptor refinedAdaptor{refined.position};
-    const std::unique_ptr<PointTree> refinedTreePtr = makePointTree(refinedAdaptor);
-    const PointTree& refinedTree = *refinedTreePtr;
+    const KdCloud refinedCloud{refined.position};
+    const std::unique_ptr<KdTree> refinedTreePtr = makePointTree(refinedCloud);
+    const KdTree& refinedTree = *refinedTreePtr;
     std::vector<float>& spacing = distance; // reuse the array
     parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
         for (std::size_t i = begin; i < end; ++i) {

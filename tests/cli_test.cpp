@@ -16,7 +16,6 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <numbers>
 #include <set>
 #include <sstream>
 #include <string>
@@ -25,6 +24,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/shapes.h"
@@ -335,7 +335,7 @@ TEST(CliRefine, EstimatesMissingNormals) {
     std::cout << "    " << points.size() << " points, inward normals " << inward
               << ", worst cosine to the true normal " << worst << "\n";
     EXPECT_EQ(inward, 0u);
-    EXPECT_GT(worst, std::cos(5.0 * std::numbers::pi / 180.0));
+    EXPECT_GT(worst, std::cos(radians(5.0)));
 }
 
 // A scan that repeats points (here every one, twice): each position is refined once, and the

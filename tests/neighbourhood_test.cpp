@@ -17,6 +17,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/radius_estimation.h"
@@ -34,7 +35,7 @@ constexpr double kPi = std::numbers::pi;
 constexpr float kPiF = std::numbers::pi_v<float>;
 
 glm::vec3 polar(double radius, double degrees, float z = 0.0f) {
-    const double a = degrees * kPi / 180.0;
+    const double a = radians(degrees);
     return glm::vec3(static_cast<float>(radius * std::cos(a)), static_cast<float>(radius * std::sin(a)), z);
 }
 
@@ -429,7 +430,7 @@ TEST(FilterFuzzy, PointExactlyBehindAnotherIsRemoved) {
 TEST(FilterFuzzy, GeodesicProjectionRemovesPointBehindOnCurvedSurface) {
     const glm::vec3 p(0.0f, 0.0f, 1.0f), n(0.0f, 0.0f, 1.0f);
     const auto onCylinder = [](double degrees, float y, glm::vec3& normal) {
-        const double a = degrees * kPi / 180.0;
+        const double a = radians(degrees);
         normal = glm::vec3(static_cast<float>(std::sin(a)), 0.0f, static_cast<float>(std::cos(a)));
         return glm::vec3(normal.x, y, normal.z);
     };

@@ -28,6 +28,7 @@
 #include <gtest/gtest.h>
 
 #include "oracles.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/ply.h"
@@ -104,11 +105,6 @@ bool samePointSets(const PointSet& a, const PointSet& b) {
            sameBits(a.colour, b.colour) && sameBits(a.crease, b.crease);
 }
 
-double angleDeg(glm::vec3 a, glm::vec3 b) {
-    const glm::dvec3 da(a), db(b);
-    return std::atan2(glm::length(glm::cross(da, db)), glm::dot(da, db)) * 180.0 / kPi;
-}
-
 // Distances to the sphere of radius 1 at the origin (|‖x‖ - 1|, i.e. relative to the radius) and
 // the angle between each normal and the radial direction.
 struct SphereError {
@@ -123,7 +119,7 @@ SphereError unitSphereError(const PointSet& set) {
         const double d = std::abs(glm::length(x) - 1.0);
         sum2 += d * d;
         e.max = std::max(e.max, d);
-        const double a = angleDeg(set.normal[i], set.position[i]);
+        const double a = angleInDegrees(set.normal[i], set.position[i]);
         normalSum += a;
         e.normalMaxDeg = std::max(e.normalMaxDeg, a);
     }

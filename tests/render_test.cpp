@@ -11,6 +11,7 @@
 
 #include "gpu_test.h"
 #include "pnsplat/engine/camera.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
@@ -26,8 +27,6 @@ using engine::RenderSettings;
 using engine::RgbaImage;
 using test::GpuTest;
 
-constexpr float kPi = 3.14159265358979f;
-
 PointSet disk(glm::vec3 centre, glm::vec3 normal, float radius, glm::u8vec3 colour) {
     PointSet p;
     p.position = {centre};
@@ -41,7 +40,7 @@ Camera lookingDownZ(float distance, float fovDegrees = 40.0f) {
     Camera camera;
     camera.eye = {0.0f, 0.0f, distance};
     camera.target = {0.0f, 0.0f, 0.0f};
-    camera.fovY = fovDegrees * kPi / 180.0f;
+    camera.fovY = radians(fovDegrees);
     return camera;
 }
 
@@ -67,7 +66,7 @@ TEST_P(PathTest, SingleDiskCoversExactlyItsProjection) {
     const RgbaImage image =
         render(disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 255, 255}), small(GetParam()), lookingDownZ(5.0f));
     ASSERT_EQ(image.width, 256u);
-    const double radiusPx = 0.2 / std::tan(20.0 * 3.14159265358979 / 180.0) * 128.0;
+    const double radiusPx = 0.2 / std::tan(radians(20.0)) * 128.0;
     int inside = 0, outside = 0;
     for (std::uint32_t y = 0; y < 256; ++y)
         for (std::uint32_t x = 0; x < 256; ++x) {

@@ -8,6 +8,7 @@
 #include <fmt/core.h>
 
 #include "commands.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
@@ -60,8 +61,8 @@ void runRefine(const RefineArgs& args) {
     options.plainAngle |= args.plainAngle;
     options.centroidCandidates |= args.centroidCandidates;
     options.smoothing = !args.noSmoothing;
-    options.thetaF = static_cast<float>(args.thetaFDegrees * std::numbers::pi / 180.0);
-    options.thetaB = static_cast<float>(args.thetaBDegrees * std::numbers::pi / 180.0);
+    options.thetaF = static_cast<float>(radians(args.thetaFDegrees));
+    options.thetaB = static_cast<float>(radians(args.thetaBDegrees));
     options.threads = args.threads;
 
     const auto start = Clock::now();

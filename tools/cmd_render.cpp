@@ -1,7 +1,6 @@
 // `pnsplat render`: splat a point set offscreen (optionally refined first) into a PNG.
 #include <chrono>
 #include <cmath>
-#include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -12,6 +11,7 @@
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/engine/splat_renderer.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/shapes.h"
 #include "refine_run.h"
@@ -36,8 +36,6 @@ struct RenderArgs {
     bool validation = false;
     bool flipNormals = false;
 };
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 // The points of `input` (a PLY file, or the embedded default model when empty) with normals and
 // radii (estimated when the file has none); `name` receives a name for messages.
@@ -98,7 +96,7 @@ void runRender(const RenderArgs& args) {
     settings.radiusScale = args.radiusScale;
     auto renderer = unwrap(SplatRenderer::create(*context, settings));
 
-    const float fov = static_cast<float>(args.fovDegrees * kDegree);
+    const float fov = static_cast<float>(radians(args.fovDegrees));
     Camera camera;
     if (!args.camera.empty()) {
         camera.eye = {args.camera[0], args.camera[1], args.camera[2]};
@@ -107,7 +105,7 @@ void runRender(const RenderArgs& args) {
         camera.fovY = fov;
     } else {
         camera = frameSphere(scene.bounds(), float(args.width) / float(args.height), fov,
-                             static_cast<float>(args.orbitDegrees * kDegree));
+                             static_cast<float>(radians(args.orbitDegrees)));
     }
     FrameStats stats;
     const RgbaImage image = unwrap(renderer->render(scene, camera, &stats));

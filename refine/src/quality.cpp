@@ -16,7 +16,6 @@
 #include <filesystem>
 #include <limits>
 #include <memory>
-#include <numbers>
 #include <span>
 #include <string_view>
 
@@ -24,6 +23,7 @@
 #include <glm/geometric.hpp>
 
 #include "kd_tree.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/text.h"
 #include "pnsplat/refine/worker_pool.h"
@@ -32,7 +32,6 @@ namespace pnsplat {
 namespace {
 
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 // ---- Worker threads ----
 
@@ -77,13 +76,6 @@ glm::vec3 closestOnSegment(glm::vec3 p, glm::vec3 a, glm::vec3 b, float& t) {
 
 float length2(glm::vec3 v) {
     return glm::dot(v, v);
-}
-
-// Angle in degrees between two directions (need not be unit): atan2(|a x b|, a . b), accurate
-// for small angles, where acos is not.
-double angleDeg(glm::vec3 a, glm::vec3 b) {
-    const glm::dvec3 da(a), db(b);
-    return std::atan2(glm::length(glm::cross(da, db)), glm::dot(da, db)) * kRadToDeg;
 }
 
 struct Box {
@@ -447,8 +439,8 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     // is that of the closer of its two normals).
     std::vector<float> distance(n), angle(n);
     const auto normalError = [&](std::size_t i, glm::vec3 truth) {
-        double a = angleDeg(refined.normal[i], truth);
-        if (refined.isCrease(i)) a = std::min(a, angleDeg(refined.crease[i], truth));
+        double a = angleInDegrees(refined.normal[i], truth);
+        if (refined.isCrease(i)) a = std::min(a, angleInDegrees(refined.crease[i], truth));
         return static_cast<float>(a);
     };
     if (reference.isAnalytic()) {

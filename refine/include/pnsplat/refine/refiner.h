@@ -14,6 +14,7 @@
 #include <span>
 #include <vector>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
 
@@ -54,7 +55,7 @@ struct RefineOptions {
     // Boundary gap θb ∈ (2π/3, π] (section 6): consecutive fan neighbours further apart than this
     // around p make no candidate, and mark p as a potential boundary point. Default 165°: wide
     // enough that interior fans are rarely taken for boundaries, narrow enough to find real ones.
-    float thetaB = std::numbers::pi_v<float> * (165.0f / 180.0f);
+    float thetaB = radians(165.0f);
     // Boundary segments (section 6): found among the potential boundary points of P0 at the first
     // step, each receives two points on its cubic curve at every odd step.
     bool boundaries = true;

@@ -206,22 +206,19 @@ glm::vec3 closestPointThinTriangle(glm::vec3 p, glm::vec3 a, glm::vec3 b, glm::v
 // ---- Closest point on a triangle (Ericson, Real-Time Collision Detection, 5.1.5) ----
 
 glm::vec3 closestPointBarycentric(glm::vec3 p, glm::vec3 a, glm::vec3 b, glm::vec3 c) {
-    const glm::vec3 ab = b - a, ac = c - a, ap = p - a;
+    // Ericson's d1 ... d6: the edges ab and ac against p as seen from a, b and c.
+    const glm::vec3 ab = b - a, ac = c - a, ap = p - a, bp = p - b, cp = p - c;
     const float d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
-    if (d1 <= 0.0f && d2 <= 0.0f) return {1.0f, 0.0f, 0.0f}; // vertex region a
-
-    const glm::vec3 bp = p - b;
     const float d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
-    if (d3 >= 0.0f && d4 <= d3) return {0.0f, 1.0f, 0.0f}; // vertex region b
+    const float d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+    if (d1 <= 0.0f && d2 <= 0.0f) return {1.0f, 0.0f, 0.0f}; // vertex region a
+    if (d3 >= 0.0f && d4 <= d3) return {0.0f, 1.0f, 0.0f};   // vertex region b
 
     const float vc = d1 * d4 - d3 * d2;
     if (vc <= 0.0f && d1 >= 0.0f && d3 <= 0.0f) { // edge region ab
         const float v = d1 / (d1 - d3);
         return {1.0f - v, v, 0.0f};
     }
-
-    const glm::vec3 cp = p - c;
-    const float d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
     if (d6 >= 0.0f && d5 <= d6) return {0.0f, 0.0f, 1.0f}; // vertex region c
 
     const float vb = d5 * d2 - d1 * d6;

@@ -304,7 +304,7 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
     }
 }
 
-// A scan of positions only: normals estimated (SPEC 9), said on stderr, and the refinement runs.
+// A scan of positions only: normals estimated (ALGORITHM.md §9.2), said on stderr, and the refinement runs.
 TEST(CliRefine, EstimatesMissingNormals) {
     const TempDir dir;
     const PointSet sphere = sampleSphereUniform(600, 1.0f);

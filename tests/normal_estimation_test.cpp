@@ -1,4 +1,4 @@
-// Normal estimation (SPEC 9): the eigen solver against its definition, PCA against analytic
+// Normal estimation (ALGORITHM.md §9.2): the eigen solver against its definition, PCA against analytic
 // surfaces, orientation against known outward normals, determinism, and bad input.
 #include <algorithm>
 #include <cmath>

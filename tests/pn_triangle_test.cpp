@@ -1,4 +1,4 @@
-// Tests of the PN-triangle tools (pn_triangle.h, SPEC.md section 2) and the fast angle functions
+// Tests of the PN-triangle tools (pn_triangle.h, ALGORITHM.md §2) and the fast angle functions
 // (fast_math.h). Oracles: the geometric definition of each construction (tangent plane, third of the
 // edge), finite differences of the Bézier patch for the normals, closed forms on circles, spheres and
 // planes, std::atan2 / std::acos in double for the angle functions.
@@ -71,7 +71,7 @@ glm::vec3 finiteDifferenceNormal(const PnTriangle& t, float s0, float t0, float 
     return glm::vec3(glm::normalize(glm::cross(ds, dt)));
 }
 
-// The tangents printed in the paper (eq. 4, SPEC 2), which are not the patch's derivatives.
+// The tangents printed in the paper (eq. 4, ALGORITHM.md §2.5), which are not the patch's derivatives.
 glm::vec3 paperNormal(const PnTriangle& t, glm::vec3 orientation) {
     const glm::vec3 p0 = t.b300, p1 = t.b030, p2 = t.b003;
     const glm::vec3 bu = 7.0f * (p1 - p0) + t.b120 - t.b102 + t.b012 - t.b210 + 2.0f * (t.b021 - t.b201);
@@ -389,7 +389,7 @@ TEST(CurvedAngle, FlatCaseEqualsPlainAngle) {
     }
 }
 
-// Eq. 5 in double precision from SPEC 2's definitions alone: b_ab = p_a + |p_a p_b|/3 ·
+// Eq. 5 in double precision from the definitions of ALGORITHM.md §2.2 alone: b_ab = p_a + |p_a p_b|/3 ·
 // normalize(Q_a(p_a + (p_b - p_a)/3) - p_a), then the three angles at p by acos. A swapped or
 // misplaced control point (∠(p0,p,b120), b_ab from the wrong end) moves the sum by far more.
 TEST(CurvedAngle, MatchesEquationFiveInDoublePrecision) {

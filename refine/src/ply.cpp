@@ -112,7 +112,7 @@ struct Header {
 };
 
 // The vertex attributes the reader keeps, as slots of one row of values.
-// Crease points (SPEC 6), in the convention of ../shared/data's fandisk files: `nx2 ny2 nz2` the
+// Crease points (ALGORITHM.md §6.1), in the convention of ../shared/data's fandisk files: `nx2 ny2 nz2` the
 // second normal and an optional `crease` flag (0 an ordinary point, whose n2 repeats n; 1 a crease
 // point; 2 a corner, given as the crease of its two largest sectors). Without the flag a point is
 // ordinary when n2 is zero or equal to n.

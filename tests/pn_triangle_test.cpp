@@ -71,7 +71,7 @@ glm::vec3 finiteDifferenceNormal(const PnTriangle& t, float s0, float t0, float 
     return glm::vec3(glm::normalize(glm::cross(ds, dt)));
 }
 
-// The tangents printed in the paper (eq. 4, ALGORITHM.md §2.5), which are not the patch's derivatives.
+// The tangents printed in paper section 3 (ALGORITHM.md §2.5), which are not the patch's derivatives.
 glm::vec3 paperNormal(const PnTriangle& t, glm::vec3 orientation) {
     const glm::vec3 p0 = t.b300, p1 = t.b030, p2 = t.b003;
     const glm::vec3 bu = 7.0f * (p1 - p0) + t.b120 - t.b102 + t.b012 - t.b210 + 2.0f * (t.b021 - t.b201);

@@ -115,8 +115,8 @@ inline glm::vec3 centreOfGravity(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
 }
 
 // Normal of the new point: cross product of the exact partial derivatives of the patch at its
-// centre (ALGORITHM.md §2.5; the paper's printed tangents (eq. 4) are a scaled approximation that differs on
-// curved triangles). With s the weight of p1 and t the weight of p2:
+// centre (ALGORITHM.md §2.5; the tangents printed in paper section 3 are a scaled approximation that
+// differs on curved triangles). With s the weight of p1 and t the weight of p2:
 //   3 dB/ds = (p1-p0) + (b120-b210) + (b012-b102) + 2(b021-b201)
 //   3 dB/dt = (p2-p0) + (b102-b201) + (b021-b120) + 2(b012-b210)
 // oriented like n0+n1+n2. For a degenerate patch (tangents parallel within 0.5°: a sliver whose
@@ -144,7 +144,7 @@ inline glm::vec3 centreOfGravity(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
     return glm::dot(n, n0 + n1 + n2) < 0.0f ? -n : n;
 }
 
-// Geodesic distance (eq. 5 context): the length of the control polygon of the boundary curve
+// Geodesic distance (eq. 4): the length of the control polygon of the boundary curve
 // between p0 and p1, G = 2/3 |p0 p1| + |b210 - b120|.
 // The same from edge control points already at hand: b210 = b_01 near p0, b120 = b_10 near p1.
 inline float controlPolygonLength(glm::vec3 p0, glm::vec3 p1, glm::vec3 b210, glm::vec3 b120) {

@@ -644,28 +644,14 @@ class AsciiReader {
         std::int64_t i = 0;
         const auto [end, ec] = std::from_chars(first, last, i);
         if (ec != std::errc() || end != last) return false;
-        std::int64_t lo = 0;
-        std::int64_t hi = 0;
-        switch (type) {
-        case ScalarType::Int8:
-            lo = INT8_MIN, hi = INT8_MAX;
-            break;
-        case ScalarType::UInt8:
-            hi = UINT8_MAX;
-            break;
-        case ScalarType::Int16:
-            lo = INT16_MIN, hi = INT16_MAX;
-            break;
-        case ScalarType::UInt16:
-            hi = UINT16_MAX;
-            break;
-        case ScalarType::Int32:
-            lo = INT32_MIN, hi = INT32_MAX;
-            break;
-        default:
-            hi = UINT32_MAX;
-            break;
-        }
+        // The range of each integer type, in the order of ScalarType.
+        constexpr std::array<std::pair<std::int64_t, std::int64_t>, 6> kRange{{{INT8_MIN, INT8_MAX},
+                                                                               {0, UINT8_MAX},
+                                                                               {INT16_MIN, INT16_MAX},
+                                                                               {0, UINT16_MAX},
+                                                                               {INT32_MIN, INT32_MAX},
+                                                                               {0, UINT32_MAX}}};
+        const auto [lo, hi] = kRange[static_cast<std::size_t>(type)];
         if (i < lo || i > hi) return false;
         value = static_cast<double>(i);
         return true;

@@ -111,9 +111,8 @@ void runRefine(const RefineArgs& args) {
 } // namespace
 
 void addRefineCommand(CLI::App& app) {
-    auto args = std::make_shared<RefineArgs>();
-    CLI::App* cmd =
-        app.add_subcommand("refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)");
+    const auto [cmd, args] = addSubcommand(
+        app, "refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)", runRefine);
     cmd->add_option("input", args->input,
                     "input PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease "
                     "points; normals and radii "
@@ -169,7 +168,6 @@ void addRefineCommand(CLI::App& app) {
     addFillHoleOption(*cmd, args->holes);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
-    cmd->callback([args] { runRefine(*args); });
 }
 
 } // namespace pnsplat::tools

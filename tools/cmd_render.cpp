@@ -124,9 +124,8 @@ void runRender(const RenderArgs& args) {
 } // namespace
 
 void addRenderCommand(CLI::App& app) {
-    auto args = std::make_shared<RenderArgs>();
-    CLI::App* cmd =
-        app.add_subcommand("render", "Render a point set offscreen as surface splats into a PNG (Vulkan)");
+    const auto [cmd, args] = addSubcommand(
+        app, "render", "Render a point set offscreen as surface splats into a PNG (Vulkan)", runRender);
     cmd->add_option("input", args->input, "input PLY; omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PNG")->capture_default_str();
     cmd->add_option("--width", args->width, "image width in pixels")->capture_default_str();
@@ -160,7 +159,6 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_flag("--validation", args->validation,
                   "load the Vulkan validation layer; any message fails the command");
     cmd->add_flag("--flip-normals", args->flipNormals, "negate every normal (shows why orientation matters)");
-    cmd->callback([args] { runRender(*args); });
 }
 
 } // namespace pnsplat::tools

@@ -3,7 +3,8 @@
 # names only what exists. Over the files git tracks:
 #  - every "§N" or "§N.M" (the project cites docs/ALGORITHM.md as "ALGORITHM.md §4.5"; § stands
 #    for nothing else) is a numbered section of docs/ALGORITHM.md;
-#  - nothing cites the specification the project was started from, which is not in the repository;
+#  - nothing cites the specification the project was started from, which is not in the repository,
+#    nor any other page that is not (every "NAME.md" named is a Markdown file of the repository);
 #  - every test docs/ALGORITHM.md names (`Suite.Name`) is a test in tests/, every identifier it
 #    names in backquotes (`refinePoint`, `Refiner::points`) occurs in the code, and every path it
 #    names exists.
@@ -36,6 +37,14 @@ while IFS= read -r hit; do
     problem "${hit%%:*}:$(cut -d: -f2 <<<"$hit"): cites SPEC, which is not in the repository: cite $doc"
 done < <(git grep -I -n -E '\bSPEC( [0-9]|\.md)' -- . ":!$self" || true)
 
+declare -A page
+while read -r path; do page[${path##*/}]=1; done < <(git ls-files '*.md')
+while IFS= read -r hit; do
+    name=${hit##*:}
+    [ -n "${page[$name]:-}" ] || [ "$name" = SPEC.md ] ||
+        problem "${hit%:*}: names $name, which is not in the repository"
+done < <(git grep -I -n -o -E '\b[A-Za-z_-]+\.md\b' -- . ":!$self" || true)
+
 # Names in backquotes on the page, with the line they are on, against the code's words and tests.
 declare -A word test
 while read -r w; do word[$w]=1; done < <(git grep -h -o -w -E '[A-Za-z_][A-Za-z0-9_]*' -- \
@@ -60,4 +69,4 @@ if [ "$problems" -gt 0 ]; then
     echo "check-docs: $problems problem(s)" >&2
     exit 1
 fi
-echo "check-docs: every cited section exists; every test, name and file $doc names exists"
+echo "check-docs: every cited section and page exists; every test, name and file $doc names exists"

@@ -1,6 +1,6 @@
 // End-to-end tests of the `pnsplat` program: help texts, the README's first command (the embedded
 // default model), option conflicts, thread-count independence of the written file, `eval` JSON,
-// and bad input (STYLE.md "Errors": one line naming the file and the problem, a non-zero exit,
+// and bad input (CONTRIBUTING.md "Errors": one line naming the file and the problem, a non-zero exit,
 // never a crash, and no output file left behind).
 //
 // The program runs through std::system with stdout and stderr redirected to files of a private

@@ -26,7 +26,7 @@ enum class RenderPath {
     Compute,
     Graphics,
     // Not splatting: every splat centre as a plain 1-pixel point through the raster pipeline, with
-    // a depth test. The benchmark's baseline (LAVAPIPE.md: raster cost is per primitive).
+    // a depth test. The benchmark's baseline (on lavapipe, raster cost is per primitive).
     PlainPoints,
 };
 

@@ -1,5 +1,5 @@
 // A point set on the GPU, ready to splat: splats in Morton order (spatially sorted splats draw
-// 1.7–2.6× faster on lavapipe, LAVAPIPE.md) grouped into nodes: the leaves of an octree over the
+// 1.7–2.6× faster on lavapipe, measured) grouped into nodes: the leaves of an octree over the
 // Morton codes, each a contiguous range of at most kChunkSize splats with a bounding sphere for
 // frustum culling.
 #pragma once

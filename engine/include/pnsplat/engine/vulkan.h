@@ -1,5 +1,5 @@
 // Vulkan basics shared by the engine: the one error path for VkResult and move-only ownership of
-// handles (STYLE.md, "Errors" and "Vulkan").
+// handles (CONTRIBUTING.md, "Errors in the engine").
 //
 // Inside the engine a failed call throws VulkanError ("file:line: call -> VK_ERROR_NAME"); the
 // engine's public entry points catch it and return it as a Result, so callers see values only.

@@ -1,5 +1,5 @@
 // Splat geometry and shading shared by the compute path and the graphics path, so that the two
-// paths differ only in how footprints reach pixels (SPEC 11).
+// paths differ only in how footprints reach pixels (ALGORITHM.md §11).
 #include "gpu_types.h"
 
 layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; };

@@ -1,4 +1,4 @@
-// The compute path (SPEC 11 with atomics instead of the raster pipeline): one invocation per
+// The compute path (ALGORITHM.md §11.5, with atomics instead of the raster pipeline): one invocation per
 // splat walks the pixels of its screen footprint. Workgroup (x, y) covers splats
 // [x·kLocalSize, (x+1)·kLocalSize) of the y-th visible node.
 #include "splat_common.glsl"

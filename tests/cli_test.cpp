@@ -1,6 +1,6 @@
 // End-to-end tests of the `pnsplat` program: help texts, the README's first command (the embedded
 // default model), option conflicts, thread-count independence of the written file, `eval` JSON,
-// and bad input (STYLE.md "Errors": one line naming the file and the problem, a non-zero exit,
+// and bad input (CONTRIBUTING.md "Errors": one line naming the file and the problem, a non-zero exit,
 // never a crash, and no output file left behind).
 //
 // The program runs through std::system with stdout and stderr redirected to files of a private
@@ -16,7 +16,6 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <numbers>
 #include <set>
 #include <sstream>
 #include <string>
@@ -25,6 +24,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/shapes.h"
@@ -346,7 +346,7 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
     }
 }
 
-// A scan of positions only: normals estimated (SPEC 9), said on stderr, and the refinement runs.
+// A scan of positions only: normals estimated (ALGORITHM.md §9.2), said on stderr, and the refinement runs.
 TEST(CliRefine, EstimatesMissingNormals) {
     const TempDir dir;
     const PointSet sphere = sampleSphereUniform(600, 1.0f);
@@ -377,7 +377,7 @@ TEST(CliRefine, EstimatesMissingNormals) {
     std::cout << "    " << points.size() << " points, inward normals " << inward
               << ", worst cosine to the true normal " << worst << "\n";
     EXPECT_EQ(inward, 0u);
-    EXPECT_GT(worst, std::cos(5.0 * std::numbers::pi / 180.0));
+    EXPECT_GT(worst, std::cos(radians(5.0)));
 }
 
 // A scan that repeats points (here every one, twice): each position is refined once, and the

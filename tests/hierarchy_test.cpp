@@ -1,4 +1,4 @@
-// Tests of the bounding-sphere hierarchy (hierarchy.h, SPEC.md section 7) on synthetic multi-level
+// Tests of the bounding-sphere hierarchy (hierarchy.h, ALGORITHM.md §7.2) on synthetic multi-level
 // hierarchies built by hand: random roots, then levels where every point of P(l) receives 0-3 random
 // children appended as one block. Oracles: brute force over all points for every query (the points
 // closer than the radius, and exactly the points whose bounding sphere meets the ball), the bound

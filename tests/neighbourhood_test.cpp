@@ -1,5 +1,5 @@
-// Tests of the one-ring neighbourhoods (neighbourhood.h, SPEC.md section 3) and of the radius
-// estimation built on them (radius_estimation.h, SPEC.md section 9). Oracles: the badness formula
+// Tests of the one-ring neighbourhoods (neighbourhood.h, ALGORITHM.md §3) and of the radius
+// estimation built on them (radius_estimation.h, ALGORITHM.md §9.3). Oracles: the badness formula
 // on hand-made configurations with exact values, a planar hexagonal grid whose first ring is known,
 // the paper's Figure 6 on a cylinder, brute-force Euclidean neighbourhoods for the symmetry rates,
 // and invariants (orthonormal frames, sorted fans, thread-count independence).
@@ -17,6 +17,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/radius_estimation.h"
@@ -34,7 +35,7 @@ constexpr double kPi = std::numbers::pi;
 constexpr float kPiF = std::numbers::pi_v<float>;
 
 glm::vec3 polar(double radius, double degrees, float z = 0.0f) {
-    const double a = degrees * kPi / 180.0;
+    const double a = radians(degrees);
     return glm::vec3(static_cast<float>(radius * std::cos(a)), static_cast<float>(radius * std::sin(a)), z);
 }
 
@@ -263,7 +264,7 @@ TEST(FilterFuzzy, IndependentOfInputOrder) {
 // Sets of more than 64 entries take the filter's blocked path (entries by distance, each test ended
 // once it fails); the small sets after them reuse the scratch arrays, whose padding lanes (past a
 // set's size, up to a multiple of 8) then hold the earlier sets' leftovers, which must not count.
-// Oracle: the rule of SPEC 3 by brute force, w_i = max over Succ_i + max over Pred_i of
+// Oracle: the rule of ALGORITHM.md §3.2 by brute force, w_i = max over Succ_i + max over Pred_i of
 // fuzzyBadness against every other entry, on random points of a paraboloid patch, measured on the
 // points themselves (Nf), on their geodesic projections q'_i = p + G(p,p_i)·normalize(q_i - p)
 // (Ng), and on those with G = |p p_i| (variant 1). Entries whose oracle w_i lies within 1e-4 of
@@ -286,7 +287,7 @@ TEST(FilterFuzzy, SetsMatchBruteForce) {
         const auto normalAt = [](float x, float y) {
             return glm::normalize(glm::vec3(-0.6f * x, -0.6f * y, 1.0f));
         };
-        // Where the badness of an entry is measured (SPEC 3).
+        // Where the badness of an entry is measured (ALGORITHM.md §3.2).
         const auto measured = [&](glm::vec3 pi, glm::vec3 ni) {
             if (measure == Measure::Points) return pi;
             const glm::vec3 q = pi - glm::dot(pi - p, n) * n;
@@ -429,7 +430,7 @@ TEST(FilterFuzzy, PointExactlyBehindAnotherIsRemoved) {
 TEST(FilterFuzzy, GeodesicProjectionRemovesPointBehindOnCurvedSurface) {
     const glm::vec3 p(0.0f, 0.0f, 1.0f), n(0.0f, 0.0f, 1.0f);
     const auto onCylinder = [](double degrees, float y, glm::vec3& normal) {
-        const double a = degrees * kPi / 180.0;
+        const double a = radians(degrees);
         normal = glm::vec3(static_cast<float>(std::sin(a)), 0.0f, static_cast<float>(std::cos(a)));
         return glm::vec3(normal.x, y, normal.z);
     };
@@ -465,7 +466,7 @@ TEST(FilterFuzzy, GeodesicProjectionRemovesPointBehindOnCurvedSurface) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Symmetry rates (SPEC 3 asks to measure them)
+// Symmetry rates (ALGORITHM.md §3.2)
 
 struct SymmetryResult {
     double rate = 0.0;

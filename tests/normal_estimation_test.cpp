@@ -1,16 +1,16 @@
-// Normal estimation (SPEC 9): the eigen solver against its definition, PCA against analytic
+// Normal estimation (ALGORITHM.md §9.2): the eigen solver against its definition, PCA against analytic
 // surfaces, orientation against known outward normals, determinism, and bad input.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <iostream>
-#include <numbers>
 #include <random>
 #include <string>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/shapes.h"
@@ -94,8 +94,7 @@ Agreement compare(const PointSet& points, const HugePageVector<glm::vec3>& truth
     for (std::size_t i = 0; i < points.size(); ++i) {
         const float d = glm::dot(points.normal[i], truth[i]);
         a.flipped += d < 0.0f ? 1 : 0;
-        a.meanDegrees +=
-            std::acos(std::min(1.0, static_cast<double>(std::abs(d)))) * 180.0 / std::numbers::pi;
+        a.meanDegrees += degrees(std::acos(std::min(1.0, static_cast<double>(std::abs(d)))));
     }
     a.meanDegrees /= static_cast<double>(points.size());
     return a;

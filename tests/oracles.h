@@ -1,5 +1,6 @@
 // Oracles shared by the test suite and the fuzz targets (tests/fuzz): bitwise equality, the
-// convergence bound of SPEC 4, the interpolation check of SPEC 1, and a point set's consistency.
+// convergence bound of ALGORITHM.md §4.7, the interpolation check of ALGORITHM.md §1.1, and a point set's
+// consistency.
 #pragma once
 
 #include <cmath>
@@ -17,7 +18,7 @@
 
 namespace pnsplat::test {
 
-// c_β,max: the largest radius ratio of one level (SPEC 4, paper eq. 14), the maximum over β of
+// c_β,max: the largest radius ratio of one level (ALGORITHM.md §4.7, paper eq. 14), the maximum over β of
 // c_β = 1/3 (5/6 + 5/6 + cos(β/2) + 2/3 sin(β/2)); cos x + 2/3 sin x peaks at sqrt(1 + 4/9).
 inline const double kConvergenceBound = (5.0 / 6.0 + 5.0 / 6.0 + std::sqrt(1.0 + 4.0 / 9.0)) / 3.0;
 

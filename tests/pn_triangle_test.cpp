@@ -1,4 +1,4 @@
-// Tests of the PN-triangle tools (pn_triangle.h, SPEC.md section 2) and the fast angle functions
+// Tests of the PN-triangle tools (pn_triangle.h, ALGORITHM.md §2) and the fast angle functions
 // (fast_math.h). Oracles: the geometric definition of each construction (tangent plane, third of the
 // edge), finite differences of the Bézier patch for the normals, closed forms on circles, spheres and
 // planes, std::atan2 / std::acos in double for the angle functions.
@@ -14,6 +14,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/fast_math.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "test_random.h"
@@ -26,11 +27,6 @@ using test::uniform;
 using test::uniform01;
 
 constexpr double kPi = std::numbers::pi;
-
-double angleDeg(glm::vec3 a, glm::vec3 b) {
-    const glm::dvec3 da(a), db(b);
-    return std::atan2(glm::length(glm::cross(da, db)), glm::dot(da, db)) * 180.0 / kPi;
-}
 
 // An orthonormal pair (u, v) perpendicular to the unit vector n (double Gram-Schmidt).
 void tangents(glm::vec3 n, glm::vec3& u, glm::vec3& v) {
@@ -55,7 +51,7 @@ Triangle sphereTriangle(std::mt19937_64& rng, double minDeg, double maxDeg) {
     const double phase = 2.0 * kPi * uniform01(rng);
     Triangle t;
     for (int k = 0; k < 3; ++k) {
-        const double theta = (minDeg + (maxDeg - minDeg) * uniform01(rng)) * kPi / 180.0;
+        const double theta = radians(minDeg + (maxDeg - minDeg) * uniform01(rng));
         const double phi = phase + 2.0 * kPi * k / 3.0 + 0.3 * (uniform01(rng) - 0.5);
         const glm::dvec3 dir =
             glm::dvec3(c) * std::cos(theta) +
@@ -75,7 +71,7 @@ glm::vec3 finiteDifferenceNormal(const PnTriangle& t, float s0, float t0, float 
     return glm::vec3(glm::normalize(glm::cross(ds, dt)));
 }
 
-// The tangents printed in the paper (eq. 4, SPEC 2), which are not the patch's derivatives.
+// The tangents printed in paper section 3 (ALGORITHM.md §2.5), which are not the patch's derivatives.
 glm::vec3 paperNormal(const PnTriangle& t, glm::vec3 orientation) {
     const glm::vec3 p0 = t.b300, p1 = t.b030, p2 = t.b003;
     const glm::vec3 bu = 7.0f * (p1 - p0) + t.b120 - t.b102 + t.b012 - t.b210 + 2.0f * (t.b021 - t.b201);
@@ -103,7 +99,7 @@ TEST(EdgeControlPoint, InTangentPlaneAtOneThirdAlongProjectedEdge) {
         const double edge = glm::length(d);
         EXPECT_NEAR(glm::dot(offset, glm::dvec3(na)), 0.0, 2e-6 * (1.0 + edge)) << trial;
         EXPECT_NEAR(glm::length(offset), edge / 3.0, 2e-6 * (1.0 + edge)) << trial;
-        EXPECT_LT(angleDeg(glm::vec3(offset), glm::vec3(projected)), 1e-3) << trial;
+        EXPECT_LT(angleInDegrees(glm::vec3(offset), glm::vec3(projected)), 1e-3) << trial;
     }
     EXPECT_GT(tested, 1800);
 }
@@ -196,9 +192,9 @@ TEST(PnTriangle, PatchNormalInterpolatesCornerNormals) {
             const glm::dvec3 e2 = glm::dvec3(evaluate(pn, c.u + c.du2, c.v + c.dv2)) - at;
             glm::vec3 n(glm::normalize(glm::cross(e1, e2)));
             if (glm::dot(n, t.n[k]) < 0.0f) n = -n;
-            worst = std::max(worst, angleDeg(n, t.n[k]));
-            flatFaceDeviation =
-                std::min(flatFaceDeviation, std::min(angleDeg(face, t.n[k]), angleDeg(-face, t.n[k])));
+            worst = std::max(worst, angleInDegrees(n, t.n[k]));
+            flatFaceDeviation = std::min(
+                flatFaceDeviation, std::min(angleInDegrees(face, t.n[k]), angleInDegrees(-face, t.n[k])));
         }
     }
     EXPECT_LT(worst, 0.2);
@@ -242,8 +238,8 @@ TEST(CentreNormal, MatchesFiniteDifferencesOfThePatch) {
         EXPECT_GT(glm::dot(n, orientation), 0.0f);
         glm::vec3 fd = finiteDifferenceNormal(pn, 1.0f / 3.0f, 1.0f / 3.0f, 1e-2f);
         if (glm::dot(fd, orientation) < 0.0f) fd = -fd;
-        worst = std::max(worst, angleDeg(n, fd));
-        worstPaper = std::max(worstPaper, angleDeg(paperNormal(pn, orientation), fd));
+        worst = std::max(worst, angleInDegrees(n, fd));
+        worstPaper = std::max(worstPaper, angleInDegrees(paperNormal(pn, orientation), fd));
     }
     std::cout << "centre normal vs finite differences: exact " << worst << " deg, paper's printed tangents "
               << worstPaper << " deg\n";
@@ -269,8 +265,8 @@ TEST(CentreNormal, PaperTangentsAgreeOnFlatTriangles) {
         }
         const PnTriangle pn = t.pn();
         const glm::vec3 exact = centreNormal(pn, t.n[0], t.n[1], t.n[2]);
-        EXPECT_LT(angleDeg(exact, normal), 1e-3) << trial;
-        EXPECT_LT(angleDeg(paperNormal(pn, normal), exact), 1e-3) << trial;
+        EXPECT_LT(angleInDegrees(exact, normal), 1e-3) << trial;
+        EXPECT_LT(angleInDegrees(paperNormal(pn, normal), exact), 1e-3) << trial;
         // The new point stays in the plane, at the centroid.
         const glm::vec3 cog = centreOfGravity(t.p[0], t.p[1], t.p[2]);
         EXPECT_LT(glm::length(smoothingDisplacement(pn)), 1e-5f) << trial;
@@ -288,7 +284,7 @@ TEST(CentreNormal, SphereTriangleGivesRadialNormalNearTheSphere) {
         const glm::vec3 n = centreNormal(pn, t.n[0], t.n[1], t.n[2]);
         const double edge = std::max(
             {glm::length(t.p[1] - t.p[0]), glm::length(t.p[2] - t.p[1]), glm::length(t.p[0] - t.p[2])});
-        worstAngle = std::max(worstAngle, angleDeg(n, pNew));
+        worstAngle = std::max(worstAngle, angleInDegrees(n, pNew));
         worstDistance =
             std::max(worstDistance, std::abs(static_cast<double>(glm::length(pNew)) - 1.0) / edge);
     }
@@ -349,7 +345,7 @@ TEST(GeodesicDistance, CircularArcClosedForm) {
     const double startDeg[] = {0.0, 37.0, 200.0};
     for (double start : startDeg) {
         for (double deg : {5.0, 10.0, 30.0, 60.0, 90.0}) {
-            const double a = start * kPi / 180.0, b = (start + deg) * kPi / 180.0, theta = deg * kPi / 180.0;
+            const double a = radians(start), b = radians(start + deg), theta = radians(deg);
             const glm::vec3 p0(static_cast<float>(std::cos(a)), static_cast<float>(std::sin(a)), 0.0f);
             const glm::vec3 p1(static_cast<float>(std::cos(b)), static_cast<float>(std::sin(b)), 0.0f);
             const double g = geodesicDistance(p0, p0, p1, p1);
@@ -393,7 +389,7 @@ TEST(CurvedAngle, FlatCaseEqualsPlainAngle) {
     }
 }
 
-// Eq. 5 in double precision from SPEC 2's definitions alone: b_ab = p_a + |p_a p_b|/3 ·
+// Eq. 5 in double precision from the definitions of ALGORITHM.md §2.2 alone: b_ab = p_a + |p_a p_b|/3 ·
 // normalize(Q_a(p_a + (p_b - p_a)/3) - p_a), then the three angles at p by acos. A swapped or
 // misplaced control point (∠(p0,p,b120), b_ab from the wrong end) moves the sum by far more.
 TEST(CurvedAngle, MatchesEquationFiveInDoublePrecision) {
@@ -440,8 +436,7 @@ TEST(CurvedAngle, CurvedCaseIsAtLeastThePlainAngle) {
                          static_cast<float>(std::cos(polar)));
     };
     const glm::vec3 p = onSphere(0.0, 0.0);
-    const glm::vec3 p0 = onSphere(40.0 * kPi / 180.0, -kPi / 4.0),
-                    p1 = onSphere(40.0 * kPi / 180.0, kPi / 4.0);
+    const glm::vec3 p0 = onSphere(radians(40.0), -kPi / 4.0), p1 = onSphere(radians(40.0), kPi / 4.0);
     const float curved = curvedAngle(p, p0, p0, p1, p1);
     const float plain = angleAt(p, p0, p1);
     std::cout << "curved angle, pole case: curved " << curved << " plain " << plain
@@ -459,7 +454,7 @@ TEST(CurvedAngle, UnlessSmallIsExactOrZeroOnlyBelowARightAngle) {
     const auto around = [&](glm::vec3 centre, double polarDeg) {
         glm::vec3 u, v;
         tangents(centre, u, v);
-        const double theta = polarDeg * kPi / 180.0, phi = 2.0 * kPi * uniform01(rng);
+        const double theta = radians(polarDeg), phi = 2.0 * kPi * uniform01(rng);
         return glm::vec3(glm::normalize(glm::dvec3(centre) * std::cos(theta) +
                                         (glm::dvec3(u) * std::cos(phi) + glm::dvec3(v) * std::sin(phi)) *
                                             std::sin(theta)));
@@ -484,7 +479,7 @@ TEST(CurvedAngle, UnlessSmallIsExactOrZeroOnlyBelowARightAngle) {
                 EXPECT_EQ(plainValue, angleAt(sp, sp0, sp1)) << trial;
                 ++plainExact;
             } else {
-                EXPECT_LT(referenceAngle(sp, sp0, sp1), 89.001 * kPi / 180.0) << trial;
+                EXPECT_LT(referenceAngle(sp, sp0, sp1), radians(89.001)) << trial;
                 ++plainSkipped;
             }
 
@@ -499,9 +494,9 @@ TEST(CurvedAngle, UnlessSmallIsExactOrZeroOnlyBelowARightAngle) {
             const EdgeControls e = edgeControlPoints(sp0, n0, sp1, n1);
             const double reference = referenceAngle(sp, sp0, e.ab) + referenceAngle(sp, e.ab, e.ba) +
                                      referenceAngle(sp, e.ba, sp1);
-            EXPECT_LT(reference, 89.001 * kPi / 180.0) << trial;
+            EXPECT_LT(reference, radians(89.001)) << trial;
             EXPECT_LT(curved, kPi / 2.0) << trial;
-            if (reference > 87.0 * kPi / 180.0) ++skippedAbove87;
+            if (reference > radians(87.0)) ++skippedAbove87;
         }
         std::cout << "scale " << scale << ": curved angle shortcut: " << skipped
                   << " surely below a right angle (" << skippedAbove87 << " from 87°), " << exact
@@ -541,14 +536,14 @@ TEST(ValidNeighbours, ConeOfHalfAngleHalfTheNormalAngle) {
     // n0 = z, n1 rotated by γ about x: the cone axis is the bisector, half-angle γ/2. A direction at
     // ψ from the axis is valid iff ψ > γ/2 (and < π - γ/2 on the other nappe).
     for (double gammaDeg : {0.0, 20.0, 60.0, 120.0}) {
-        const double g = gammaDeg * kPi / 180.0;
+        const double g = radians(gammaDeg);
         const glm::vec3 n0(0.0f, 0.0f, 1.0f);
         const glm::vec3 n1(0.0f, static_cast<float>(-std::sin(g)), static_cast<float>(std::cos(g)));
         const glm::dvec3 axis = glm::normalize(glm::dvec3(n0 + n1));
         const glm::dvec3 side(1.0, 0.0, 0.0);
         const glm::vec3 p0(0.5f, 0.5f, 0.5f);
         const auto direction = [&](double psiDeg) {
-            const double psi = psiDeg * kPi / 180.0;
+            const double psi = radians(psiDeg);
             return glm::vec3(axis * std::cos(psi) + side * std::sin(psi));
         };
         const double half = gammaDeg / 2.0;

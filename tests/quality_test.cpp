@@ -4,12 +4,12 @@
 // --reference syntax.
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <random>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/quality.h"
 #include "pnsplat/refine/shapes.h"
@@ -32,7 +32,7 @@ glm::vec3 randomVec(std::mt19937_64& rng, float scale) {
 // Rotates v by `degrees` about the unit axis (Rodrigues).
 glm::vec3 rotate(glm::vec3 v, glm::vec3 axis, double degrees) {
     const glm::dvec3 dv(v), k(axis);
-    const double a = degrees * std::numbers::pi / 180.0;
+    const double a = radians(degrees);
     return glm::vec3(dv * std::cos(a) + glm::cross(k, dv) * std::sin(a) +
                      k * glm::dot(k, dv) * (1.0 - std::cos(a)));
 }

@@ -1,11 +1,11 @@
 // Tests of the refinement (refiner.h) against the acceptance criteria of the project and the
-// invariants of the paper (Guennebaud, Barthe, Paulin, EG 2005; SPEC.md sections 1, 4, 5, 9, 10):
-// - interpolation: P0 is the input, bit for bit, after any number of levels (SPEC 1);
+// invariants of the paper (Guennebaud, Barthe, Paulin, EG 2005; ALGORITHM.md §1, §4, §5, §9, §10):
+// - interpolation: P0 is the input, bit for bit, after any number of levels (ALGORITHM.md §1.1);
 // - accuracy against exact oracles: the analytic sphere and torus, and the meshes of
 //   ../shared/data, compared with plain centroid insertion (the smoothing operator must help);
-// - convergence: every old radius shrinks by at least c_β,max per level (SPEC 4, paper 8.1);
-// - determinism for any thread count (SPEC 5); the faster variants (SPEC 10); colours; adaptive
-//   refinement; the level structure (children ranges, distances); input validation.
+// - convergence: every old radius shrinks by at least c_β,max per level (ALGORITHM.md §4.7, paper 8.1);
+// - determinism for any thread count (ALGORITHM.md §5.1); the faster variants (ALGORITHM.md §10); colours;
+//   adaptive refinement; the level structure (children ranges, distances); input validation.
 // Every test prints the figures it measured (quoted in the project's notes). Fixed seeds only; no
 // assertion on time.
 #include <algorithm>
@@ -28,6 +28,7 @@
 #include <gtest/gtest.h>
 
 #include "oracles.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/ply.h"
@@ -104,11 +105,6 @@ bool samePointSets(const PointSet& a, const PointSet& b) {
            sameBits(a.colour, b.colour) && sameBits(a.crease, b.crease);
 }
 
-double angleDeg(glm::vec3 a, glm::vec3 b) {
-    const glm::dvec3 da(a), db(b);
-    return std::atan2(glm::length(glm::cross(da, db)), glm::dot(da, db)) * 180.0 / kPi;
-}
-
 // Distances to the sphere of radius 1 at the origin (|‖x‖ - 1|, i.e. relative to the radius) and
 // the angle between each normal and the radial direction.
 struct SphereError {
@@ -123,7 +119,7 @@ SphereError unitSphereError(const PointSet& set) {
         const double d = std::abs(glm::length(x) - 1.0);
         sum2 += d * d;
         e.max = std::max(e.max, d);
-        const double a = angleDeg(set.normal[i], set.position[i]);
+        const double a = angleInDegrees(set.normal[i], set.position[i]);
         normalSum += a;
         e.normalMaxDeg = std::max(e.normalMaxDeg, a);
     }
@@ -431,7 +427,7 @@ INSTANTIATE_TEST_SUITE_P(RefinerData, RefinerUniformModel,
                          modelTestName);
 
 // ---------------------------------------------------------------------------------------------
-// Hole filling (paper figure 9, SPEC 9): the rim radii are enlarged to span the hole
+// Hole filling (paper figure 9, ALGORITHM.md §9.6): the rim radii are enlarged to span the hole
 // (enlargeAroundHoles), the neighbourhoods may hold kHoleFillingMaxNeighbours points, and the
 // filling levels (fillHoles) come before the uniform ones.
 
@@ -629,8 +625,8 @@ TEST(HoleFilling, DataHolesAreFilled) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The paper's constants (SPEC 3, 4, 6) and defaults (SPEC 10: the full method unless a variant is
-// asked for; each variant a switch of its own).
+// The paper's constants (ALGORITHM.md §3, §4, §6) and defaults (ALGORITHM.md §10: the full method unless a
+// variant is asked for; each variant a switch of its own).
 TEST(RefinerConstants, AreThePapersAndTheFullMethodIsTheDefault) {
     EXPECT_FLOAT_EQ(kLambda1, static_cast<float>(1.0 / std::sqrt(3.0)));
     EXPECT_EQ(kLambda2, 0.5f);
@@ -690,7 +686,7 @@ struct FlatLattice {
     }
 };
 
-// SPEC 4: on a plane the PN triangles are flat (φ = 0), so one level must put exactly one new
+// ALGORITHM.md §4.4: on a plane the PN triangles are flat (φ = 0), so one level must put exactly one new
 // point at the centroid of every lattice triangle (the √3 rule and the 30° turn of figure 7):
 // each old point's six triangles leave gaps of 120° (> θc) until all six centroids are in N'_p,
 // and no centroid other than its own lies within r (the next are 2h/√3 = 1.155 h away). The
@@ -802,9 +798,9 @@ TEST(RefinerBoundaries, FlatLatticeRowsGetPointsAtTheThirdsOfEverySegment) {
     EXPECT_EQ(stats.boundarySegments, 3 * kSegments); // each split in three by its two new points
 }
 
-// SPEC 4 steps 2, 3 and 5c: no candidate is inserted into the discard space D_p, the balls of
+// ALGORITHM.md §4.2, §4.3 and §4.5 (c): no candidate is inserted into the discard space D_p, the balls of
 // radius λ2·r_h around the points h of Y_p (already inserted, λ1·r_p < |h - p| < r_p, and found
-// as the children of p's neighbours, SPEC 7). A set that
+// as the children of p's neighbours, ALGORITHM.md §7.3). A set that
 // fits one colour cell (extent 2 < kCellFactor · r = 2.25, equal radii, so none is "large") is
 // refined in storage order, so the new points already there when p is refined are the children
 // of the points before it; and r_h is at least |h - q|, q its parent (step 6, right after q's
@@ -832,7 +828,8 @@ TEST(RefinerLocal, NoCandidateIsInsertedIntoTheDiscardSpace) {
         for (std::size_t p = 0; p < oldCount; ++p) {
             const glm::vec3 x = out.position[p];
             for (std::size_t q = 0; q < p; ++q) {
-                if (!(glm::length(out.position[q] - x) < kRadius)) continue; // SPEC 7: neighbours' children
+                // The children of p's neighbours (ALGORITHM.md §7.3).
+                if (!(glm::length(out.position[q] - x) < kRadius)) continue;
                 for (std::size_t h = refiner.childBegin(0, q); h < refiner.childEnd(0, q); ++h) {
                     const float toP = glm::length(out.position[h] - x);
                     if (!(toP > kLambda1 * kRadius * 1.0001f && toP < kRadius * 0.9999f)) continue; // Y_p
@@ -851,10 +848,10 @@ TEST(RefinerLocal, NoCandidateIsInsertedIntoTheDiscardSpace) {
     EXPECT_GT(discarded, 50u);
 }
 
-// SPEC 4 steps 4 and 5, replayed: the first point refined in a level starts from an empty N'_p
+// ALGORITHM.md §4.4 and §4.5, replayed: the first point refined in a level starts from an empty N'_p
 // (nothing is inserted yet, so Y_p and D_p are empty too), and its children must be exactly the
-// candidates that the selection loop of step 5 takes, in its order, written out here from the SPEC on the
-// library's primitives (the fan of filterFuzzy, cog + φ, the curved angle): the first candidate
+// candidates that the selection loop of step 5 takes, in its order, written out here from ALGORITHM.md §4.5
+// on the library's primitives (the fan of filterFuzzy, cog + φ, the curved angle): the first candidate
 // into the empty N'_p; then, while a gap of N'_p has a curved angle of at least θc and a candidate
 // inside it, the candidate of the widest such gap that maximises the smaller of the two angles it
 // splits the gap into. Choices of the refiner, stated in refiner.cpp: angles around n_p in the
@@ -961,12 +958,12 @@ TEST(RefinerLocal, FirstPointTakesTheCandidatesOfTheSelectionLoop) {
     EXPECT_GT(sets, 150u);
 }
 
-// Levels stay separated (SPEC 1, 4, 8) and L_p is eq. 12 beyond the first level, where P(l) is no
+// Levels stay separated (ALGORITHM.md §1.1) and L_p is eq. 12 beyond the first level, where P(l) is no
 // longer the input: every point inserted at the transition 1 -> 2 of a closed random torus (no
 // boundary segments) is cog + φ, with the exact-derivative normal, of a triangle (p, a, b) of its
 // parent p and two points a, b of P(1) within the wider second look (1.5 r_p). A fan that took in
 // a point of P(2), or a candidate computed otherwise, leaves points unexplained. Its colour is the
-// mean of the three corners' (SPEC 2, rounded to nearest). Also for the faster variants, whose
+// mean of the three corners' (ALGORITHM.md §2.6, rounded to nearest). Also for the faster variants, whose
 // centroid candidates are smoothed when inserted (variant 4).
 TEST(RefinerLocal, EveryNewPointIsThePnCentreOfATriangleOfItsParentsLevel) {
     PointSet input = withRadii(sampleTorusRandom(1500, 1.0f, 0.4f, 11));
@@ -1187,7 +1184,7 @@ TEST(RefinerScale, PowersOfTwoGiveTheSameBitsScaled) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// SPEC 10: each faster variant is a separate switch and still refines the sphere well.
+// ALGORITHM.md §10: each faster variant is a separate switch and still refines the sphere well.
 
 TEST(RefinerVariants, EachSwitchRefinesTheSphereAndDiffersFromTheFullMethod) {
     const PointSet input = withRadii(sampleSphereUniform(600, 1.0f));
@@ -1248,7 +1245,7 @@ TEST(RefinerVariants, EachSwitchRefinesTheSphereAndDiffersFromTheFullMethod) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Colour (SPEC 2): a new point's colour is the mean of its triangle's three corners.
+// Colour (ALGORITHM.md §2.6): a new point's colour is the mean of its triangle's three corners.
 
 PointSet colouredInput(std::string& name) {
     if (std::filesystem::exists(test::dataDir() / "banana-1500-random.ply")) {
@@ -1407,7 +1404,7 @@ TEST(RefinerRobustness, NoisyNormalsMakeNoDuplicatePoints) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Level structure (SPEC 7): children ranges partition each new block; a child lies within
+// Level structure (ALGORITHM.md §7.1): children ranges partition each new block; a child lies within
 // (10/9)·r_old of its parent (a candidate is the mean of six edge control points, at distances up
 // to r/3, 4r/3, 5r/3, 5r/3, 4r/3, r/3 from p); all values finite, normals unit, radii positive.
 

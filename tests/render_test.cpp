@@ -2,6 +2,7 @@
 // other, golden images that a broken pass fails, culling, and bad input.
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -12,6 +13,7 @@
 
 #include "gpu_test.h"
 #include "pnsplat/engine/camera.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
@@ -27,8 +29,6 @@ using engine::RenderSettings;
 using engine::RgbaImage;
 using test::GpuTest;
 
-constexpr float kPi = 3.14159265358979f;
-
 PointSet disk(glm::vec3 centre, glm::vec3 normal, float radius, glm::u8vec3 colour) {
     PointSet p;
     p.position = {centre};
@@ -42,7 +42,7 @@ Camera lookingDownZ(float distance, float fovDegrees = 40.0f) {
     Camera camera;
     camera.eye = {0.0f, 0.0f, distance};
     camera.target = {0.0f, 0.0f, 0.0f};
-    camera.fovY = fovDegrees * kPi / 180.0f;
+    camera.fovY = radians(fovDegrees);
     return camera;
 }
 
@@ -68,7 +68,7 @@ TEST_P(PathTest, SingleDiskCoversExactlyItsProjection) {
     const RgbaImage image =
         render(disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 255, 255}), small(GetParam()), lookingDownZ(5.0f));
     ASSERT_EQ(image.width, 256u);
-    const double radiusPx = 0.2 / std::tan(20.0 * 3.14159265358979 / 180.0) * 128.0;
+    const double radiusPx = 0.2 / std::tan(radians(20.0)) * 128.0;
     int inside = 0, outside = 0;
     for (std::uint32_t y = 0; y < 256; ++y)
         for (std::uint32_t x = 0; x < 256; ++x) {
@@ -372,11 +372,11 @@ PointSet standingSolid(glm::vec3 up) {
         p.normal.push_back(n);
     };
     for (int k = 0; k < 63; ++k) {
-        const float a = 2.0f * kPi * float(k) / 63.0f;
+        const float a = 2.0f * std::numbers::pi_v<float> * float(k) / 63.0f;
         const glm::vec3 n(std::cos(a), std::sin(a), 0.0f);
         for (int j = 0; j <= 30; ++j) add(n + glm::vec3(0.0f, 0.0f, 0.1f * float(j)), n);
         for (int j = 1; j < 16; ++j) { // the hemisphere, by latitude
-            const float b = 0.5f * kPi * float(j) / 16.0f;
+            const float b = 0.5f * std::numbers::pi_v<float> * float(j) / 16.0f;
             const glm::vec3 m = std::cos(b) * n + glm::vec3(0.0f, 0.0f, std::sin(b));
             if (k % std::max(1, int(1.0f / std::cos(b))) == 0) add(m + glm::vec3(0.0f, 0.0f, 3.0f), m);
         }
@@ -529,7 +529,7 @@ class DefaultViewTest : public GpuTest {
         s.height = 180;
         s.background = {1.0f, 1.0f, 1.0f};
         const engine::Sphere bounds = engine::boundingSphere(points.position);
-        const float fov = 40.0f * kPi / 180.0f;
+        const float fov = 40.0f * std::numbers::pi_v<float> / 180.0f;
         const Camera chosen = engine::frameSphere(bounds, 240.0f / 180.0f, fov, 0.0f,
                                                   engine::chooseViewpoint(points.position, points.normal));
         const Camera old = engine::frameSphere(bounds, 240.0f / 180.0f, fov, 0.0f);

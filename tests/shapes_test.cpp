@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/shapes.h"
 
 namespace pnsplat {
@@ -20,11 +21,6 @@ bool allFinite(const PointSet& set) {
         for (int k = 0; k < 3; ++k)
             if (!std::isfinite(set.position[i][k]) || !std::isfinite(set.normal[i][k])) return false;
     return true;
-}
-
-double angleDeg(glm::vec3 a, glm::vec3 b) {
-    const glm::dvec3 da(a), db(b);
-    return std::atan2(glm::length(glm::cross(da, db)), glm::dot(da, db)) * 180.0 / kPi;
 }
 
 // Brute-force nearest-neighbour distances (small sets only).
@@ -53,7 +49,7 @@ TEST(SphereUniform, PointsOnSphereWithRadialNormals) {
     for (std::size_t i = 0; i < set.size(); ++i) {
         EXPECT_NEAR(glm::length(set.position[i]), radius, 1e-5f * radius);
         EXPECT_NEAR(glm::length(set.normal[i]), 1.0f, 1e-6f);
-        EXPECT_LT(angleDeg(set.normal[i], set.position[i]), 1e-4);
+        EXPECT_LT(angleInDegrees(set.normal[i], set.position[i]), 1e-4);
     }
 }
 
@@ -77,7 +73,7 @@ TEST(SphereRandom, OnSphereDeterministicAndUniform) {
     std::size_t band = 0, upper = 0;
     for (std::size_t i = 0; i < a.size(); ++i) {
         EXPECT_NEAR(glm::length(a.position[i]), 1.5f, 1e-5f);
-        EXPECT_LT(angleDeg(a.normal[i], a.position[i]), 1e-4);
+        EXPECT_LT(angleInDegrees(a.normal[i], a.position[i]), 1e-4);
         band += std::abs(a.position[i].z) < 0.75f; // |z| < R/2: half the area (Archimedes)
         upper += a.position[i].x > 0.0f;
     }
@@ -95,7 +91,7 @@ TEST(TorusRandom, OnTorusWithExactNormalsAndAreaUniform) {
         // Implicit function with unit gradient: |(|p.xy| - R, p.z)| - r.
         const double implicit = std::hypot(std::hypot(p.x, p.y) - R, p.z) - r;
         ASSERT_LT(std::abs(implicit), 1e-5);
-        ASSERT_LT(angleDeg(set.normal[i], torus.normalAt(p)), 1e-3);
+        ASSERT_LT(angleInDegrees(set.normal[i], torus.normalAt(p)), 1e-3);
     }
     // Area of the outer half (cos v > 0) over the total: (pi R + 2 r) / (2 pi R). Sampling v
     // uniformly (not by area) would give 0.5.
@@ -140,7 +136,7 @@ TEST(DefaultModel, ColouredSparseFiniteUnitNormals) {
         const float len = glm::length(model.position[i]);
         minRadius = std::min(minRadius, len);
         maxRadius = std::max(maxRadius, len);
-        maxTilt = std::max(maxTilt, angleDeg(model.normal[i], model.position[i]));
+        maxTilt = std::max(maxTilt, angleInDegrees(model.normal[i], model.position[i]));
         EXPECT_GT(glm::dot(model.normal[i], model.position[i]), 0.0f); // outward (star-shaped)
         minChannel = std::min<int>(minChannel, model.colour[i].x);
         maxChannel = std::max<int>(maxChannel, model.colour[i].x);
@@ -171,7 +167,7 @@ TEST(DefaultModel, NormalsMatchFiniteDifferencesOfTheSurface) {
         const glm::vec3 tu = defaultModelSurface(d + h * e1) - defaultModelSurface(d - h * e1);
         const glm::vec3 tv = defaultModelSurface(d + h * e2) - defaultModelSurface(d - h * e2);
         const glm::vec3 fd = glm::normalize(glm::cross(tu, tv)); // e1 x e2 = d: outward
-        worst = std::max(worst, angleDeg(fd, model.normal[i]));
+        worst = std::max(worst, angleInDegrees(fd, model.normal[i]));
     }
     EXPECT_LT(worst, 0.1);
 }
@@ -233,7 +229,7 @@ TEST(AnalyticSurface, TorusClosestPointMatchesBruteForce) {
         // The normal at the closest point is along p - c (when p is off the surface).
         if (exact > 1e-3) {
             const float side = torus.signedDistance(p) > 0.0f ? 1.0f : -1.0f;
-            EXPECT_LT(angleDeg(torus.normalAt(p), side * (p - c)), 1e-2);
+            EXPECT_LT(angleInDegrees(torus.normalAt(p), side * (p - c)), 1e-2);
         }
     }
     // Degenerate queries stay finite: on the axis and on the tube circle.

@@ -1,7 +1,7 @@
 // Camera paths for `pnsplat bench view` (and scripted views): the framing orbit, a zoom towards the
 // model and back, or keyframes from a text file.
 //
-// File format (docs/CAMERA_PATHS.md): one keyframe per line,
+// File format (docs/REALTIME.md): one keyframe per line,
 //     FRAME  ex ey ez  tx ty tz  [ux uy uz  [FOV]]
 // FRAME a frame index (increasing), e/t/u the eye, target and up (default up 0 1 0), FOV the
 // vertical field of view in degrees (default 40). Frames between keyframes interpolate eye, target

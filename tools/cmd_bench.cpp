@@ -345,9 +345,9 @@ void runBenchRender(const BenchRenderArgs& args) {
 void addBenchCommand(CLI::App& app) {
     CLI::App* bench = app.add_subcommand("bench", "Performance harness (JSON on standard output)");
     bench->require_subcommand(1);
-    auto args = std::make_shared<BenchArgs>();
-    CLI::App* refine = bench->add_subcommand(
-        "refine", "Points generated per second, full method and faster variants, 1 and 2 threads");
+    const auto [refine, args] = addSubcommand(
+        *bench, "refine", "Points generated per second, full method and faster variants, 1 and 2 threads",
+        runBenchRefine);
     refine->add_option("--sphere-points", args->spherePoints, "input: uniform points on the unit sphere")
         ->capture_default_str();
     refine->add_option("--target-points", args->targetPoints, "refine until at least this many points")
@@ -356,14 +356,13 @@ void addBenchCommand(CLI::App& app) {
         ->check(CLI::Range(1u, 100u))
         ->capture_default_str();
     refine->add_option("-o,--output", args->output, "write the JSON here instead of standard output");
-    refine->callback([args] { runBenchRefine(*args); });
     addBenchViewCommand(*bench);
 
-    auto renderArgs = std::make_shared<BenchRenderArgs>();
-    CLI::App* render = bench->add_subcommand(
-        "render",
+    const auto [render, renderArgs] = addSubcommand(
+        *bench, "render",
         "Time per pass and splats per second for both paths, against plain 1-pixel points (Vulkan); one JSON "
-        "line per record on standard output as it is measured");
+        "line per record on standard output as it is measured",
+        runBenchRender);
     render->add_option("--sizes", renderArgs->sizes, "splat counts")->delimiter(',')->capture_default_str();
     render->add_option("--splat-pixels", renderArgs->splatPixels, "splat diameters in pixels")
         ->delimiter(',')
@@ -383,7 +382,6 @@ void addBenchCommand(CLI::App& app) {
         "-o,--output", renderArgs->output,
         "also write the whole JSON document here at the end (standard output gets one line per "
         "record as it is measured)");
-    render->callback([renderArgs] { runBenchRender(*renderArgs); });
 }
 
 } // namespace pnsplat::tools

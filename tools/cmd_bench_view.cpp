@@ -107,7 +107,7 @@ void addBenchViewCommand(CLI::App& bench) {
     view->add_option("input", args->input, "input PLY; omitted: the embedded default model");
     view->add_option("--camera-path", args->cameraPath,
                      "orbit (a turn about the model), zoom (towards it and back), or a keyframe file "
-                     "(docs/CAMERA_PATHS.md)")
+                     "(docs/REALTIME.md)")
         ->capture_default_str();
     view->add_option("--frames", args->frames, "frames to draw (default: 240, or the file's)")
         ->check(CLI::Range(std::size_t{1}, std::size_t{10000000}));

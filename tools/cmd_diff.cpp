@@ -38,9 +38,8 @@ void runDiff(const DiffArgs& args) {
 } // namespace
 
 void addDiffCommand(CLI::App& app) {
-    auto args = std::make_shared<DiffArgs>();
-    CLI::App* cmd =
-        app.add_subcommand("diff", "Compare two images: PSNR, SSIM, RMSE, differing pixels (JSON)");
+    const auto [cmd, args] =
+        addSubcommand(app, "diff", "Compare two images: PSNR, SSIM, RMSE, differing pixels (JSON)", runDiff);
     cmd->add_option("a", args->a, "first PNG")->required();
     cmd->add_option("b", args->b, "second PNG")->required();
     cmd->add_option("--heatmap", args->heatmap, "write the per-pixel difference as a heat map PNG");
@@ -51,7 +50,6 @@ void addDiffCommand(CLI::App& app) {
                     "a pixel differs when a channel differs by more than this (0..255)")
         ->check(CLI::Range(0, 255))
         ->capture_default_str();
-    cmd->callback([args] { runDiff(*args); });
 }
 
 } // namespace pnsplat::tools

@@ -85,9 +85,8 @@ void runEval(const EvalArgs& args) {
 } // namespace
 
 void addEvalCommand(CLI::App& app) {
-    auto args = std::make_shared<EvalArgs>();
-    CLI::App* cmd =
-        app.add_subcommand("eval", "Measure a refined point set against the true surface; print JSON");
+    const auto [cmd, args] = addSubcommand(
+        app, "eval", "Measure a refined point set against the true surface; print JSON", runEval);
     cmd->add_option("REFINED", args->refined, "Refined point set (PLY)")->required();
     cmd->add_option("--reference", args->reference,
                     "True surface: sphere:R | torus:R,r (centred at the origin, torus axis z) | "
@@ -125,7 +124,6 @@ void addEvalCommand(CLI::App& app) {
         "vertices);\n"
         "a points-only PLY approximate\n"
         "(nearest reference point's tangent plane and normal).");
-    cmd->callback([args] { runEval(*args); });
 }
 
 } // namespace pnsplat::tools

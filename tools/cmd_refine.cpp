@@ -8,6 +8,7 @@
 #include <fmt/core.h>
 
 #include "commands.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
@@ -62,8 +63,8 @@ void runRefine(const RefineArgs& args) {
     options.plainAngle |= args.plainAngle;
     options.centroidCandidates |= args.centroidCandidates;
     options.smoothing = !args.noSmoothing;
-    options.thetaF = static_cast<float>(args.thetaFDegrees * std::numbers::pi / 180.0);
-    options.thetaB = static_cast<float>(args.thetaBDegrees * std::numbers::pi / 180.0);
+    options.thetaF = static_cast<float>(radians(args.thetaFDegrees));
+    options.thetaB = static_cast<float>(radians(args.thetaBDegrees));
     options.threads = args.threads;
 
     const auto start = Clock::now();
@@ -135,9 +136,8 @@ void runRefine(const RefineArgs& args) {
 } // namespace
 
 void addRefineCommand(CLI::App& app) {
-    auto args = std::make_shared<RefineArgs>();
-    CLI::App* cmd =
-        app.add_subcommand("refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)");
+    const auto [cmd, args] = addSubcommand(
+        app, "refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)", runRefine);
     cmd->add_option("input", args->input,
                     "input PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease "
                     "points; normals and radii "
@@ -195,7 +195,6 @@ void addRefineCommand(CLI::App& app) {
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");
-    cmd->callback([args] { runRefine(*args); });
 }
 
 } // namespace pnsplat::tools

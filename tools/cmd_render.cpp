@@ -1,7 +1,6 @@
 // `pnsplat render`: splat a point set offscreen (optionally refined first) into a PNG.
 #include <chrono>
 #include <cmath>
-#include <numbers>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -14,6 +13,7 @@
 #include "pnsplat/engine/engine.h"
 #include "engine_setup.h"
 #include "pnsplat/engine/image.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/shapes.h"
 #include "pnsplat/refine/text.h"
@@ -42,8 +42,6 @@ struct RenderArgs {
     bool json = false;
 };
 
-constexpr double kDegree = std::numbers::pi / 180.0;
-
 // "+x", "-z", ...: the name of an axis direction.
 std::string axisName(glm::vec3 direction) {
     for (int axis = 0; axis < 3; ++axis)
@@ -64,7 +62,7 @@ std::string cameraValue(const engine::Camera& c) {
 // viewpoint chosen (unset for --camera).
 engine::Camera chooseCamera(const RenderArgs& args, const PointSet& frame,
                             std::optional<engine::Viewpoint>& view) {
-    const float fov = static_cast<float>(args.fovDegrees * kDegree);
+    const float fov = static_cast<float>(radians(args.fovDegrees));
     engine::Camera camera;
     if (!args.camera.empty()) {
         camera.eye = {args.camera[0], args.camera[1], args.camera[2]};
@@ -83,8 +81,8 @@ engine::Camera chooseCamera(const RenderArgs& args, const PointSet& frame,
     }
     view = engine::chooseViewpoint(frame.position, frame.normal, up);
     return engine::frameSphere(engine::boundingSphere(frame.position), float(args.engine.width) / float(args.engine.height),
-                               fov, static_cast<float>(args.orbitDegrees * kDegree), *view,
-                               static_cast<float>(args.elevationDegrees * kDegree));
+                               fov, static_cast<float>(radians(args.orbitDegrees)), *view,
+                               static_cast<float>(radians(args.elevationDegrees)));
 }
 
 // How the viewpoint was chosen, for the summary.
@@ -177,9 +175,8 @@ void runRender(const RenderArgs& args) {
 } // namespace
 
 void addRenderCommand(CLI::App& app) {
-    auto args = std::make_shared<RenderArgs>();
-    CLI::App* cmd =
-        app.add_subcommand("render", "Render a point set offscreen as surface splats into a PNG (Vulkan)");
+    const auto [cmd, args] = addSubcommand(
+        app, "render", "Render a point set offscreen as surface splats into a PNG (Vulkan)", runRender);
     cmd->add_option("input", args->input, "input PLY; omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PNG")->capture_default_str();
     cmd->add_option("--width", args->engine.width, "image width in pixels")
@@ -229,7 +226,6 @@ void addRenderCommand(CLI::App& app) {
     addEngineOptions(*cmd, args->engine, true, true);
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");
-    cmd->callback([args] { runRender(*args); });
 }
 
 } // namespace pnsplat::tools

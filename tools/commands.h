@@ -3,8 +3,10 @@
 // ("pnsplat: <message>") before exiting with the error's status.
 #pragma once
 
+#include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 // GCC 12 at -O1 (the sanitizer builds) reports a "potential null pointer dereference" inside
 // CLI11's own string splitting (CLI::detail::split, inlined std::string moves), depending on what
@@ -38,6 +40,18 @@ template <typename T>
 T unwrap(Result<T>&& result) {
     if (!result) throw CommandError(result.error().message);
     if constexpr (!std::is_void_v<T>) return std::move(result).value();
+}
+
+// Adds the subcommand `name` to `parent`: its options fill the returned Args (which the subcommand
+// owns), and `run` runs with them once the command line is parsed. Returns the subcommand, for the
+// caller to register the options on, and the Args.
+template <typename Args>
+std::pair<CLI::App*, Args*> addSubcommand(CLI::App& parent, std::string name, std::string description,
+                                          void (*run)(const Args&)) {
+    auto args = std::make_shared<Args>();
+    CLI::App* cmd = parent.add_subcommand(std::move(name), std::move(description));
+    cmd->callback([args, run] { run(*args); });
+    return {cmd, args.get()};
 }
 
 void addRefineCommand(CLI::App& app);

@@ -4,16 +4,41 @@
 
 namespace pnsplat::engine {
 
-Unique<VkDeviceMemory> allocateMemory(Context& context, const VkMemoryRequirements& requirements,
-                                      VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred,
-                                      std::uint32_t* type) {
+namespace {
+
+// bindMemory for a buffer or an image: `requirementsOf` and `bind` are its vkGet*MemoryRequirements and
+// vkBind*Memory, `call` the latter's name.
+template <typename T>
+Unique<VkDeviceMemory>
+bindMemoryTo(Context& context, T object, void (*requirementsOf)(VkDevice, T, VkMemoryRequirements*),
+             VkResult (*bind)(VkDevice, T, VkDeviceMemory, VkDeviceSize), const char* call,
+             VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred, std::uint32_t* type) {
+    const VkDevice device = context.device();
+    VkMemoryRequirements requirements;
+    requirementsOf(device, object, &requirements);
     VkMemoryAllocateInfo alloc{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
     alloc.allocationSize = requirements.size;
     alloc.memoryTypeIndex = context.memoryType(requirements.memoryTypeBits, required, preferred);
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkAllocateMemory(context.device(), &alloc, nullptr, &memory));
+    VkDeviceMemory memoryHandle = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkAllocateMemory(device, &alloc, nullptr, &memoryHandle));
+    Unique<VkDeviceMemory> memory(device, memoryHandle, vkFreeMemory);
+    check(bind(device, object, memoryHandle, 0), call, __FILE__, __LINE__);
     if (type != nullptr) *type = alloc.memoryTypeIndex;
-    return {context.device(), memory, vkFreeMemory};
+    return memory;
+}
+
+} // namespace
+
+Unique<VkDeviceMemory> bindMemory(Context& context, VkBuffer buffer, VkMemoryPropertyFlags required,
+                                  VkMemoryPropertyFlags preferred, std::uint32_t* type) {
+    return bindMemoryTo(context, buffer, vkGetBufferMemoryRequirements, vkBindBufferMemory,
+                        "vkBindBufferMemory", required, preferred, type);
+}
+
+Unique<VkDeviceMemory> bindMemory(Context& context, VkImage image, VkMemoryPropertyFlags required,
+                                  VkMemoryPropertyFlags preferred, std::uint32_t* type) {
+    return bindMemoryTo(context, image, vkGetImageMemoryRequirements, vkBindImageMemory, "vkBindImageMemory",
+                        required, preferred, type);
 }
 
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use) {
@@ -24,12 +49,8 @@ Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usag
     info.size = size;
     info.usage = usage;
     info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    VkBuffer buffer = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateBuffer(device, &info, nullptr, &buffer));
-    result.buffer = Unique<VkBuffer>(device, buffer, vkDestroyBuffer);
+    result.buffer = PNSPLAT_VK_CREATE(Buffer, device, info);
 
-    VkMemoryRequirements requirements;
-    vkGetBufferMemoryRequirements(device, buffer, &requirements);
     constexpr VkMemoryPropertyFlags kHost =
         VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
     VkMemoryPropertyFlags required = 0, preferred = 0;
@@ -47,8 +68,7 @@ Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usag
         break;
     }
     std::uint32_t type = 0;
-    result.memory = allocateMemory(context, requirements, required, preferred, &type);
-    PNSPLAT_VK_CHECK(vkBindBufferMemory(device, buffer, result.memory.get(), 0));
+    result.memory = bindMemory(context, result.buffer.get(), required, preferred, &type);
 
     VkPhysicalDeviceMemoryProperties properties;
     vkGetPhysicalDeviceMemoryProperties(context.physicalDevice(), &properties);

@@ -239,13 +239,12 @@ void Context::submitAndWait(const std::function<void(VkCommandBuffer)>& record) 
     PNSPLAT_VK_CHECK(vkEndCommandBuffer(cmd));
 
     VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-    VkFence fenceHandle = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateFence(device_, &fenceInfo, nullptr, &fenceHandle));
-    Unique<VkFence> fence(device_, fenceHandle, vkDestroyFence);
+    const Unique<VkFence> fence = PNSPLAT_VK_CREATE(Fence, device_, fenceInfo);
+    const VkFence fenceHandle = fence.get();
     VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
     submit.commandBufferCount = 1;
     submit.pCommandBuffers = &cmd;
-    PNSPLAT_VK_CHECK(vkQueueSubmit(queue_, 1, &submit, fence.get()));
+    PNSPLAT_VK_CHECK(vkQueueSubmit(queue_, 1, &submit, fenceHandle));
     PNSPLAT_VK_CHECK(vkWaitForFences(device_, 1, &fenceHandle, VK_TRUE, UINT64_MAX));
 }
 

@@ -34,9 +34,7 @@ Unique<VkShaderModule> shaderModule(VkDevice device, const std::uint32_t (&code)
     VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
     info.codeSize = sizeof(code);
     info.pCode = code;
-    VkShaderModule module = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateShaderModule(device, &info, nullptr, &module));
-    return {device, module, vkDestroyShaderModule};
+    return PNSPLAT_VK_CREATE(ShaderModule, device, info);
 }
 
 struct Image {
@@ -59,21 +57,14 @@ Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageU
     info.tiling = VK_IMAGE_TILING_OPTIMAL;
     info.usage = usage;
     info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    VkImage image = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateImage(device, &info, nullptr, &image));
-    result.image = Unique<VkImage>(device, image, vkDestroyImage);
-    VkMemoryRequirements requirements;
-    vkGetImageMemoryRequirements(device, image, &requirements);
-    result.memory = allocateMemory(context, requirements, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    PNSPLAT_VK_CHECK(vkBindImageMemory(device, image, result.memory.get(), 0));
+    result.image = PNSPLAT_VK_CREATE(Image, device, info);
+    result.memory = bindMemory(context, result.image.get(), VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
     VkImageViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-    viewInfo.image = image;
+    viewInfo.image = result.image.get();
     viewInfo.viewType = VK_IMAGE_VIEW_TYPE_2D;
     viewInfo.format = format;
     viewInfo.subresourceRange = {aspect, 0, 1, 0, 1};
-    VkImageView view = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateImageView(device, &viewInfo, nullptr, &view));
-    result.view = Unique<VkImageView>(device, view, vkDestroyImageView);
+    result.view = PNSPLAT_VK_CREATE(ImageView, device, viewInfo);
     return result;
 }
 
@@ -107,23 +98,19 @@ Unique<VkRenderPass> createRenderPass(VkDevice device,
     info.pSubpasses = &subpass;
     info.dependencyCount = static_cast<std::uint32_t>(dependencies.size());
     info.pDependencies = dependencies.data();
-    VkRenderPass pass = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateRenderPass(device, &info, nullptr, &pass));
-    return {device, pass, vkDestroyRenderPass};
+    return PNSPLAT_VK_CREATE(RenderPass, device, info);
 }
 
 VkAttachmentDescription attachment(VkFormat format, VkAttachmentLoadOp load, VkImageLayout initial,
                                    VkImageLayout final) {
-    VkAttachmentDescription a{};
-    a.format = format;
-    a.samples = VK_SAMPLE_COUNT_1_BIT;
-    a.loadOp = load;
-    a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    a.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    a.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    a.initialLayout = initial;
-    a.finalLayout = final;
-    return a;
+    return {.format = format,
+            .samples = VK_SAMPLE_COUNT_1_BIT,
+            .loadOp = load,
+            .storeOp = VK_ATTACHMENT_STORE_OP_STORE,
+            .stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE,
+            .stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE,
+            .initialLayout = initial,
+            .finalLayout = final};
 }
 
 struct GraphicsPipelineDesc {
@@ -199,9 +186,7 @@ void SplatRenderer::Impl::createCommon() {
         VkQueryPoolCreateInfo info{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
         info.queryType = VK_QUERY_TYPE_TIMESTAMP;
         info.queryCount = 6;
-        VkQueryPool pool = VK_NULL_HANDLE;
-        PNSPLAT_VK_CHECK(vkCreateQueryPool(device, &info, nullptr, &pool));
-        slot.timestamps = Unique<VkQueryPool>(device, pool, vkDestroyQueryPool);
+        slot.timestamps = PNSPLAT_VK_CREATE(QueryPool, device, info);
     }
 
     // One set for all three passes of a path: 0 frame uniforms, 1 splats, then the path's own.
@@ -221,16 +206,13 @@ void SplatRenderer::Impl::createCommon() {
     VkDescriptorSetLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     layoutInfo.bindingCount = static_cast<std::uint32_t>(bindings.size());
     layoutInfo.pBindings = bindings.data();
-    VkDescriptorSetLayout layout = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateDescriptorSetLayout(device, &layoutInfo, nullptr, &layout));
-    setLayout = Unique<VkDescriptorSetLayout>(device, layout, vkDestroyDescriptorSetLayout);
+    setLayout = PNSPLAT_VK_CREATE(DescriptorSetLayout, device, layoutInfo);
+    const VkDescriptorSetLayout layout = setLayout.get();
 
     VkPipelineLayoutCreateInfo pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
     pipelineInfo.setLayoutCount = 1;
     pipelineInfo.pSetLayouts = &layout;
-    VkPipelineLayout pipelineLayoutHandle = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreatePipelineLayout(device, &pipelineInfo, nullptr, &pipelineLayoutHandle));
-    pipelineLayout = Unique<VkPipelineLayout>(device, pipelineLayoutHandle, vkDestroyPipelineLayout);
+    pipelineLayout = PNSPLAT_VK_CREATE(PipelineLayout, device, pipelineInfo);
 
     const std::array<VkDescriptorPoolSize, 3> sizes{
         {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, kFramesInFlight},
@@ -240,11 +222,9 @@ void SplatRenderer::Impl::createCommon() {
     poolInfo.maxSets = kFramesInFlight;
     poolInfo.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
     poolInfo.pPoolSizes = sizes.data();
-    VkDescriptorPool pool = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateDescriptorPool(device, &poolInfo, nullptr, &pool));
-    descriptorPool = Unique<VkDescriptorPool>(device, pool, vkDestroyDescriptorPool);
+    descriptorPool = PNSPLAT_VK_CREATE(DescriptorPool, device, poolInfo);
     VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-    alloc.descriptorPool = pool;
+    alloc.descriptorPool = descriptorPool.get();
     alloc.descriptorSetCount = 1;
     alloc.pSetLayouts = &layout;
     for (Slot& slot : slots) PNSPLAT_VK_CHECK(vkAllocateDescriptorSets(device, &alloc, &slot.set));
@@ -310,16 +290,13 @@ Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineD
     depthState.depthTestEnable = desc.depthTest;
     depthState.depthWriteEnable = desc.depthWrite;
     depthState.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
-    VkPipelineColorBlendAttachmentState blend{};
-    blend.blendEnable = desc.additive;
-    blend.srcColorBlendFactor = VK_BLEND_FACTOR_ONE;
-    blend.dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
-    blend.colorBlendOp = VK_BLEND_OP_ADD;
-    blend.srcAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
-    blend.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
-    blend.alphaBlendOp = VK_BLEND_OP_ADD;
-    blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
-                           VK_COLOR_COMPONENT_A_BIT;
+    // Additive blending where the pass asks for it: source and destination weighed one and added, for
+    // colour and alpha alike; all four channels written.
+    constexpr VkBlendFactor kOne = VK_BLEND_FACTOR_ONE;
+    constexpr VkBlendOp kAdd = VK_BLEND_OP_ADD;
+    constexpr VkColorComponentFlags kRgba = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                            VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    const VkPipelineColorBlendAttachmentState blend{desc.additive, kOne, kOne, kAdd, kOne, kOne, kAdd, kRgba};
     const std::vector<VkPipelineColorBlendAttachmentState> blends(desc.colourCount, blend);
     VkPipelineColorBlendStateCreateInfo blendState{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
     blendState.attachmentCount = desc.colourCount;
@@ -357,9 +334,7 @@ void SplatRenderer::Impl::createGraphics() {
     samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_NEAREST;
     samplerInfo.addressModeU = samplerInfo.addressModeV = samplerInfo.addressModeW =
         VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    VkSampler samplerHandle = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &samplerHandle));
-    sampler = Unique<VkSampler>(device, samplerHandle, vkDestroySampler);
+    sampler = PNSPLAT_VK_CREATE(Sampler, device, samplerInfo);
 
     constexpr VkPipelineStageFlags kTests =
         VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
@@ -415,9 +390,7 @@ void SplatRenderer::Impl::createGraphics() {
         info.width = settings.width;
         info.height = settings.height;
         info.layers = 1;
-        VkFramebuffer framebuffer = VK_NULL_HANDLE;
-        PNSPLAT_VK_CHECK(vkCreateFramebuffer(device, &info, nullptr, &framebuffer));
-        framebuffers[k] = Unique<VkFramebuffer>(device, framebuffer, vkDestroyFramebuffer);
+        framebuffers[k] = PNSPLAT_VK_CREATE(Framebuffer, device, info);
     }
 
     const auto splatVert = shaderModule(device, k_splat_vert);
@@ -466,9 +439,7 @@ void SplatRenderer::Impl::createPlainPoints() {
     info.width = settings.width;
     info.height = settings.height;
     info.layers = 1;
-    VkFramebuffer framebuffer = VK_NULL_HANDLE;
-    PNSPLAT_VK_CHECK(vkCreateFramebuffer(device, &info, nullptr, &framebuffer));
-    framebuffers[0] = Unique<VkFramebuffer>(device, framebuffer, vkDestroyFramebuffer);
+    framebuffers[0] = PNSPLAT_VK_CREATE(Framebuffer, device, info);
     const auto vert = shaderModule(device, k_plain_point_vert);
     const auto frag = shaderModule(device, k_plain_point_frag);
     pipelines[0] = graphicsPipeline({VK_PRIMITIVE_TOPOLOGY_POINT_LIST, vert.get(), frag.get(),
@@ -488,15 +459,19 @@ void SplatRenderer::Impl::writeDescriptors(const Slot& slot, const Buffer& splat
     std::vector<VkDescriptorImageInfo> images;
     images.reserve(2);
     std::vector<VkWriteDescriptorSet> writes;
-    const auto writeBuffer = [&](std::uint32_t binding, VkDescriptorType type, const Buffer& buffer) {
-        buffers.push_back({buffer.buffer.get(), 0, VK_WHOLE_SIZE});
-        VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    // One descriptor at `binding`; the caller points it at its buffer or image.
+    const auto write = [&](std::uint32_t binding, VkDescriptorType type) -> VkWriteDescriptorSet& {
+        VkWriteDescriptorSet& w =
+            writes.emplace_back(VkWriteDescriptorSet{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET});
         w.dstSet = slot.set;
         w.dstBinding = binding;
         w.descriptorCount = 1;
         w.descriptorType = type;
-        w.pBufferInfo = &buffers.back();
-        writes.push_back(w);
+        return w;
+    };
+    const auto writeBuffer = [&](std::uint32_t binding, VkDescriptorType type, const Buffer& buffer) {
+        buffers.push_back({buffer.buffer.get(), 0, VK_WHOLE_SIZE});
+        write(binding, type).pBufferInfo = &buffers.back();
     };
     writeBuffer(0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, slot.uniforms);
     writeBuffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, splats);
@@ -509,13 +484,7 @@ void SplatRenderer::Impl::writeDescriptors(const Slot& slot, const Buffer& splat
         for (std::uint32_t binding : {2u, 3u}) {
             images.push_back({sampler.get(), (binding == 2 ? accumColour : accumNormal).view.get(),
                               VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
-            VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-            w.dstSet = slot.set;
-            w.dstBinding = binding;
-            w.descriptorCount = 1;
-            w.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-            w.pImageInfo = &images.back();
-            writes.push_back(w);
+            write(binding, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo = &images.back();
         }
     }
     vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);

@@ -1,4 +1,4 @@
-// The bounding-sphere hierarchy over a static kd-tree of P0: paper section 7, SPEC.md section 7.
+// The bounding-sphere hierarchy over a static kd-tree of P0: paper section 7, ALGORITHM.md §7.2.
 #include "pnsplat/refine/hierarchy.h"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// One-ring neighbourhoods: paper section 4 (eq. 7-9), SPEC.md section 3.
+// One-ring neighbourhoods: paper section 4 (eq. 7-9), ALGORITHM.md §3.
 #include "pnsplat/refine/neighbourhood.h"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Normal estimation by local PCA and minimum-spanning-tree orientation (SPEC.md section 9).
+// Normal estimation by local PCA and minimum-spanning-tree orientation (ALGORITHM.md §9.2).
 #include "pnsplat/refine/normal_estimation.h"
 
 #include <algorithm>

@@ -112,7 +112,7 @@ struct Header {
 };
 
 // The vertex attributes the reader keeps, as slots of one row of values.
-// Crease points (SPEC 6), in the convention of ../shared/data's fandisk files: `nx2 ny2 nz2` the
+// Crease points (ALGORITHM.md §6.1), in the convention of ../shared/data's fandisk files: `nx2 ny2 nz2` the
 // second normal and an optional `crease` flag (0 an ordinary point, whose n2 repeats n; 1 a crease
 // point; 2 a corner, given as the crease of its two largest sectors). Without the flag a point is
 // ordinary when n2 is zero or equal to n.
@@ -372,17 +372,42 @@ void sizePoints(PointSet& points, const VertexLayout& layout, std::size_t n) {
     if (layout.hasCrease) points.crease.resize(n);
 }
 
-// Sizes the outputs for `count` rows of `element` and maps each property index to its vertex
-// slot (-1 for properties that are skipped).
-std::vector<int> prepareRows(const Element& element, bool isVertex, bool isFace, const VertexLayout& layout,
-                             std::size_t count, PlyData& out) {
-    if (isVertex) sizePoints(out.points, layout, count);
-    if (isFace) out.triangles.reserve(out.triangles.size() + count);
-    std::vector<int> slotOf(element.properties.size(), -1);
+// The property of a face element that lists its vertices, or -1.
+int faceListIndex(const Element& face) {
+    for (std::string_view name : {"vertex_indices", "vertex_index"}) {
+        const int p = face.find(name);
+        if (p >= 0 && face.properties[p].isList) return p;
+    }
+    return -1;
+}
+
+// The rows of an element read property by property (binary elements with lists, every ascii one).
+struct Rows {
+    std::size_t count = 0;
+    int faceList = -1;       // the property of a face's vertex indices; -1 unless faces are read
+    std::vector<int> slotOf; // per property, its vertex slot (-1 for properties that are skipped)
+};
+
+// Checks that the rows of `element` fit: at most `available` remain in the file's `encoding`
+// ("binary", "ascii") body, and a face element read has its index list. Then sizes the outputs
+// for them and maps the properties to vertex slots.
+Result<Rows> prepareRows(std::string_view file, std::string_view encoding, const Element& element,
+                         std::uint64_t available, bool isVertex, bool isFace, const VertexLayout& layout,
+                         PlyData& out) {
+    if (element.count > available)
+        return fail(file, fmt::format("truncated {} data ({} element of {} rows, room for at most {})",
+                                      encoding, printable(element.name), element.count, available));
+    Rows rows;
+    rows.count = static_cast<std::size_t>(element.count);
+    rows.faceList = isFace ? faceListIndex(element) : -1;
+    if (isFace && rows.faceList < 0) return fail(file, "face element has no vertex_indices list");
+    if (isVertex) sizePoints(out.points, layout, rows.count);
+    if (isFace) out.triangles.reserve(out.triangles.size() + rows.count);
+    rows.slotOf.assign(element.properties.size(), -1);
     if (isVertex)
         for (int s = 0; s < kSlotCount; ++s)
-            if (layout.property[s] >= 0) slotOf[layout.property[s]] = s;
-    return slotOf;
+            if (layout.property[s] >= 0) rows.slotOf[layout.property[s]] = s;
+    return rows;
 }
 
 // Face lists: fan-triangulates one polygon, checking its indices fit in 32 bits (their range
@@ -397,14 +422,6 @@ const char* addPolygon(std::vector<glm::u32vec3>& triangles, const double* indic
     const auto at = [&](std::size_t k) { return static_cast<std::uint32_t>(indices[k]); };
     for (std::size_t k = 1; k + 1 < n; ++k) triangles.emplace_back(at(0), at(k), at(k + 1));
     return nullptr;
-}
-
-int faceListIndex(const Element& face) {
-    for (std::string_view name : {"vertex_indices", "vertex_index"}) {
-        const int p = face.find(name);
-        if (p >= 0 && face.properties[p].isList) return p;
-    }
-    return -1;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -524,15 +541,10 @@ class BinaryReader {
         // Every row holds at least its list counts and scalars: bound the count before allocating.
         std::size_t minRow = 0;
         for (const Property& p : element.properties) minRow += sizeOf(p.isList ? p.countType : p.type);
-        const std::uint64_t available = remaining() / minRow;
-        if (element.count > available)
-            return fail(file_,
-                        fmt::format("truncated binary data ({} element of {} rows, room for at most {})",
-                                    printable(element.name), element.count, available));
-        const auto count = static_cast<std::size_t>(element.count);
-        const int faceList = isFace ? faceListIndex(element) : -1;
-        if (isFace && faceList < 0) return fail(file_, "face element has no vertex_indices list");
-        const std::vector<int> slotOf = prepareRows(element, isVertex, isFace, layout, count, out);
+        const Result<Rows> rows =
+            prepareRows(file_, "binary", element, remaining() / minRow, isVertex, isFace, layout, out);
+        if (!rows) return rows.error();
+        const auto& [count, faceList, slotOf] = *rows;
         std::array<double, kSlotCount> values{};
         for (std::size_t i = 0; i < count; ++i) {
             for (std::size_t p = 0; p < element.properties.size(); ++p) {
@@ -632,28 +644,14 @@ class AsciiReader {
         std::int64_t i = 0;
         const auto [end, ec] = std::from_chars(first, last, i);
         if (ec != std::errc() || end != last) return false;
-        std::int64_t lo = 0;
-        std::int64_t hi = 0;
-        switch (type) {
-        case ScalarType::Int8:
-            lo = INT8_MIN, hi = INT8_MAX;
-            break;
-        case ScalarType::UInt8:
-            hi = UINT8_MAX;
-            break;
-        case ScalarType::Int16:
-            lo = INT16_MIN, hi = INT16_MAX;
-            break;
-        case ScalarType::UInt16:
-            hi = UINT16_MAX;
-            break;
-        case ScalarType::Int32:
-            lo = INT32_MIN, hi = INT32_MAX;
-            break;
-        default:
-            hi = UINT32_MAX;
-            break;
-        }
+        // The range of each integer type, in the order of ScalarType.
+        constexpr std::array<std::pair<std::int64_t, std::int64_t>, 6> kRange{{{INT8_MIN, INT8_MAX},
+                                                                               {0, UINT8_MAX},
+                                                                               {INT16_MIN, INT16_MAX},
+                                                                               {0, UINT16_MAX},
+                                                                               {INT32_MIN, INT32_MAX},
+                                                                               {0, UINT32_MAX}}};
+        const auto [lo, hi] = kRange[static_cast<std::size_t>(type)];
         if (i < lo || i > hi) return false;
         value = static_cast<double>(i);
         return true;
@@ -679,14 +677,10 @@ class AsciiReader {
         if (element.properties.empty()) return {};
         // n values need at least 2n - 1 characters: bound the count before allocating.
         const std::uint64_t available = (remaining() / 2 + 1) / element.properties.size();
-        if (element.count > available)
-            return fail(file_,
-                        fmt::format("truncated ascii data ({} element of {} rows, room for at most {})",
-                                    printable(element.name), element.count, available));
-        const auto count = static_cast<std::size_t>(element.count);
-        const int faceList = isFace ? faceListIndex(element) : -1;
-        if (isFace && faceList < 0) return fail(file_, "face element has no vertex_indices list");
-        const std::vector<int> slotOf = prepareRows(element, isVertex, isFace, layout, count, out);
+        const Result<Rows> rows =
+            prepareRows(file_, "ascii", element, available, isVertex, isFace, layout, out);
+        if (!rows) return rows.error();
+        const auto& [count, faceList, slotOf] = *rows;
         std::array<double, kSlotCount> values{};
         double scratch = 0.0;
         for (std::size_t i = 0; i < count; ++i) {

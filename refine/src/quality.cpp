@@ -16,14 +16,14 @@
 #include <filesystem>
 #include <limits>
 #include <memory>
-#include <numbers>
 #include <span>
 #include <string_view>
 
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
-#include <nanoflann.hpp>
 
+#include "kd_tree.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/text.h"
 #include "pnsplat/refine/worker_pool.h"
@@ -32,7 +32,6 @@ namespace pnsplat {
 namespace {
 
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 // ---- Worker threads ----
 
@@ -41,38 +40,23 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 // depend on which worker ran which range.
 constexpr std::size_t kChunk = 2048;
 
-// ---- Nearest points: nanoflann over a flat array of positions ----
+// ---- Nearest points: the k-d tree of kd_tree.h ----
 
-struct PositionsAdaptor {
-    std::span<const glm::vec3> positions;
-    std::size_t kdtree_get_point_count() const { return positions.size(); }
-    float kdtree_get_pt(std::size_t i, std::size_t dim) const {
-        return positions[i][static_cast<glm::length_t>(dim)];
-    }
-    template <typename Box>
-    bool kdtree_get_bbox(Box&) const {
-        return false;
-    }
-};
-
-using PointTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PositionsAdaptor>,
-                                                      PositionsAdaptor, 3, std::uint32_t>;
-
-// A kd-tree over `adaptor`'s positions, 16 points per leaf. The pragma silences a GCC 12 false
+// A kd-tree over `cloud`'s positions, 16 points per leaf. The pragma silences a GCC 12 false
 // positive (-Wnull-dereference inside std::vector::resize, inlined from nanoflann's buildIndex).
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #endif
-std::unique_ptr<PointTree> makePointTree(const PositionsAdaptor& adaptor) {
-    return std::make_unique<PointTree>(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+std::unique_ptr<KdTree> makePointTree(const KdCloud& cloud) {
+    return std::make_unique<KdTree>(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
 }
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
 #endif
 
 // Index and squared distance of the point of `tree` nearest to q.
-std::pair<std::uint32_t, float> nearest(const PointTree& tree, glm::vec3 q) {
+std::pair<std::uint32_t, float> nearest(const KdTree& tree, glm::vec3 q) {
     std::uint32_t index = 0;
     float d2 = kInfinity;
     nanoflann::KNNResultSet<float, std::uint32_t> result(1);
@@ -92,13 +76,6 @@ glm::vec3 closestOnSegment(glm::vec3 p, glm::vec3 a, glm::vec3 b, float& t) {
 
 float length2(glm::vec3 v) {
     return glm::dot(v, v);
-}
-
-// Angle in degrees between two directions (need not be unit): atan2(|a x b|, a . b), accurate
-// for small angles, where acos is not.
-double angleDeg(glm::vec3 a, glm::vec3 b) {
-    const glm::dvec3 da(a), db(b);
-    return std::atan2(glm::length(glm::cross(da, db)), glm::dot(da, db)) * kRadToDeg;
 }
 
 struct Box {
@@ -194,22 +171,19 @@ glm::vec3 closestPointThinTriangle(glm::vec3 p, glm::vec3 a, glm::vec3 b, glm::v
 // ---- Closest point on a triangle (Ericson, Real-Time Collision Detection, 5.1.5) ----
 
 glm::vec3 closestPointBarycentric(glm::vec3 p, glm::vec3 a, glm::vec3 b, glm::vec3 c) {
-    const glm::vec3 ab = b - a, ac = c - a, ap = p - a;
+    // Ericson's d1 ... d6: the edges ab and ac against p as seen from a, b and c.
+    const glm::vec3 ab = b - a, ac = c - a, ap = p - a, bp = p - b, cp = p - c;
     const float d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
-    if (d1 <= 0.0f && d2 <= 0.0f) return {1.0f, 0.0f, 0.0f}; // vertex region a
-
-    const glm::vec3 bp = p - b;
     const float d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
-    if (d3 >= 0.0f && d4 <= d3) return {0.0f, 1.0f, 0.0f}; // vertex region b
+    const float d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+    if (d1 <= 0.0f && d2 <= 0.0f) return {1.0f, 0.0f, 0.0f}; // vertex region a
+    if (d3 >= 0.0f && d4 <= d3) return {0.0f, 1.0f, 0.0f};   // vertex region b
 
     const float vc = d1 * d4 - d3 * d2;
     if (vc <= 0.0f && d1 >= 0.0f && d3 <= 0.0f) { // edge region ab
         const float v = d1 / (d1 - d3);
         return {1.0f - v, v, 0.0f};
     }
-
-    const glm::vec3 cp = p - c;
-    const float d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
     if (d6 >= 0.0f && d5 <= d6) return {0.0f, 0.0f, 1.0f}; // vertex region c
 
     const float vb = d5 * d2 - d1 * d6;
@@ -427,8 +401,8 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     // is that of the closer of its two normals).
     std::vector<float> distance(n), angle(n);
     const auto normalError = [&](std::size_t i, glm::vec3 truth) {
-        double a = angleDeg(refined.normal[i], truth);
-        if (refined.isCrease(i)) a = std::min(a, angleDeg(refined.crease[i], truth));
+        double a = angleInDegrees(refined.normal[i], truth);
+        if (refined.isCrease(i)) a = std::min(a, angleInDegrees(refined.crease[i], truth));
         return static_cast<float>(a);
     };
     if (reference.isAnalytic()) {
@@ -463,9 +437,9 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
         });
     } else {
         // Points only: the nearest reference point's tangent plane stands for the surface.
-        const PositionsAdaptor adaptor{reference.points.position};
+        const KdCloud cloud{reference.points.position};
         report.diagonal = diagonalOf(reference.points.position);
-        const std::unique_ptr<PointTree> tree = makePointTree(adaptor);
+        const std::unique_ptr<KdTree> tree = makePointTree(cloud);
         parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
             for (std::size_t i = begin; i < end; ++i) {
                 const std::uint32_t q = nearest(*tree, refined.position[i]).first;
@@ -503,9 +477,9 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     }
 
     // 2. Uniformity: nearest other refined point of each refined point.
-    const PositionsAdaptor refinedAdaptor{refined.position};
-    const std::unique_ptr<PointTree> refinedTreePtr = makePointTree(refinedAdaptor);
-    const PointTree& refinedTree = *refinedTreePtr;
+    const KdCloud refinedCloud{refined.position};
+    const std::unique_ptr<KdTree> refinedTreePtr = makePointTree(refinedCloud);
+    const KdTree& refinedTree = *refinedTreePtr;
     std::vector<float>& spacing = distance; // reuse the array
     parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
         for (std::size_t i = begin; i < end; ++i) {

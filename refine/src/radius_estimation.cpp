@@ -1,4 +1,4 @@
-// Radius estimation from the natural first ring (SPEC.md section 9).
+// Radius estimation from the natural first ring (ALGORITHM.md §9.3).
 #include "pnsplat/refine/radius_estimation.h"
 
 #include <algorithm>

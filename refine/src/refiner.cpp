@@ -1,6 +1,6 @@
-// Levels of refinement on worker threads: paper sections 5 and 7, SPEC.md sections 4, 5 and 7.
+// Levels of refinement on worker threads: paper sections 5 and 7, ALGORITHM.md §4, §5 and §7.
 //
-// Parallel scheme (SPEC 5). The result of a level depends on the order in which its points are
+// Parallel scheme (ALGORITHM.md §5). The result of a level depends on the order in which its points are
 // refined, so the order is fixed independently of the thread count:
 //  - Space is cut into cubic cells of side s = kCellFactor · r_lim, r_lim the 99th percentile of
 //    the radii of P(l), and the cells into tiles, cubes of 2^t cells a side (t at most
@@ -48,6 +48,7 @@
 #include "kd_tree.h"
 #include "pnsplat/refine/hierarchy.h"
 #include "pnsplat/refine/huge_pages.h"
+#include "pnsplat/refine/morton.h"
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/worker_pool.h"
@@ -268,17 +269,6 @@ inline std::uint64_t cellKeyOf(glm::vec3 x, glm::vec3 lo, float cellSize) {
     return packCell(c.x, c.y, c.z);
 }
 
-// 21-bit spread for Morton codes: bit k of v goes to bit 3k.
-inline std::uint64_t spreadBits(std::uint64_t v) {
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x1f00000000ffffull;
-    v = (v | v << 16) & 0x1f0000ff0000ffull;
-    v = (v | v << 8) & 0x100f00f00f00f00full;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
-    v = (v | v << 2) & 0x1249249249249249ull;
-    return v;
-}
-
 // The axis-aligned bounding box of `positions`, and its longest side.
 struct Bounds {
     glm::vec3 lo{std::numeric_limits<float>::max()}, hi{std::numeric_limits<float>::lowest()};
@@ -301,13 +291,11 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     const Bounds bounds = boundsOf(input.position);
     const glm::vec3 lo = bounds.lo;
     const float extent = std::max(bounds.extent(), std::numeric_limits<float>::min());
-    const float scale = float((1u << 21) - 1) / extent;
+    const float scale = float((1u << kMortonBits) - 1) / extent;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
     for (std::uint32_t i = 0; i < count; ++i) {
-        const glm::vec3 q = (input.position[i] - lo) * scale;
-        const auto code = spreadBits(std::uint64_t(q.x)) | spreadBits(std::uint64_t(q.y)) << 1 |
-                          spreadBits(std::uint64_t(q.z)) << 2;
-        keyed[i] = {code, i};
+        const glm::uvec3 q((input.position[i] - lo) * scale);
+        keyed[i] = {mortonCode(q.x, q.y, q.z), i};
     }
     std::sort(keyed.begin(), keyed.end());
     order.resize(count);
@@ -628,8 +616,8 @@ struct Refiner::State {
     void splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s);
     NewPoint& newPoint(const RingMember& m) { return cellBase[m.cell][m.local]; }
     // Whether q may join N'_p: r' = kRadiusMargin·|q - p| stays within c_β,max·r (the convergence
-    // bound of SPEC 4, section 8.1), which the choices on Y_p's substitutes, the segments' first
-    // points and the candidates of a wider second look rely on.
+    // bound of ALGORITHM.md §4.7, paper section 8.1), which the choices on Y_p's substitutes, the segments'
+    // first points and the candidates of a wider second look rely on.
     bool withinConvergenceBound(std::uint32_t p, glm::vec3 q) const {
         return kRadiusMargin * glm::length(q - points.position[p]) <= kCBetaMax * levelRadius[p];
     }
@@ -969,7 +957,7 @@ void Refiner::State::insertIntoRing(std::vector<RingMember>& ring, const RingMem
 
 // Segments (section 6): a segment (a, b) receives two new points, at the thirds of the cubic
 // Bézier curve a, c1, c2, b, at every odd step; never one at the middle. They are children of a;
-// the one next to a joins N'_a. Boundary: c1, c2 are the edge control points of SPEC 2 (tangents
+// the one next to a joins N'_a. Boundary: c1, c2 are the edge control points of ALGORITHM.md §2.2 (tangents
 // in the tangent planes); normal and colour interpolated along the curve (choice: the paper gives
 // none for boundary points). Crease: the curve leaves each end along its crease direction n1 × n2,
 // with the same |ab|/3 legs, and the new points are crease points whose two normals interpolate
@@ -1036,7 +1024,7 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             ++s.boundaryInserted;
             // The first point joins N'_p (it fills the gap along the segment), unless it lies
             // farther than c_β,max · r_p: choice, as for Y_p's substitutes, so that r' stays within
-            // the convergence bound of SPEC 4 (a segment may be up to kRetryReach · r long).
+            // the convergence bound of ALGORITHM.md §4.7 (a segment may be up to kRetryReach · r long).
             if (third == 1 && withinConvergenceBound(p, q))
                 insertIntoRing(s.ring, RingMember{cell, local, q, facing(np.normal, np.crease, frame.n),
                                                   frame.angleOf(q - x)});
@@ -1051,7 +1039,7 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
 // the fuzzy filter into p's fan. An edge is sampled as sparsely as the faces beside it, and the
 // filtered first ring of a crease point often holds no crease point ahead: on the fandisk's 179
 // crease points the fans gave 61 segments, r gives 92 and 1.5 r 123 (RefinerCreases). A segment
-// longer than r_p needs splitSegments' guard on N'_p for the convergence bound of SPEC 4; with it,
+// longer than r_p needs splitSegments' guard on N'_p for the convergence bound of ALGORITHM.md §4.7; with it,
 // wider balls (2 r, 3 r) still broke the bound at level 5 (r'/r up to 0.983). None for a point
 // whose two normals are less than 1° apart (creaseDirection; before, such points within 1° of
 // parallel found neighbours along a direction made of rounding, and exactly parallel ones none).

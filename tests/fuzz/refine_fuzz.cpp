@@ -3,11 +3,11 @@
 // and radii estimated where missing, validated — and then two levels of refinement. Inputs are
 // kept small (at most kMaxPoints points) so that each run takes milliseconds.
 // Oracles, on every input that is refined:
-// - interpolation (SPEC 1): every input point is in the output bit for bit (position, normal,
+// - interpolation (ALGORITHM.md §1.1): every input point is in the output bit for bit (position, normal,
 //   colour, second normal);
-// - convergence (SPEC 4): every old radius shrinks at least by c_β,max per level (the refiner
+// - convergence (ALGORITHM.md §4.7): every old radius shrinks at least by c_β,max per level (the refiner
 //   keeps r' <= c_β,max·r in single precision with c_β,max rounded down, below the exact bound);
-// - determinism (SPEC 5): one and two threads give the same bits;
+// - determinism (ALGORITHM.md §5.1): one and two threads give the same bits;
 // - finite positions, unit normals, finite positive radii.
 #include <cstddef>
 #include <cstdint>

@@ -21,11 +21,12 @@ struct Buffer {
     void* mapped = nullptr; // set for Upload and Readback, and for Device memory that is host-visible
 };
 
-// Memory for `requirements` of a type with all of `required`, preferring one with `preferred`;
-// the type chosen goes to *type when given. Throws VulkanError on failure.
-Unique<VkDeviceMemory> allocateMemory(Context& context, const VkMemoryRequirements& requirements,
-                                      VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred = 0,
-                                      std::uint32_t* type = nullptr);
+// Memory for `buffer` (or `image`), bound to it, of a type with all of `required`, preferring one
+// with `preferred`; the type chosen goes to *type when given. Throws VulkanError on failure.
+Unique<VkDeviceMemory> bindMemory(Context& context, VkBuffer buffer, VkMemoryPropertyFlags required,
+                                  VkMemoryPropertyFlags preferred = 0, std::uint32_t* type = nullptr);
+Unique<VkDeviceMemory> bindMemory(Context& context, VkImage image, VkMemoryPropertyFlags required,
+                                  VkMemoryPropertyFlags preferred = 0, std::uint32_t* type = nullptr);
 
 // Throws VulkanError on failure. size must be positive.
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use);

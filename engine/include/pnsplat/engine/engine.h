@@ -4,7 +4,7 @@
 // Each frame: finished refinements join the node tree (node_tree.h); the nodes are selected for
 // the camera (frustum culling; level of detail by projected splat size, with hysteresis);
 // visible nodes whose splats are larger than the threshold are queued for refinement, coarsest
-// level first, then largest on screen (breadth-first), on the worker threads (node_workers.h);
+// level first, then largest on screen (breadth-first), on the worker threads (node_workers.h).
 // chunks of nodes to draw go into the ring-buffer cache (chunk_cache.h); the three passes draw the
 // selected chunks (splat_renderer.h). The render thread never waits for a refinement: a node is
 // drawn once its children are all uploaded, its parent until then. With `lockstep` a frame instead
@@ -50,7 +50,7 @@ struct EngineSettings {
     // Points the node tree keeps on the CPU, as a multiple of the cache's capacity: the nodes drawn,
     // their ancestors and recently drawn nodes (the least recently drawn are released first).
     float cpuCacheFactor = 2.0f;
-    // Refinement worker threads (>= 1); see docs/LAVAPIPE-REALTIME.md for the default's measurements.
+    // Refinement worker threads (>= 1); docs/REALTIME.md has the measurements behind the default.
     unsigned workers = 1;
     // Most bytes uploaded to the cache per frame (not in lockstep), so that a burst of refined
     // nodes does not stall one frame.

@@ -1,7 +1,7 @@
 // Frames in flight: the CPU records frame n+1 while the GPU still draws frame n. Each frame has a
 // slot of its own (a fence, a command pool, a list of objects to destroy later); a slot is reused
 // kFramesInFlight frames later, after its fence has signalled. Objects a frame may still read are
-// handed to defer() and destroyed then, not at once (STYLE.md, "Vulkan"; as Granite and niagara do).
+// handed to defer() and destroyed then, not at once (as Granite and niagara do).
 //
 // Thread use: one thread (the render thread) for everything.
 #pragma once

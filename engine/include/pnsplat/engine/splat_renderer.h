@@ -1,4 +1,4 @@
-// Surface splatting in three passes (SPEC 11): visibility, Gaussian accumulation, normalization
+// Surface splatting in three passes (ALGORITHM.md §11): visibility, Gaussian accumulation, normalization
 // with deferred shading, on one of two paths that give the same picture:
 //  - Compute: one invocation per splat walks its screen footprint; 32-bit atomicMin on depth,
 //    fixed-point accumulation by 64-bit atomicAdd (shaderBufferInt64Atomics), a per-pixel
@@ -30,7 +30,7 @@ enum class RenderPath {
     Compute,
     Graphics,
     // Not splatting: every splat centre as a plain 1-pixel point through the raster pipeline, with
-    // a depth test. The benchmark's baseline (LAVAPIPE.md: raster cost is per primitive).
+    // a depth test. The benchmark's baseline (on lavapipe, raster cost is per primitive).
     PlainPoints,
 };
 

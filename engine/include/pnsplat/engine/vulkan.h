@@ -1,5 +1,5 @@
 // Vulkan basics shared by the engine: the one error path for VkResult and move-only ownership of
-// handles (STYLE.md, "Errors" and "Vulkan").
+// handles (CONTRIBUTING.md, "Errors in the engine").
 //
 // Inside the engine a failed call throws VulkanError ("file:line: call -> VK_ERROR_NAME"); the
 // engine's public entry points catch it and return it as a Result, so callers see values only.
@@ -61,5 +61,25 @@ class Unique {
     T handle_ = VK_NULL_HANDLE;
     Destroy destroy_ = nullptr;
 };
+
+// Creates a device-level object through its vkCreate* function, create(device, &info, nullptr,
+// &handle), and owns it, to be destroyed by `destroy`, the matching vkDestroy* function. A failure
+// throws VulkanError naming `call` at `file`:`line`, as PNSPLAT_VK_CHECK does. Use it through
+// PNSPLAT_VK_CREATE.
+template <typename T, typename Info>
+Unique<T> createUnique(VkDevice device,
+                       VkResult (*create)(VkDevice, const Info*, const VkAllocationCallbacks*, T*),
+                       const Info& info, typename Unique<T>::Destroy destroy, const char* call,
+                       const char* file, int line) {
+    T handle = VK_NULL_HANDLE;
+    check(create(device, &info, nullptr, &handle), call, file, line);
+    return Unique<T>(device, handle, destroy);
+}
+
+// PNSPLAT_VK_CREATE(Buffer, device, info): the VkBuffer of vkCreateBuffer, owned, destroyed by
+// vkDestroyBuffer; likewise for every Vk<Kind> made by vkCreate<Kind> from one create-info.
+#define PNSPLAT_VK_CREATE(Kind, device, info)                                                                \
+    ::pnsplat::engine::createUnique<Vk##Kind>((device), vkCreate##Kind, (info), vkDestroy##Kind,             \
+                                              "vkCreate" #Kind, __FILE__, __LINE__)
 
 } // namespace pnsplat::engine

@@ -1,4 +1,4 @@
-// The spatial structure of the refinement: paper section 7 ("Closest points query"), SPEC.md 7.
+// The spatial structure of the refinement: paper section 7 ("Closest points query"), ALGORITHM.md §7.2.
 //
 // A static kd-tree is built once over P0. Every refinement level l → l+1 appends the new points as
 // one block, grouped by the point whose refinement inserted them (their parent), and records per

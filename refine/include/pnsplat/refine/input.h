@@ -1,4 +1,4 @@
-// A scan as the refinement takes it (SPEC 9; what `pnsplat refine` and `render` do with a file):
+// A scan as the refinement takes it (ALGORITHM.md §9; what `pnsplat refine` and `render` do with a file):
 // points that repeat an earlier position merged, normals estimated when there are none, radii
 // estimated when there are none (or always, when asked). Not in the paper. Any thread may call it;
 // the estimations run on the given number of worker threads (0 = all), with results that do not

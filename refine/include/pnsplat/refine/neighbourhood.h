@@ -1,4 +1,4 @@
-// One-ring neighbourhoods: paper section 4, SPEC.md section 3.
+// One-ring neighbourhoods: paper section 4, ALGORITHM.md §3.
 //
 // The Euclidean neighbourhood Nε_p (points of the current level closer than r, passing the
 // validity cone of eq. 6) is filtered by the fuzzy BSP rule into Nf_p, or into Ng_p when the
@@ -35,7 +35,7 @@ struct NeighbourSet {
     std::vector<glm::vec3> position;
     std::vector<glm::vec3> normal;
     // Filled by sortFan/filterFuzzy: the angle around n_p in (-π, π], and the two edge control
-    // points of the PN curve between p and the neighbour (SPEC 2): nearControl = b_{p,i} (a third
+    // points of the PN curve between p and the neighbour (ALGORITHM.md §2.2): nearControl = b_{p,i} (a third
     // of the way from p), farControl = b_{i,p}; the triangles of the fan reuse them. The control
     // points are left empty by a filterFuzzy that neither uses nor was asked for them.
     std::vector<float> angle;
@@ -54,15 +54,15 @@ struct FuzzyParams {
     float thetaF = std::numbers::pi_v<float> / 6.0f; // tolerance θf of the fuzzy plane
     // Ng instead of Nf: badness measured on the geodesic projections q'_i = p + G(p,p_i)·q̂_i.
     bool geodesicProjection = true;
-    // SPEC 10 (1): G(p,p_i) ≈ |p p_i| (only with geodesicProjection).
+    // ALGORITHM.md §10, variant (1): G(p,p_i) ≈ |p p_i| (only with geodesicProjection).
     bool euclideanGeodesic = false;
     // Fill NeighbourSet::nearControl/farControl even when the filter itself does not need them.
     bool edgeControls = true;
 };
 
-// Badness w_ij of p_i against p_j seen from p (SPEC 3): with sin α = normalize(p_j-p)·normalize(p_i-p_j),
-// 0 when α < -θf, else (sin α / sin θf + 1) / 2. This form takes the unit direction of p_j - p
-// and the vector p_i - p_j (the filter computes the direction once per neighbour).
+// Badness w_ij of p_i against p_j seen from p (ALGORITHM.md §3.2): with sin α =
+// normalize(p_j-p)·normalize(p_i-p_j), 0 when α < -θf, else (sin α / sin θf + 1) / 2. This form takes the
+// unit direction of p_j - p and the vector p_i - p_j (the filter computes the direction once per neighbour).
 inline float fuzzyBadness(glm::vec3 directionJ, glm::vec3 jToI, float sinThetaF) {
     const float length2 = glm::dot(jToI, jToI);
     if (!(length2 > 0.0f)) return 0.0f;
@@ -96,7 +96,7 @@ struct NeighbourhoodScratch {
 // Filters `set` (the Euclidean neighbourhood of (p, n), validity already checked) into Nf_p or
 // Ng_p and sorts the survivors by angle around n, filling set.angle.
 //
-// Ambiguity (SPEC 3), choice made: every w_i is computed against the whole Euclidean
+// Ambiguity (ALGORITHM.md §3.2), choice made: every w_i is computed against the whole Euclidean
 // neighbourhood, and all points with w_i > 1 are removed at once. The rule is then a pure function
 // of the set (no dependence on the order of the neighbours), and a point strongly behind a point
 // that is itself removed is still behind it. The resulting symmetry rate is measured in

@@ -1,4 +1,4 @@
-// Normals for inputs that come without them (SPEC.md section 9; not in the paper), after Hoppe,
+// Normals for inputs that come without them (ALGORITHM.md §9.2; not in the paper), after Hoppe,
 // DeRose, Duchamp, McDonald and Stuetzle, "Surface reconstruction from unorganized points"
 // (SIGGRAPH 1992).
 //
@@ -11,9 +11,9 @@
 // |d · n_i| + |d · n_j| for the unit direction d between them (a choice beyond Hoppe: an edge
 // across a thin wall or a sharp crease is crossed last; see orientationWeight). Each point takes
 // the sign that agrees with the point it was reached from.
-// Choice (SPEC 9 offers MST propagation or outward for closed shapes): each connected component
-// starts at its point of largest z (ties: largest y, then x), whose normal is turned towards +z.
-// At the top of a closed shape that is outward, so closed shapes come out outward-facing.
+// Choice (ALGORITHM.md §9.2; MST propagation, or outward for closed shapes, are the usual ones): each
+// connected component starts at its point of largest z (ties: largest y, then x), whose normal is turned
+// towards +z. At the top of a closed shape that is outward, so closed shapes come out outward-facing.
 //
 // Thread use: the PCA runs on the given number of worker threads (0 = all), the propagation on
 // the calling thread; the result does not depend on the thread count.

@@ -1,4 +1,4 @@
-// PN-triangle tools: paper section 3, SPEC.md section 2.
+// PN-triangle tools: paper section 3, ALGORITHM.md §2.
 //
 // Curved point-normal triangles after Vlachos, Peters, Boyd and Mitchell, "Curved PN Triangles"
 // (I3D 2001), with the edge control points of Guennebaud, Barthe and Paulin (EG 2005, eq. 1-6):
@@ -32,7 +32,7 @@ inline glm::vec3 edgeControlPointFromThird(glm::vec3 pa, glm::vec3 na, glm::vec3
 }
 } // namespace detail
 
-// Edge control point near `pa` on the edge pa→pb (SPEC 2):
+// Edge control point near `pa` on the edge pa→pb (ALGORITHM.md §2.2):
 //   b_ab = pa + |pa pb|/3 · normalize(Q_a(pa + (pb - pa)/3) - pa),
 // Q_a the orthogonal projection onto the tangent plane of pa. When pb - pa is parallel to na
 // (the tangent direction is undefined; the validity cone of eq. 6 excludes such pairs) the
@@ -115,8 +115,8 @@ inline glm::vec3 centreOfGravity(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
 }
 
 // Normal of the new point: cross product of the exact partial derivatives of the patch at its
-// centre (SPEC 2; the paper's printed tangents (eq. 4) are a scaled approximation that differs on
-// curved triangles). With s the weight of p1 and t the weight of p2:
+// centre (ALGORITHM.md §2.5; the tangents printed in paper section 3 are a scaled approximation that
+// differs on curved triangles). With s the weight of p1 and t the weight of p2:
 //   3 dB/ds = (p1-p0) + (b120-b210) + (b012-b102) + 2(b021-b201)
 //   3 dB/dt = (p2-p0) + (b102-b201) + (b021-b120) + 2(b012-b210)
 // oriented like n0+n1+n2. For a degenerate patch (tangents parallel within 0.5°: a sliver whose
@@ -144,7 +144,7 @@ inline glm::vec3 centreOfGravity(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
     return glm::dot(n, n0 + n1 + n2) < 0.0f ? -n : n;
 }
 
-// Geodesic distance (eq. 5 context): the length of the control polygon of the boundary curve
+// Geodesic distance (eq. 4): the length of the control polygon of the boundary curve
 // between p0 and p1, G = 2/3 |p0 p1| + |b210 - b120|.
 // The same from edge control points already at hand: b210 = b_01 near p0, b120 = b_10 near p1.
 inline float controlPolygonLength(glm::vec3 p0, glm::vec3 p1, glm::vec3 b210, glm::vec3 b120) {
@@ -211,8 +211,8 @@ inline float curvedAngleUnlessSmall(glm::vec3 p, glm::vec3 p0, glm::vec3 n0, glm
            detail::fastAtan2Upper(x23, d23);
 }
 
-// Neighbour validity (eq. 6, SPEC 2): p1 may be a neighbour of p0 only when it lies outside the cone
-// of apex p0, axis n0+n1 and half-angle γ/2 (γ the angle between the normals):
+// Neighbour validity (eq. 6, ALGORITHM.md §2.9): p1 may be a neighbour of p0 only when it lies outside the
+// cone of apex p0, axis n0+n1 and half-angle γ/2 (γ the angle between the normals):
 //   |(n0+n1) · normalize(p1-p0)| < 1 + n0·n1.
 // The extracted paper text shows '>', which would reject coplanar points with equal normals; the
 // geometric statement '<' is implemented. Symmetric in its two points. Coincident points fail.

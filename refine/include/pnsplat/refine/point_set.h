@@ -4,8 +4,8 @@
 //
 // Units are the model's own; normals are unit length; a radius is the splat radius, which the
 // refinement requires to reach at least the farthest neighbour of the point's natural first ring
-// (SPEC 1). Colours are 8-bit sRGB as stored in PLY files. A crease point (SPEC 6) is one point
-// with two normals: `normal` and `crease`, the normal of the surface on the other side of the
+// (ALGORITHM.md §1.2). Colours are 8-bit sRGB as stored in PLY files. A crease point (ALGORITHM.md §6.1) is
+// one point with two normals: `normal` and `crease`, the normal of the surface on the other side of the
 // crease; ordinary points of a set with creases have a zero `crease`.
 #pragma once
 

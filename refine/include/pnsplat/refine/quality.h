@@ -15,7 +15,7 @@
 //   points), which tells a gap in the sampling from a refined surface that lies slightly off the
 //   true one (for a sparse input, the approximation error can exceed twice the refined spacing);
 // - input preservation: whether every input point appears in the output with bit-identical
-//   position and normal (the method is interpolatory, SPEC 1), and how many do not; for an input
+//   position and normal (the method is interpolatory, ALGORITHM.md §1.1), and how many do not; for an input
 //   of positions only (its normals were estimated when it was refined), position alone.
 //
 // The true surface is one of:

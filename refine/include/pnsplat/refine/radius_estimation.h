@@ -1,8 +1,8 @@
-// Radii for inputs that come without them (SPEC.md section 9; not in the paper).
+// Radii for inputs that come without them (ALGORITHM.md §9.3; not in the paper).
 //
 // The refinement needs r_i to reach at least the farthest neighbour of the natural first ring of
-// p_i (SPEC 1). The estimate: take the points within twice the distance of the 6th nearest
-// neighbour (at most kMaxCandidates), filter them with the fuzzy BSP rule (Nf, SPEC 3) like a
+// p_i (ALGORITHM.md §1.2). The estimate: take the points within twice the distance of the 6th nearest
+// neighbour (at most kMaxCandidates), filter them with the fuzzy BSP rule (Nf, ALGORITHM.md §3.2) like a
 // refinement step would, and take the distance of the farthest survivor. Then make the relation
 // symmetric: when p_j survives around p_i, r_j also reaches p_i.
 //

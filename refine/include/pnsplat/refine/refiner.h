@@ -1,9 +1,9 @@
 // Interpolatory √3-like refinement of an oriented point set: paper sections 5 and 7,
-// SPEC.md sections 1, 4, 5, 7 and 10.
+// ALGORITHM.md §1, §4, §5, §7 and §10.
 //
-// P0 ⊂ P1 ⊂ P2 ⊂ ...: each level refines every point of P(l) once (local refinement, SPEC 4) and
+// P0 ⊂ P1 ⊂ P2 ⊂ ...: each level refines every point of P(l) once (local refinement, ALGORITHM.md §4) and
 // appends the inserted points. Old points never move; only their radius changes. The output of a
-// level is identical for any number of threads (SPEC 5: fixed spatial colouring, see refiner.cpp).
+// level is identical for any number of threads (ALGORITHM.md §5: a fixed spatial colouring, see refiner.cpp).
 #pragma once
 
 #include <array>
@@ -16,6 +16,7 @@
 #include <span>
 #include <vector>
 
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
 
@@ -31,7 +32,7 @@ enum class NeighbourhoodKind {
 inline constexpr float kLambda1 = 0.57735026918962576f;
 inline constexpr float kLambda2 = 0.5f;
 inline constexpr float kThetaC = std::numbers::pi_v<float> / 2.0f;
-// The convergence bound (section 8.1, eq. 14, SPEC 4): c_β,max = max over β of
+// The convergence bound (section 8.1, eq. 14, ALGORITHM.md §4.7): c_β,max = max over β of
 // (5/6 + 5/6 + cos(β/2) + 2/3 sin(β/2)) / 3 = (5 + √13) / 9, rounded down. Every radius of P(l)
 // ends a level at most c_β,max times its value before; a point whose new one-ring stays empty
 // (nothing found, nothing inserted: the paper's r' is undefined) gets exactly c_β,max · r.
@@ -60,12 +61,12 @@ struct RefineOptions {
     // Boundary gap θb ∈ (2π/3, π] (section 6): consecutive fan neighbours further apart than this
     // around p make no candidate, and mark p as a potential boundary point. Default 165°: wide
     // enough that interior fans are rarely taken for boundaries, narrow enough to find real ones.
-    float thetaB = std::numbers::pi_v<float> * (165.0f / 180.0f);
+    float thetaB = radians(165.0f);
     // Boundary segments (section 6): found among the potential boundary points of P0 at the first
     // step, each receives two points on its cubic curve at every odd step.
     bool boundaries = true;
 
-    // The faster variants of section 7 ("Simplifications"), SPEC 10, each a separate switch:
+    // The faster variants of section 7 ("Simplifications"), ALGORITHM.md §10, each a separate switch:
     bool euclideanGeodesic = false;  // (1) G(p0,p1) ≈ |p0 p1|
     bool plainAngle = false;         // (2) curved angle ≈ plain angle
                                      // (3) is neighbourhood = Fuzzy
@@ -101,7 +102,7 @@ struct LevelStats {
     std::size_t inserted = 0;
     std::size_t discarded = 0;            // candidates that fell in the discard space
     std::size_t retried = 0;              // points whose fan was open and was searched again wider
-    std::size_t beyondBound = 0;          // candidates not inserted: farther than c_β,max · r (SPEC 4)
+    std::size_t beyondBound = 0;          // candidates beyond c_β,max · r, left out (ALGORITHM.md §4.7)
     std::size_t coincident = 0;           // candidates not inserted: at the position of p or a point near it
                                           // (of P(l) within reach, of N'_p or of Y_p)
     std::size_t cappedNeighbourhoods = 0; // neighbourhoods cut to the maxNeighbours nearest
@@ -182,7 +183,7 @@ inline constexpr unsigned kEvenOutMaxLevels = 4; // the tools' level budget
 std::vector<LevelStats> refineDownTo(Refiner& refiner, float targetRadius, unsigned maxLevels,
                                      const ProgressFn& progress = {});
 
-// Hole filling (paper figure 9, SPEC 9): "the radii of the boundary points are adjusted such that
+// Hole filling (paper figure 9, ALGORITHM.md §9.6): "the radii of the boundary points are adjusted such that
 // they are greater than the hole", then the refinement is applied several times. A hole is given
 // as a ball that holds no input point.
 //  - Choice: the boundary points of a hole are those whose ball reaches the hole's

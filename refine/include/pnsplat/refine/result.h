@@ -1,4 +1,4 @@
-// Failures of the environment or the input travel as values (STYLE.md, "Errors"):
+// Failures of the environment or the input travel as values (CONTRIBUTING.md, "Errors"):
 // a Result<T> holds either a T or an Error whose message is one line for the user.
 // Programming errors are asserts, never Results.
 #pragma once

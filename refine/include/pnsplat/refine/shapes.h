@@ -45,7 +45,7 @@ PointSet sampleTorusRandom(std::size_t n, float R, float r, std::uint64_t seed);
 // Precondition: R > r > 0.
 PointSet sampleTorusUniform(std::size_t n, float R, float r);
 
-// A closed cylinder with sharp rims (SPEC 6): axis z, radius R, z in [-H/2, H/2], flat caps.
+// A closed cylinder with sharp rims (ALGORITHM.md §6): axis z, radius R, z in [-H/2, H/2], flat caps.
 // rimPoints points on each rim circle, which are crease points (normal: the radial side normal,
 // crease: the cap's ±z); the side and the caps sampled in rings of about the same spacing
 // 2πR / rimPoints (caps with a centre point); exact normals. Precondition: rimPoints >= 3,

@@ -4,8 +4,10 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <vector>
 
-#include <fmt/core.h>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "commands.h"
 #include "pnsplat/refine/ply.h"
@@ -31,6 +33,7 @@ struct RefineArgs {
     bool noSmoothing = false;
     bool ascii = false;
     bool estimateRadii = false;
+    bool keepNormals = false;
     double thetaFDegrees = 30.0;
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
@@ -42,12 +45,13 @@ constexpr unsigned kDefaultLevels = 4;
 void runRefine(const RefineArgs& args) {
     using Clock = std::chrono::steady_clock;
     PointSet points;
+    std::vector<std::string> comments; // the input's header comments, carried on to the output
     std::string inputName = args.input;
     if (args.input.empty()) {
         points = makeDefaultModel();
         inputName = "the default model";
     } else {
-        points = readInput(args.input);
+        points = readInput(args.input, &comments);
     }
 
     RefineJob job;
@@ -70,6 +74,7 @@ void runRefine(const RefineArgs& args) {
     job.targetPoints = args.targetPoints;
     job.evenOutFactor = args.evenOut;
     job.estimateRadii = args.estimateRadii;
+    job.keepNormals = args.keepNormals;
     job.holes = parseHoles(args.holes);
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
     const double refineSeconds = run.seconds;
@@ -81,7 +86,8 @@ void runRefine(const RefineArgs& args) {
         output = (args.input.empty() ? std::string("default")
                                      : std::filesystem::path(args.input).stem().string()) +
                  "-refined.ply";
-    unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
+    unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian,
+                    comments));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate =
         refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;
@@ -90,8 +96,12 @@ void runRefine(const RefineArgs& args) {
     if (!job.holes.empty())
         levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them", job.holes.size(),
                                    run.enlargedRadii, run.holeFillingLevels);
+    std::vector<std::string> inputDetail;
+    if (run.inputPoints != inputCount) inputDetail.push_back(fmt::format("{} distinct", run.inputPoints));
+    if (run.turnedNormals > 0)
+        inputDetail.push_back(fmt::format("{} flipped normal(s) turned back", run.turnedNormals));
     const std::string distinct =
-        run.inputPoints != inputCount ? fmt::format(" ({} distinct)", run.inputPoints) : std::string();
+        inputDetail.empty() ? std::string() : fmt::format(" ({})", fmt::join(inputDetail, ", "));
     fmt::print("{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), "
                "{:.3f} s in all -> {}\n",
                inputName, inputCount, distinct, outputCount, done, levelDetail, refineSeconds, rate, total,
@@ -167,6 +177,7 @@ void addRefineCommand(CLI::App& app) {
         ->capture_default_str();
     addFillHoleOption(*cmd, args->holes);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
+    addKeepNormalsOption(*cmd, args->keepNormals);
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
     cmd->callback([args] { runRefine(*args); });
 }

@@ -35,13 +35,15 @@ struct RenderArgs {
     float radiusScale = 1.0f;
     bool validation = false;
     bool flipNormals = false;
+    bool keepNormals = false;
 };
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
 // The points of `input` (a PLY file, or the embedded default model when empty) with normals and
-// radii (estimated when the file has none); `name` receives a name for messages.
-PointSet loadForRendering(const std::string& input, std::string& name) {
+// radii (estimated when the file has none), flipped normals turned back unless `keepNormals`;
+// `name` receives a name for messages.
+PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name) {
     PointSet points;
     if (input.empty()) {
         name = "the default model";
@@ -50,7 +52,7 @@ PointSet loadForRendering(const std::string& input, std::string& name) {
         name = input;
         points = readInput(input);
     }
-    completeInput(points, 0, name);
+    completeInput(points, 0, name, {.keepNormals = keepNormals});
     return points;
 }
 
@@ -65,12 +67,13 @@ engine::RenderPath choosePath(const std::string& path, const engine::Context& co
 void runRender(const RenderArgs& args) {
     using namespace engine;
     std::string name;
-    PointSet points = loadForRendering(args.input, name);
+    PointSet points = loadForRendering(args.input, args.keepNormals, name);
     const std::size_t inputCount = points.size();
     if (args.refineLevels > 0 || !args.holes.empty()) {
         RefineJob job;
         job.levels = args.refineLevels;
         job.holes = parseHoles(args.holes);
+        job.keepNormals = args.keepNormals;
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
         fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount, points.size(),
@@ -162,6 +165,7 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_flag("--validation", args->validation,
                   "load the Vulkan validation layer; any message fails the command");
     cmd->add_flag("--flip-normals", args->flipNormals, "negate every normal (shows why orientation matters)");
+    addKeepNormalsOption(*cmd, args->keepNormals);
     cmd->callback([args] { runRender(*args); });
 }
 

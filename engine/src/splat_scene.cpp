@@ -59,8 +59,8 @@ Result<SplatScene> SplatScene::create(Context& context, const PointSet& points) 
         const Sphere& bounds = scene.bounds_;
         if (!std::isfinite(bounds.radius) || !std::isfinite(bounds.centre.x) ||
             !std::isfinite(bounds.centre.y) || !std::isfinite(bounds.centre.z))
-            return Error{"the points spread farther than single precision can measure (their bounding sphere "
-                         "overflows); scale the model down"};
+            return Error{"the points spread farther than can be measured (their bounding sphere overflows "
+                         "3.4e38); scale the model down"};
         // Morton codes on a 1024³ grid over the bounding cube; ties keep input order.
         const glm::vec3 lo = scene.bounds_.centre - glm::vec3(scene.bounds_.radius);
         const float scale = scene.bounds_.radius > 0.0f ? 1023.0f / (2.0f * scene.bounds_.radius) : 0.0f;

@@ -16,6 +16,8 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <numbers>
+#include <random>
 #include <set>
 #include <sstream>
 #include <string>
@@ -380,6 +382,109 @@ TEST(CliRefine, EstimatesMissingNormals) {
     EXPECT_GT(worst, std::cos(radians(5.0)));
 }
 
+// Flipped normals (issue 20): turned back with a note and a word in the summary; with
+// --keep-normals, refine and render refuse with one line naming the first. Render turns them
+// back too.
+TEST(CliRefine, FlippedNormalsAreTurnedBackOrRefused) {
+    const TempDir dir;
+    PointSet sphere = sampleSphereRandom(1000, 1.0f, 9);
+    for (const std::size_t i : {17u, 250u, 640u}) sphere.normal[i] = -sphere.normal[i];
+    const fs::path in = dir / "flipped.ply", out = dir / "out.ply", png = dir / "out.png";
+    ASSERT_TRUE(writePly(in, sphere).ok());
+
+    RunResult r = run("refine " + quote(in) + " -l 1 -o " + quote(out));
+    std::cout << "[refine, 3 flipped normals] " << r.err << r.out;
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_EQ(r.err, "pnsplat: " + in.string() +
+                         ": 3 normal(s) pointed against their neighbours' and were turned back (the first: "
+                         "point 17); --keep-normals refuses them instead\n");
+    EXPECT_NE(r.out.find("1000 points in (3 flipped normal(s) turned back)"), std::string::npos) << r.out;
+    const auto refined = readPly(out);
+    ASSERT_TRUE(refined.ok()) << refined.error().message;
+    for (std::size_t i = 0; i < refined->points.size(); ++i)
+        ASSERT_GT(glm::dot(refined->points.normal[i], refined->points.position[i]), 0.0f) << i;
+    fs::remove(out);
+
+    r = run("refine " + quote(in) + " -l 1 --keep-normals -o " + quote(out));
+    std::cout << "[refine --keep-normals] exit " << r.exitCode << ": " << r.err;
+    EXPECT_TRUE(failsCleanly(r));
+    EXPECT_NE(
+        r.err.find(in.string() + ": 3 normal(s) point against their neighbours' (the first: point 17, at "),
+        std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(out));
+
+    r = run("render " + quote(in) + " --keep-normals --width 64 --height 48 -o " + quote(png));
+    std::cout << "[render --keep-normals] exit " << r.exitCode << ": " << r.err;
+    EXPECT_TRUE(failsCleanly(r));
+    EXPECT_NE(r.err.find("3 normal(s) point against their neighbours'"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(png));
+
+    r = run("render " + quote(in) + " --refine-levels 1 --width 64 --height 48 -o " + quote(png));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.err.find("3 normal(s) pointed against their neighbours' and were turned back"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+    EXPECT_TRUE(fs::exists(png));
+}
+
+// Acceptance 2 of issue 20 through the program: the bunny with 7 normals flipped (a fixed-seed
+// choice) refines and renders (FlippedNormals.DataModelsRefineAsTheCleanOnes measures the result).
+TEST(CliRefine, BunnyWithFlippedNormalsRefinesAndRenders) {
+    PNSPLAT_REQUIRE_DATA("bunny-3500-random.ply");
+    const TempDir dir;
+    auto data = readPly(test::dataDir() / "bunny-3500-random.ply");
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    PointSet bunny = std::move(data).value().points;
+    std::mt19937_64 rng(7);
+    std::set<std::size_t> flipped;
+    while (flipped.size() < 7) flipped.insert(static_cast<std::size_t>(rng() % bunny.size()));
+    for (const std::size_t i : flipped) bunny.normal[i] = -bunny.normal[i];
+    const fs::path in = dir / "bunny-7.ply", out = dir / "out.ply", png = dir / "out.png";
+    ASSERT_TRUE(writePly(in, bunny).ok());
+    RunResult r = run("refine " + quote(in) + " -l 2 -o " + quote(out));
+    std::cout << "[refine, bunny with 7 flipped normals] " << r.err << r.out;
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.out.find("(7 flipped normal(s) turned back)"), std::string::npos) << r.out;
+    r = run("render " + quote(in) + " --refine-levels 2 --width 160 --height 120 -o " + quote(png));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_TRUE(fs::exists(png));
+}
+
+// What refine does not use is named in one warning (properties, in file order; other elements);
+// PCL's normals are read (no note of normals estimated); the header's comments are carried on to
+// the output.
+TEST(CliRefine, UnusedPropertiesAreNamedAndCommentsCarriedOn) {
+    const TempDir dir;
+    const PointSet sphere = sampleSphereUniform(600, 1.0f);
+    std::ostringstream text;
+    text << "ply\nformat ascii 1.0\ncomment scanned by hand\nelement vertex 600\n"
+         << "property float x\nproperty float y\nproperty float z\nproperty float confidence\n"
+         << "property float normal_x\nproperty float normal_y\nproperty float normal_z\n"
+         << "property float scalar_Intensity\nproperty uchar alpha\n"
+         << "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+         << std::setprecision(9);
+    for (std::size_t i = 0; i < sphere.size(); ++i) {
+        const glm::vec3 x = sphere.position[i], n = sphere.normal[i];
+        text << x.x << " " << x.y << " " << x.z << " 0.5 " << n.x << " " << n.y << " " << n.z << " 12 255\n";
+    }
+    text << "3 0 1 2\n";
+    const fs::path in = dir / "extras.ply", out = dir / "out.ply";
+    writeText(in, text.str());
+    const RunResult r = run("refine " + quote(in) + " -l 1 -o " + quote(out));
+    std::cout << "[refine, extra properties] " << r.err;
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_EQ(r.err,
+              "pnsplat: warning: " + in.string() +
+                  ": not used, dropped: vertex properties confidence, scalar_Intensity, alpha; element "
+                  "face (1 item(s))\n");
+    const auto refined = readPly(out);
+    ASSERT_TRUE(refined.ok()) << refined.error().message;
+    EXPECT_EQ(refined->comments,
+              (std::vector<std::string>{"comment scanned by hand", "comment written by pnsplat"}));
+}
+
 // A scan that repeats points (here every one, twice): each position is refined once, and the
 // file comes out as from the points without repeats, bit for bit.
 TEST(CliRefine, RepeatedPointsAreRefinedOnce) {
@@ -457,14 +562,14 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
          "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
          "end_header\n0 0 0\n1 0 0\n2 0 0\n3 0 0\n",
          "no normal can be estimated"},
-        {"no normals, extent beyond single precision",
+        {"no normals, extent too large",
          "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
          "end_header\n0 0 0\n1e30 0 0\n0 1e30 0\n1e30 1e30 1e30\n",
-         "beyond single precision"},
+         "too large to estimate normals"},
         {"nx without ny nz",
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nend_header\n0 0 0 1\n1 0 0 1\n0 1 0 1\n",
-         "no 'ny' property"},
+         "no 'ny' (or 'normal_y') property"},
         {"NaN coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\nnan 1 0 0 0 1\n1 1 0 0 0 1\n"},
         {"infinite coordinate", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 inf 0 0 0 1\n1 1 0 0 0 1\n"},
         {"zero normal", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 0\n0 1 0 0 0 1\n1 1 0 0 0 1\n"},
@@ -474,12 +579,12 @@ TEST(CliBadInput, RefineFailsWithOneLineAndNoOutput) {
         {"three coincident points",
          headerAscii(3) + "0.5 0.5 0.5 0 0 1\n0.5 0.5 0.5 0 0 1\n0.5 0.5 0.5 0 0 1\n"},
         // Squared distances overflow (1e60) or underflow (1e-60) in single precision: no radius.
-        {"coordinates beyond single precision",
+        {"points too far apart",
          headerAscii(4) + "0 0 0 0 0 1\n1e30 0 0 0 0 1\n0 1e30 0 0 0 1\n1e30 1e30 0 0 0 1\n",
-         "no radius can be estimated"},
-        {"coordinates below single precision",
+         "lies 1e+30 from its nearest point, too far to measure its radius"},
+        {"points too close together",
          headerAscii(4) + "0 0 0 0 0 1\n1e-30 0 0 0 0 1\n0 1e-30 0 0 0 1\n1e-30 1e-30 0 0 0 1\n",
-         "no radius can be estimated"},
+         "lies 1e-30 from its nearest point, too close to measure its radius"},
         {"negative radius",
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
@@ -687,7 +792,7 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
          "--camera 0,0,5,0,0,0,0,1,0 --frame x.ply", "excludes", Exit::Usage},
         {"missing --frame file", headerAscii(3) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n",
          "--frame missing-frame.ply", "missing-frame.ply"},
-        {"extent beyond single precision", // with radii: the estimate would fail first
+        {"extent too large to measure", // with radii: the estimate would fail first
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "property float nx\nproperty float ny\nproperty float nz\nproperty float radius\nend_header\n"
          "-3e38 0 0 0 0 1 1\n3e38 0 0 0 0 1 1\n0 3e38 0 0 0 1 1\n",

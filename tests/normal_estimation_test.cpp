@@ -211,7 +211,7 @@ TEST(NormalEstimation, DataModelsAgreeWithTheirNormals) {
     }
 }
 
-// No plane to fit, too few points, a non-finite position, an extent beyond single precision: an
+// No plane to fit, too few points, a non-finite position, an extent too large or too small: an
 // error, and nothing changes (positions, normals given before, radii).
 TEST(NormalEstimation, BadInputIsAnErrorAndChangesNothing) {
     const auto withAttributes = [](PointSet points) {
@@ -246,8 +246,8 @@ TEST(NormalEstimation, BadInputIsAnErrorAndChangesNothing) {
         {"two points", withAttributes(few), "at least 3 points"},
         {"two distinct positions", withAttributes(twoPlaces), "2 distinct positions among 5 points"},
         {"NaN position", withAttributes(notFinite), "point 37 has a non-finite position"},
-        {"extent 2e20", withAttributes(huge), "beyond single precision"},
-        {"extent 2e-23", withAttributes(tiny), "beyond single precision"},
+        {"extent 2e20", withAttributes(huge), "too large to estimate normals"},
+        {"extent 2e-23", withAttributes(tiny), "too small to estimate normals"},
     };
     for (const auto& c : cases) {
         PointSet points = c.points;

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <iostream>
 #include <limits>
 #include <random>
@@ -109,6 +110,14 @@ std::string asciiHeader(int n) {
     return "ply\nformat ascii 1.0\nelement vertex " + std::to_string(n) +
            "\nproperty float x\nproperty float y\nproperty float z\n"
            "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+}
+
+// An ascii header of n vertices with float x y z and then float properties of these names.
+std::string asciiHeaderWith(int n, std::initializer_list<const char*> names) {
+    std::string header = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(n) +
+                         "\nproperty float x\nproperty float y\nproperty float z\n";
+    for (const char* name : names) header += std::string("property float ") + name + "\n";
+    return header + "end_header\n";
 }
 
 PointSet randomPoints(std::size_t n, bool withRadius, bool withColour, unsigned seed) {
@@ -415,6 +424,102 @@ TEST_F(PlyTest, NormalsMayBeAbsentWhenNotRequired) {
     const Result<PlyData> partialRead = readPly(partial, {.requireNormals = false});
     ASSERT_FALSE(partialRead.ok());
     EXPECT_NE(partialRead.error().message.find("'nx'"), std::string::npos) << partialRead.error().message;
+}
+
+// PCL's normal_x normal_y normal_z are normals; a file with both spellings reads nx ny nz and
+// names the others among the unused properties.
+TEST_F(PlyTest, PclNormalsAreRead) {
+    const fs::path pcl =
+        writeFile("pcl.ply", asciiHeaderWith(2, {"normal_x", "normal_y", "normal_z", "curvature"}) +
+                                 "0 0 0 0 0 1 0.5\n1 2 3 0 -1 0 0.25\n");
+    const Result<PlyData> read = readPly(pcl);
+    ASSERT_TRUE(read.ok()) << read.error().message;
+    EXPECT_EQ(read->points.normal[0], glm::vec3(0, 0, 1));
+    EXPECT_EQ(read->points.normal[1], glm::vec3(0, -1, 0));
+    EXPECT_EQ(read->unusedProperties, std::vector<std::string>{"curvature"});
+
+    const fs::path both =
+        writeFile("both.ply", asciiHeaderWith(1, {"normal_x", "normal_y", "normal_z", "nx", "ny", "nz"}) +
+                                  "0 0 0 0 0 1 1 0 0\n");
+    const Result<PlyData> bothRead = readPly(both);
+    ASSERT_TRUE(bothRead.ok()) << bothRead.error().message;
+    EXPECT_EQ(bothRead->points.normal[0], glm::vec3(1, 0, 0));
+    EXPECT_EQ(bothRead->unusedProperties, (std::vector<std::string>{"normal_x", "normal_y", "normal_z"}));
+
+    const fs::path partial =
+        writeFile("partial.ply", asciiHeaderWith(1, {"normal_x", "normal_y"}) + "0 0 0 0 1\n");
+    const Result<PlyData> partialRead = readPly(partial, {.requireNormals = false});
+    ASSERT_FALSE(partialRead.ok());
+    EXPECT_NE(partialRead.error().message.find("no 'nz' (or 'normal_z') property"), std::string::npos)
+        << partialRead.error().message;
+}
+
+// What a file holds beyond the points is named (unused vertex properties in file order, a partial
+// colour among them; other elements with their counts; a face element only when faces are not
+// read), and header comments are kept as written.
+TEST_F(PlyTest, UnusedPropertiesElementsAndCommentsAreReported) {
+    const fs::path path = writeFile("extras.ply", "ply\nformat ascii 1.0\n"
+                                                  "comment scanned 2024\n"
+                                                  "obj_info  sensor: A\r\n"
+                                                  "element vertex 3\n"
+                                                  "property float x\nproperty float y\nproperty float z\n"
+                                                  "property float confidence\nproperty float nx\n"
+                                                  "property float ny\nproperty float nz\n"
+                                                  "property float scalar_Intensity\nproperty uchar red\n"
+                                                  "property uchar alpha\n"
+                                                  "element face 1\nproperty list uchar int vertex_indices\n"
+                                                  "element camera 2\nproperty float f\n"
+                                                  "end_header\n"
+                                                  "0 0 0 0.9 0 0 1 7 255 128\n1 0 0 0.9 0 0 1 7 255 128\n"
+                                                  "0 1 0 0.9 0 0 1 7 255 128\n3 0 1 2\n1\n2\n");
+    const Result<PlyData> read = readPly(path);
+    ASSERT_TRUE(read.ok()) << read.error().message;
+    EXPECT_EQ(read->unusedProperties,
+              (std::vector<std::string>{"confidence", "scalar_Intensity", "red", "alpha"}));
+    ASSERT_EQ(read->unusedElements.size(), 2u);
+    EXPECT_EQ(read->unusedElements[0].name, "face");
+    EXPECT_EQ(read->unusedElements[0].count, 1u);
+    EXPECT_EQ(read->unusedElements[1].name, "camera");
+    EXPECT_EQ(read->unusedElements[1].count, 2u);
+    EXPECT_EQ(read->comments, (std::vector<std::string>{"comment scanned 2024", "obj_info  sensor: A"}));
+
+    const Result<PlyData> withFaces = readPly(path, {.readFaces = true});
+    ASSERT_TRUE(withFaces.ok()) << withFaces.error().message;
+    ASSERT_EQ(withFaces->unusedElements.size(), 1u);
+    EXPECT_EQ(withFaces->unusedElements[0].name, "camera");
+
+    ASSERT_TRUE(writePly(file("plain.ply"), read->points).ok());
+    const Result<PlyData> written = readPly(file("plain.ply"));
+    ASSERT_TRUE(written.ok()) << written.error().message;
+    EXPECT_TRUE(written->unusedProperties.empty());
+    EXPECT_TRUE(written->unusedElements.empty());
+    EXPECT_EQ(written->comments, std::vector<std::string>{"comment written by pnsplat"});
+}
+
+// writePly carries comments on, before its own, in both formats; a header they would take past
+// what readPly reads is an error that leaves no file.
+TEST_F(PlyTest, CommentsAreCarriedOn) {
+    const PointSet points = randomPoints(20, true, true, 3u);
+    const std::vector<std::string> comments = {"comment source: scan 12", "obj_info  sensor: A", "comment"};
+    for (const PlyFormat format : {PlyFormat::Ascii, PlyFormat::BinaryLittleEndian}) {
+        const fs::path path = file("commented.ply");
+        ASSERT_TRUE(writePly(path, points, format, comments).ok());
+        const Result<PlyData> read = readPly(path);
+        ASSERT_TRUE(read.ok()) << read.error().message;
+        std::vector<std::string> expected = comments;
+        expected.push_back("comment written by pnsplat");
+        EXPECT_EQ(read->comments, expected);
+        EXPECT_TRUE(sameBits(read->points.position, points.position));
+    }
+    const std::vector<std::string> many(2000, "comment " + std::string(30, 'x'));
+    const fs::path tooMany = file("too-many.ply");
+    const Result<void> written = writePly(tooMany, points, PlyFormat::BinaryLittleEndian, many);
+    ASSERT_FALSE(written.ok());
+    EXPECT_NE(written.error().message.find("header comments"), std::string::npos) << written.error().message;
+    EXPECT_FALSE(fs::exists(tooMany));
+    EXPECT_TRUE(
+        writePly(tooMany, points, PlyFormat::BinaryLittleEndian, std::span(many).first(many.size() / 2))
+            .ok());
 }
 
 TEST_F(PlyTest, NormalsAreNormalised) {

@@ -1531,7 +1531,7 @@ TEST(RefinerInput, CompletesAScanOfRepeatedPositionsOnly) {
     withRadii.radius.assign(withRadii.size(), 0.5f);
     ASSERT_TRUE(completeInput(withRadii, kThreads).ok());
     EXPECT_EQ(withRadii.radius[7], 0.5f);
-    ASSERT_TRUE(completeInput(withRadii, kThreads, true).ok());
+    ASSERT_TRUE(completeInput(withRadii, kThreads, {.replaceRadii = true}).ok());
     EXPECT_EQ(withRadii.radius, scan.radius);
 
     PointSet few = scan;
@@ -1593,15 +1593,19 @@ TEST(RefinerValidate, RejectsBadSetsAndAcceptsAValidOne) {
         outside.radius[9] = radius;
         const auto result = validateForRefinement(outside);
         ASSERT_FALSE(result.ok()) << radius;
-        EXPECT_NE(result.error().message.find("point 9 has a radius of"), std::string::npos)
-            << result.error().message;
+        const std::string& message = result.error().message;
+        EXPECT_NE(message.find("point 9 has a radius of"), std::string::npos) << message;
+        EXPECT_NE(message.find(radius < 1.0f ? "too small to refine" : "too large to refine"),
+                  std::string::npos)
+            << message;
+        EXPECT_EQ(message.find("precision"), std::string::npos) << message;
     }
     PointSet overflowingExtent = valid;
     overflowingExtent.position[3].x = 3e38f;
     overflowingExtent.position[4].x = -3e38f;
     const auto extentResult = validateForRefinement(overflowingExtent);
     ASSERT_FALSE(extentResult.ok());
-    EXPECT_NE(extentResult.error().message.find("single precision"), std::string::npos)
+    EXPECT_NE(extentResult.error().message.find("the points span more than 3.4e38"), std::string::npos)
         << extentResult.error().message;
 
     PointSet atBounds = valid;

@@ -36,7 +36,7 @@ constexpr std::size_t kDefaultFrames = 240;
 void runBenchView(BenchViewArgs args) {
     using Clock = std::chrono::steady_clock;
     std::string name;
-    PointSet points = loadForRendering(args.input, name);
+    PointSet points = loadForRendering(args.input, false, name);
     const std::size_t inputPoints = points.size();
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);

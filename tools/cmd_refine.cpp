@@ -4,8 +4,10 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <vector>
 
-#include <fmt/core.h>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "commands.h"
 #include "pnsplat/refine/angles.h"
@@ -34,6 +36,7 @@ struct RefineArgs {
     bool ascii = false;
     bool estimateRadii = false;
     bool json = false;
+    bool keepNormals = false;
     double thetaFDegrees = 30.0;
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
@@ -45,12 +48,13 @@ constexpr unsigned kDefaultLevels = 4;
 void runRefine(const RefineArgs& args) {
     using Clock = std::chrono::steady_clock;
     PointSet points;
+    std::vector<std::string> comments; // the input's header comments, carried on to the output
     std::string inputName = args.input;
     if (args.input.empty()) {
         points = makeDefaultModel();
         inputName = "the default model";
     } else {
-        points = readInput(args.input);
+        points = readInput(args.input, &comments);
     }
 
     RefineJob job;
@@ -79,6 +83,7 @@ void runRefine(const RefineArgs& args) {
     job.targetPoints = args.targetPoints;
     job.evenOutFactor = args.evenOut;
     job.estimateRadii = args.estimateRadii;
+    job.keepNormals = args.keepNormals;
     job.holes = parseHoles(args.holes);
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
     const double refineSeconds = run.seconds;
@@ -90,7 +95,8 @@ void runRefine(const RefineArgs& args) {
         output = (args.input.empty() ? std::string("default")
                                      : std::filesystem::path(args.input).stem().string()) +
                  "-refined.ply";
-    unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
+    unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian,
+                    comments));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate =
         refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;
@@ -98,19 +104,23 @@ void runRefine(const RefineArgs& args) {
         fmt::print(
             R"({{"input": {}, "output": {}, "points_in": {}, "distinct_in": {}, "points_out": {}, "levels": {}, )"
             R"("evening_out_levels": {}, "hole_filling_levels": {}, "holes": {}, "rim_points": {}, )"
-            R"("refine_seconds": {:.4f}, "seconds": {:.4f}, "points_per_second": {:.0f}, "capped_neighbourhoods": {}}})"
+            R"("refine_seconds": {:.4f}, "seconds": {:.4f}, "points_per_second": {:.0f}, "capped_neighbourhoods": {}, "turned_normals": {}}})"
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(output), inputCount,
             run.inputPoints, outputCount, done, run.evenOutLevels, run.holeFillingLevels, job.holes.size(),
-            run.enlargedRadii, refineSeconds, total, rate, run.cappedNeighbourhoods);
+            run.enlargedRadii, refineSeconds, total, rate, run.cappedNeighbourhoods, run.turnedNormals);
     } else {
         std::string levelDetail =
             run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
         if (!job.holes.empty())
             levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them",
                                        job.holes.size(), run.enlargedRadii, run.holeFillingLevels);
+        std::vector<std::string> inputDetail;
+        if (run.inputPoints != inputCount) inputDetail.push_back(fmt::format("{} distinct", run.inputPoints));
+        if (run.turnedNormals > 0)
+            inputDetail.push_back(fmt::format("{} flipped normal(s) turned back", run.turnedNormals));
         const std::string distinct =
-            run.inputPoints != inputCount ? fmt::format(" ({} distinct)", run.inputPoints) : std::string();
+            inputDetail.empty() ? std::string() : fmt::format(" ({})", fmt::join(inputDetail, ", "));
         fmt::print(
             "{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), "
             "{:.3f} s in all -> {}\n",
@@ -192,6 +202,7 @@ void addRefineCommand(CLI::App& app) {
         ->capture_default_str();
     addFillHoleOption(*cmd, args->holes);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
+    addKeepNormalsOption(*cmd, args->keepNormals);
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");

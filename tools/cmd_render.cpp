@@ -40,6 +40,7 @@ struct RenderArgs {
     bool adaptive = false;
     EngineArgs engine;
     bool json = false;
+    bool keepNormals = false;
 };
 
 // "+x", "-z", ...: the name of an axis direction.
@@ -96,9 +97,9 @@ std::string viewpointReason(const engine::Viewpoint& view, const RenderArgs& arg
 void runRender(const RenderArgs& args) {
     using namespace engine;
     std::string name;
-    PointSet points = loadForRendering(args.input, name);
+    PointSet points = loadForRendering(args.input, args.keepNormals, name);
     std::string frameName;
-    const PointSet frame = args.frame.empty() ? PointSet() : loadForRendering(args.frame, frameName);
+    const PointSet frame = args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
     std::optional<Viewpoint> view;
     const Camera camera = chooseCamera(args, args.frame.empty() ? points : frame, view);
 
@@ -108,6 +109,7 @@ void runRender(const RenderArgs& args) {
         RefineJob job;
         job.levels = args.refineLevels;
         job.holes = parseHoles(args.holes);
+        job.keepNormals = args.keepNormals;
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
         levels = run.levels;
@@ -226,6 +228,7 @@ void addRenderCommand(CLI::App& app) {
     addEngineOptions(*cmd, args->engine, true, true);
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");
+    addKeepNormalsOption(*cmd, args->keepNormals);
 }
 
 } // namespace pnsplat::tools

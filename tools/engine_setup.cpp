@@ -8,7 +8,7 @@
 
 namespace pnsplat::tools {
 
-PointSet loadForRendering(const std::string& input, std::string& name) {
+PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name) {
     PointSet points;
     if (input.empty()) {
         name = "the default model";
@@ -17,7 +17,7 @@ PointSet loadForRendering(const std::string& input, std::string& name) {
         name = input;
         points = readInput(input);
     }
-    completeInput(points, 0, name);
+    completeInput(points, 0, name, {.keepNormals = keepNormals});
     return points;
 }
 

@@ -17,8 +17,9 @@ class App;
 namespace pnsplat::tools {
 
 // The points of `input` (a PLY file, or the embedded default model when empty) with normals and
-// radii (estimated when the file has none); `name` receives a name for messages.
-PointSet loadForRendering(const std::string& input, std::string& name);
+// radii (estimated when the file has none), flipped normals turned back unless `keepNormals`;
+// `name` receives a name for messages.
+PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name);
 
 // The engine's options that the commands share.
 struct EngineArgs {

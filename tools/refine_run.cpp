@@ -3,10 +3,10 @@
 #include <optional>
 #include <string_view>
 
-#include <fmt/core.h>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "commands.h"
-#include "pnsplat/refine/input.h"
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/text.h"
@@ -62,14 +62,31 @@ void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes) {
         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
 }
 
-PointSet readInput(const std::string& path) {
-    PlyReadOptions options;
-    options.requireNormals = false;
-    return unwrap(readPly(path, options)).points;
+void addKeepNormalsOption(CLI::App& cmd, bool& keep) {
+    cmd.add_flag("--keep-normals", keep,
+                 "keep the input's normals as given: refuse normals that point against their neighbours' "
+                 "(by default they are turned back, with a note)");
 }
 
-bool completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
-    const Result<InputCompletion> done = pnsplat::completeInput(points, threads, replaceRadii);
+PointSet readInput(const std::string& path, std::vector<std::string>* comments) {
+    PlyReadOptions options;
+    options.requireNormals = false;
+    PlyData data = unwrap(readPly(path, options));
+    std::vector<std::string> unused;
+    if (!data.unusedProperties.empty())
+        unused.push_back(fmt::format("vertex propert{} {}", data.unusedProperties.size() == 1 ? "y" : "ies",
+                                     fmt::join(data.unusedProperties, ", ")));
+    for (const PlyData::Element& element : data.unusedElements)
+        unused.push_back(fmt::format("element {} ({} item(s))", element.name, element.count));
+    if (!unused.empty())
+        fmt::print(stderr, "pnsplat: warning: {}: not used, dropped: {}\n", path, fmt::join(unused, "; "));
+    if (comments) *comments = std::move(data.comments);
+    return std::move(data.points);
+}
+
+InputCompletion completeInput(PointSet& points, unsigned threads, const std::string& inputName,
+                              const InputOptions& options) {
+    const Result<InputCompletion> done = pnsplat::completeInput(points, threads, options);
     if (!done) throw CommandError(inputName + ": " + done.error().message);
     if (const CoincidentRemoval& removed = done->repeats; removed.points > 0)
         fmt::print(
@@ -86,16 +103,25 @@ bool completeInput(PointSet& points, unsigned threads, const std::string& inputN
                    "along a "
                    "spanning tree ({} connected part(s), each facing +z at its top)\n",
                    inputName, kNormalNearest, done->normalComponents);
-    return done->radiiEstimated;
+    if (done->turnedNormals > 0)
+        fmt::print(stderr,
+                   "pnsplat: {}: {} normal(s) pointed against their neighbours' and were turned back (the "
+                   "first: point {}); --keep-normals refuses them instead\n",
+                   inputName, done->turnedNormals, done->firstTurned);
+    return *done;
 }
 
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
     if (points.size() < 3)
         throw CommandError(
             fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
+    const InputCompletion completed =
+        completeInput(points, job.options.threads, inputName,
+                      {.replaceRadii = job.estimateRadii, .keepNormals = job.keepNormals});
     RefineRun run;
-    run.radiiEstimated = completeInput(points, job.options.threads, inputName, job.estimateRadii);
+    run.radiiEstimated = completed.radiiEstimated;
     run.inputPoints = points.size();
+    run.turnedNormals = completed.turnedNormals;
     if (auto valid = validateForRefinement(points); !valid)
         throw CommandError(inputName + ": " + valid.error().message);
     HoleRims rims;

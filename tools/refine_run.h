@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "pnsplat/refine/input.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/refiner.h"
 
@@ -26,6 +27,7 @@ struct RefineRun {
     std::size_t enlargedRadii = 0;        // rim points of the holes to fill (enlargeAroundHole)
     std::size_t maxNeighbours = 0;        // the bound the neighbourhoods were cut to (RefineOptions)
     bool radiiEstimated = false;          // the input's radii were estimated (completeInput)
+    std::size_t turnedNormals = 0;        // flipped input normals turned back (completeInput)
 };
 
 // What to refine and how far: `holes` are filled first (enlargeAroundHoles, fillHoles; paper
@@ -39,6 +41,7 @@ struct RefineJob {
     float evenOutFactor = 0.0f;
     std::vector<Hole> holes;
     bool estimateRadii = false; // replace the input's radii by estimated ones
+    bool keepNormals = false;   // refuse flipped input normals instead of turning them back
 };
 
 // `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`.
@@ -47,17 +50,22 @@ void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes);
 // CommandError (a usage error) naming the option and the text.
 std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
 
+// `--keep-normals` on `cmd`, into `keep`.
+void addKeepNormalsOption(CLI::App& cmd, bool& keep);
+
 // The points of a PLY file for refinement or rendering: normals may be absent (completeInput
-// estimates them). A bad file is a CommandError.
-PointSet readInput(const std::string& path);
+// estimates them). A bad file is a CommandError. What the file holds beyond the points (other
+// properties and elements) is named in a warning on stderr; its header comments are returned in
+// `comments` when given, for the output to carry on.
+PointSet readInput(const std::string& path, std::vector<std::string>* comments = nullptr);
 
 // Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
-// positions dropped and for normals estimated; its errors are a CommandError naming `inputName`.
-// Returns whether the radii were estimated.
-bool completeInput(PointSet& points, unsigned threads, const std::string& inputName,
-                   bool replaceRadii = false);
+// positions dropped, for normals estimated and for flipped normals turned back; its errors are a
+// CommandError naming `inputName`.
+InputCompletion completeInput(PointSet& points, unsigned threads, const std::string& inputName,
+                              const InputOptions& options = {});
 
-// Completes the input (completeInput, job.estimateRadii), checks it (CommandError naming
+// Completes the input (completeInput, job.estimateRadii and job.keepNormals), checks it (CommandError naming
 // `inputName`), then runs the job.
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName);
 

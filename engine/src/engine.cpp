@@ -174,8 +174,8 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
         const Sphere& b = impl->modelBounds;
         if (!std::isfinite(b.radius) || !std::isfinite(b.centre.x) || !std::isfinite(b.centre.y) ||
             !std::isfinite(b.centre.z))
-            return Error{"the points spread farther than single precision can measure (their bounding sphere "
-                         "overflows); scale the model down"};
+            return Error{"the points spread farther than can be measured (their bounding sphere overflows "
+                         "3.4e38); scale the model down"};
     } catch (const VulkanError& e) {
         return Error{std::string("Vulkan: ") + e.what()};
     }

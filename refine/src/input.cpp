@@ -1,15 +1,18 @@
 #include "pnsplat/refine/input.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
+#include <glm/geometric.hpp>
 
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/radius_estimation.h"
 
 namespace pnsplat {
 
-Result<InputCompletion> completeInput(PointSet& points, unsigned threads, bool replaceRadii) {
+Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const InputOptions& options) {
     InputCompletion done;
     const std::size_t given = points.size();
     done.repeats = removeCoincident(points);
@@ -20,16 +23,38 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, bool r
         const Result<NormalEstimate> estimate = estimateNormals(points, threads);
         if (!estimate) return estimate.error();
         done.normalComponents = estimate->components;
+    } else if (const std::vector<std::uint32_t> flipped = findFlippedNormals(points, threads);
+               !flipped.empty()) {
+        const glm::vec3 x = points.position[flipped[0]];
+        if (options.keepNormals)
+            return Error{fmt::format("{} normal(s) point against their neighbours' (the first: point {}, at "
+                                     "{:.6g} {:.6g} {:.6g}) and are to be kept as given: fix them in the "
+                                     "file, or let them be turned",
+                                     flipped.size(), flipped[0], x.x, x.y, x.z)};
+        for (const std::uint32_t i : flipped) {
+            points.normal[i] = -points.normal[i];
+            if (points.isCrease(i)) points.crease[i] = -points.crease[i];
+        }
+        done.turnedNormals = flipped.size();
+        done.firstTurned = flipped[0];
     }
-    if (points.hasRadius() && !replaceRadii) return done;
+    if (points.hasRadius() && !options.replaceRadii) return done;
     estimateRadii(points, threads);
     done.radiiEstimated = true;
-    for (std::size_t i = 0; i < points.size(); ++i)
-        if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
-            return Error{fmt::format(
-                "no radius can be estimated for point {}: it has no neighbour but points along its "
-                "normal, or its distances overflow single precision",
-                i)};
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const float r = points.radius[i];
+        if (r > 0.0f && std::isfinite(r)) continue;
+        // The k-d tree's squared distances under- or overflowed: say which, measuring in double.
+        const glm::dvec3 x(points.position[i]);
+        double nearest = std::numeric_limits<double>::infinity();
+        for (std::size_t j = 0; j < points.size(); ++j)
+            if (j != i) nearest = std::min(nearest, glm::distance(x, glm::dvec3(points.position[j])));
+        const bool far = nearest > 1.0; // (the failures lie below 1e-19 or above 1e19)
+        return Error{fmt::format("point {} (at {:.6g} {:.6g} {:.6g}) lies {:.3g} from its nearest point, too "
+                                 "{} to measure its radius (spacings from about 1e-19 to 1e19 can be): "
+                                 "scale the model {}",
+                                 i, x.x, x.y, x.z, nearest, far ? "far" : "close", far ? "down" : "up")};
+    }
     return done;
 }
 

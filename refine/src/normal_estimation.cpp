@@ -3,17 +3,20 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <numeric>
 #include <queue>
+#include <span>
 #include <vector>
 
 #include <fmt/core.h>
 #include <glm/geometric.hpp>
 
 #include "kd_tree.h"
+#include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/worker_pool.h"
 
 namespace pnsplat {
@@ -95,6 +98,94 @@ struct FrontierEdge {
     }
 };
 
+// The symmetric k-nearest-neighbour graph of the orientation: i ~ j when either is among the
+// other's k nearest. `nearest` holds k indices per point (a row may repeat the point itself where
+// fewer were found; the propagation never crosses such an edge).
+class NeighbourGraph {
+  public:
+    NeighbourGraph(std::vector<std::uint32_t> nearest, std::size_t k)
+        : nearest_(std::move(nearest)), k_(k), reverseBegin_(nearest_.size() / k + 1, 0),
+          reverse_(nearest_.size()) {
+        for (const std::uint32_t j : nearest_) ++reverseBegin_[j + 1];
+        std::partial_sum(reverseBegin_.begin(), reverseBegin_.end(), reverseBegin_.begin());
+        std::vector<std::size_t> fill(reverseBegin_.begin(), reverseBegin_.end() - 1);
+        for (std::size_t e = 0; e < nearest_.size(); ++e)
+            reverse_[fill[nearest_[e]]++] = static_cast<std::uint32_t>(e / k_);
+    }
+
+    // Calls visit(j) for each neighbour j of i: i's own nearest, then the points that have i among
+    // theirs.
+    template <typename Visit>
+    void forEach(std::uint32_t i, const Visit& visit) const {
+        forEachNearest(i, visit);
+        for (std::size_t e = reverseBegin_[i]; e < reverseBegin_[i + 1]; ++e) visit(reverse_[e]);
+    }
+    // The same for i's own nearest only.
+    template <typename Visit>
+    void forEachNearest(std::uint32_t i, const Visit& visit) const {
+        for (std::size_t r = 0; r < k_; ++r) visit(nearest_[std::size_t{i} * k_ + r]);
+    }
+
+  private:
+    std::vector<std::uint32_t> nearest_;
+    std::size_t k_;
+    std::vector<std::size_t> reverseBegin_;
+    std::vector<std::uint32_t> reverse_;
+};
+
+// Prim's propagation along a minimum spanning forest: from the `seeds` (reached already), the
+// points not yet `reached` that the graph connects to them are reached by the lightest edge of
+// the frontier first (orientationWeight), and each takes the sign that agrees with the point it is
+// reached from.
+void propagateOrientation(const NeighbourGraph& graph, std::span<const glm::vec3> position,
+                          std::span<glm::vec3> normal, std::vector<std::uint8_t>& reached,
+                          std::span<const std::uint32_t> seeds) {
+    std::priority_queue<FrontierEdge, std::vector<FrontierEdge>, std::greater<>> frontier;
+    const auto extend = [&](std::uint32_t from) {
+        graph.forEach(from, [&](std::uint32_t to) {
+            if (reached[to]) return;
+            frontier.push(FrontierEdge{
+                orientationWeight(position[from], normal[from], position[to], normal[to]), to, from});
+        });
+    };
+    for (const std::uint32_t seed : seeds) extend(seed);
+    while (!frontier.empty()) {
+        const FrontierEdge edge = frontier.top();
+        frontier.pop();
+        if (reached[edge.to]) continue;
+        reached[edge.to] = 1;
+        if (glm::dot(normal[edge.from], normal[edge.to]) < 0.0f) normal[edge.to] = -normal[edge.to];
+        extend(edge.to);
+    }
+}
+
+// The k nearest points (k <= kNormalNearest) of each of `positions`, the point itself left out, by
+// `tree` over them: k per point, on the pool's workers. A row found short (only where squared
+// distances overflow) is completed with the point itself, which the graph ignores. Each point's
+// `visit(i, row, found)` runs on its worker once its row is found.
+template <typename T, typename Visit>
+std::vector<std::uint32_t> nearestPoints(const KdTreeIn<T>& tree, std::span<const glm::vec3> positions,
+                                         std::size_t k, WorkerPool& pool, const Visit& visit) {
+    assert(k <= kNormalNearest);
+    std::vector<std::uint32_t> nearest(positions.size() * k);
+    constexpr std::size_t kBatch = 256;
+    parallelForRanges(pool, positions.size(), kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
+        std::array<std::uint32_t, kNormalNearest + 1> index;
+        std::array<T, kNormalNearest + 1> distance2;
+        for (std::size_t i = begin; i < end; ++i) {
+            const glm::vec<3, T> query(positions[i]);
+            const std::size_t found = tree.knnSearch(&query.x, k + 1, index.data(), distance2.data());
+            std::uint32_t* row = &nearest[i * k];
+            std::size_t stored = 0;
+            for (std::size_t r = 0; r < found && stored < k; ++r)
+                if (index[r] != i) row[stored++] = index[r];
+            visit(i, row, stored);
+            for (std::size_t r = stored; r < k; ++r) row[r] = static_cast<std::uint32_t>(i);
+        }
+    });
+    return nearest;
+}
+
 } // namespace
 
 Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
@@ -125,34 +216,30 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
         hi = glm::max(hi, x);
     }
     const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-    // The k-d tree measures squared distances in single precision: up to 3·extent² must fit.
-    if (!(extent * extent <= 0.25f * std::numeric_limits<float>::max()) ||
-        !(extent * extent >= std::numeric_limits<float>::min()))
-        return Error{
-            fmt::format("the points' extent {} is beyond single precision (its square over- or underflows): "
-                        "no normal can be estimated",
-                        extent)};
+    // The k-d tree measures squared distances in single precision: up to 3·extent² must fit, and
+    // extent² must not vanish into its denormals.
+    const bool large = !(extent * extent <= 0.25f * std::numeric_limits<float>::max());
+    if (large || !(extent * extent >= std::numeric_limits<float>::min())) {
+        const float largest = std::sqrt(0.25f * std::numeric_limits<float>::max()),
+                    smallest = std::sqrt(std::numeric_limits<float>::min());
+        return Error{fmt::format("the points span {:.3g}, too {} to estimate normals (spans from {:.2g} to "
+                                 "{:.2g} can be measured): scale the model {}",
+                                 extent, large ? "large" : "small", smallest, largest,
+                                 large ? "down" : "up")};
+    }
     const KdCloud cloud{distinct};
     KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     tree.buildIndex();
 
-    // The k nearest of each distinct position (itself left out: the only one at distance 0).
+    // The k nearest of each distinct position (itself left out: the only one at distance 0), and
+    // the plane they fit.
     const std::size_t k = std::min<std::size_t>(kNormalNearest, m - 1);
-    std::vector<std::uint32_t> nearest(m * k);
     std::vector<glm::vec3> normal(m);
     std::vector<std::uint8_t> degenerate(m, 0);
     WorkerPool pool(threads);
-    constexpr std::size_t kBatch = 256;
-    parallelForRanges(pool, m, kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
-        std::array<std::uint32_t, kNormalNearest + 1> index;
-        std::array<float, kNormalNearest + 1> distance2;
-        for (std::size_t i = begin; i < end; ++i) {
+    std::vector<std::uint32_t> nearest = nearestPoints(
+        tree, distinct, k, pool, [&](std::size_t i, const std::uint32_t* mine, std::size_t stored) {
             const glm::vec3 x = distinct[i];
-            const std::size_t found = tree.knnSearch(&x.x, k + 1, index.data(), distance2.data());
-            std::uint32_t* mine = &nearest[i * k];
-            std::size_t stored = 0;
-            for (std::size_t r = 0; r < found && stored < k; ++r)
-                if (index[r] != i) mine[stored++] = index[r];
             // The covariance of the point and its neighbours about their centroid, in double.
             glm::dvec3 centroid(x);
             float largest = std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)});
@@ -170,9 +257,6 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
             };
             add(x);
             for (std::size_t r = 0; r < stored; ++r) add(distinct[mine[r]]);
-            // (Fewer are found only where squared distances overflow, ruled out above; the row would
-            // be completed with the point itself, which the graph ignores.)
-            for (std::size_t r = stored; r < k; ++r) mine[r] = static_cast<std::uint32_t>(i);
             const SmallestEigen e = smallestEigenvector(covariance);
             // No plane: the neighbours spread across a line by no more than the rounding of their
             // single-precision coordinates (about (ε·|x|)² per point).
@@ -180,8 +264,7 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
                 static_cast<double>(std::numeric_limits<float>::epsilon()) * static_cast<double>(largest);
             degenerate[i] = !(e.values[1] > static_cast<double>(stored + 1) * rounding * rounding);
             normal[i] = glm::vec3(e.vector);
-        }
-    });
+        });
     std::size_t bad = 0, first = count;
     for (std::size_t i = 0; i < count; ++i) {
         if (!degenerate[distinctOf[i]]) continue;
@@ -193,52 +276,65 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
                                  "nearest distinct points lie on one line",
                                  bad, first, k)};
 
-    // The symmetric graph: i's own nearest, then the points that have i among theirs.
-    std::vector<std::size_t> reverseBegin(m + 1, 0);
-    std::vector<std::uint32_t> reverse(m * k);
-    for (std::size_t e = 0; e < nearest.size(); ++e) ++reverseBegin[nearest[e] + 1];
-    std::partial_sum(reverseBegin.begin(), reverseBegin.end(), reverseBegin.begin());
-    {
-        std::vector<std::size_t> fill(reverseBegin.begin(), reverseBegin.end() - 1);
-        for (std::size_t e = 0; e < nearest.size(); ++e)
-            reverse[fill[nearest[e]]++] = static_cast<std::uint32_t>(e / k);
-    }
-
+    const NeighbourGraph graph(std::move(nearest), k);
     std::vector<std::uint32_t> starts(m);
     std::iota(starts.begin(), starts.end(), 0u);
     std::sort(starts.begin(), starts.end(),
               [&](std::uint32_t a, std::uint32_t b) { return startsBefore(distinct[a], distinct[b]); });
     std::vector<std::uint8_t> reached(m, 0);
-    std::priority_queue<FrontierEdge, std::vector<FrontierEdge>, std::greater<>> frontier;
-    const auto extend = [&](std::uint32_t from) {
-        const auto push = [&](std::uint32_t to) {
-            if (reached[to]) return;
-            frontier.push(FrontierEdge{
-                orientationWeight(distinct[from], normal[from], distinct[to], normal[to]), to, from});
-        };
-        for (std::size_t r = 0; r < k; ++r) push(nearest[std::size_t{from} * k + r]);
-        for (std::size_t e = reverseBegin[from]; e < reverseBegin[from + 1]; ++e) push(reverse[e]);
-    };
     NormalEstimate estimate;
     for (const std::uint32_t start : starts) {
         if (reached[start]) continue;
         ++estimate.components;
         if (normal[start].z < 0.0f) normal[start] = -normal[start];
         reached[start] = 1;
-        extend(start);
-        while (!frontier.empty()) {
-            const FrontierEdge edge = frontier.top();
-            frontier.pop();
-            if (reached[edge.to]) continue;
-            reached[edge.to] = 1;
-            if (glm::dot(normal[edge.from], normal[edge.to]) < 0.0f) normal[edge.to] = -normal[edge.to];
-            extend(edge.to);
-        }
+        propagateOrientation(graph, distinct, normal, reached, std::span(&start, 1));
     }
     points.normal.resize(count);
     for (std::size_t i = 0; i < count; ++i) points.normal[i] = normal[distinctOf[i]];
     points.crease.clear();
     return estimate;
+}
+
+std::vector<std::uint32_t> findFlippedNormals(const PointSet& points, unsigned threads) {
+    const std::size_t count = points.size();
+    assert(points.normal.size() == count);
+    if (count < 2) return {};
+    // In double precision: squared distances of any finite coordinates stay finite and apart.
+    const KdCloudDouble cloud{points.position};
+    KdTreeDouble tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    tree.buildIndex();
+    const std::size_t k = std::min<std::size_t>(kNormalNearest, count - 1);
+    WorkerPool pool(threads);
+    std::vector<std::uint32_t> nearest =
+        nearestPoints(tree, points.position, k, pool, [](std::size_t, const std::uint32_t*, std::size_t) {});
+    // Rounds: once the flipped points of a cluster are turned, the others of the cluster, whose
+    // valid neighbours they were, become suspects.
+    std::vector<glm::vec3> normal(points.normal.begin(), points.normal.end());
+    std::vector<std::uint8_t> reached(count);
+    std::vector<std::uint32_t> seeds;
+    const NeighbourGraph graph(std::move(nearest), k);
+    for (unsigned round = 0; round < kFlipRounds; ++round) {
+        seeds.clear();
+        for (std::size_t i = 0; i < count; ++i) {
+            const glm::vec3 x = points.position[i], n = normal[i];
+            unsigned asGiven = 0, turned = 0;
+            graph.forEachNearest(static_cast<std::uint32_t>(i), [&](std::uint32_t j) {
+                asGiven += validNeighbours(x, n, points.position[j], normal[j]) ? 1 : 0;
+                turned += validNeighbours(x, -n, points.position[j], normal[j]) ? 1 : 0;
+            });
+            reached[i] = asGiven <= kFlippedFits && turned > asGiven ? 0 : 1;
+            if (reached[i]) seeds.push_back(static_cast<std::uint32_t>(i));
+        }
+        if (seeds.size() == count) break;
+        const std::vector<glm::vec3> before = normal;
+        propagateOrientation(graph, points.position, normal, reached, seeds);
+        if (normal == before) break;
+    }
+    std::vector<std::uint32_t> flipped;
+    for (std::size_t i = 0; i < count; ++i)
+        if (normal[i] != points.normal[i]) flipped.push_back(static_cast<std::uint32_t>(i));
+    return flipped;
 }
 
 } // namespace pnsplat

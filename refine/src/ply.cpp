@@ -108,6 +108,7 @@ enum class Encoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
 struct Header {
     Encoding encoding = Encoding::Ascii;
     std::vector<Element> elements;
+    std::vector<std::string> comments; // `comment` and `obj_info` lines, from the keyword on
     std::size_t bodyOffset = 0;
 };
 
@@ -135,6 +136,9 @@ enum Slot : int {
 };
 constexpr std::array<std::string_view, kSlotCount> kSlotNames = {
     "x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "radius", "nx2", "ny2", "nz2", "crease"};
+// Other names of a slot, read where the file has none of the name above: PCL's normals.
+constexpr std::array<std::string_view, kSlotCount> kSlotAliases = {
+    "", "", "", "normal_x", "normal_y", "normal_z", "", "", "", "", "", "", "", ""};
 
 Error fail(std::string_view file, std::string_view problem) {
     return Error{fmt::format("{}: {}", file, problem)};
@@ -199,7 +203,10 @@ Result<Header> parseHeader(std::string_view data, std::string_view file) {
         }
         if (words.empty()) continue;
         const std::string_view keyword = words[0];
-        if (keyword == "comment" || keyword == "obj_info") continue;
+        if (keyword == "comment" || keyword == "obj_info") {
+            header.comments.emplace_back(line.substr(static_cast<std::size_t>(keyword.data() - line.data())));
+            continue;
+        }
         if (keyword == "end_header") {
             if (words.size() != 1) return bad("unexpected words after end_header");
             break;
@@ -272,21 +279,28 @@ Result<VertexLayout> vertexLayout(const Element& vertex, const PlyReadOptions& o
                                   std::string_view file) {
     VertexLayout layout;
     for (int s = 0; s < kSlotCount; ++s) {
-        const int p = vertex.find(kSlotNames[s]);
+        int p = vertex.find(kSlotNames[s]);
+        if (p < 0 && !kSlotAliases[s].empty()) p = vertex.find(kSlotAliases[s]);
         layout.property[s] = p;
         if (p < 0) continue;
         if (vertex.properties[p].isList)
-            return fail(file, fmt::format("vertex property '{}' is a list", kSlotNames[s]));
+            return fail(file, fmt::format("vertex property '{}' is a list", vertex.properties[p].name));
         layout.type[s] = vertex.properties[p].type;
     }
     const auto has = [&](int s) { return layout.property[s] >= 0; };
+    const auto missing = [&](int s) {
+        return fail(file, kSlotAliases[s].empty()
+                              ? fmt::format("vertex element has no '{}' property", kSlotNames[s])
+                              : fmt::format("vertex element has no '{}' (or '{}') property", kSlotNames[s],
+                                            kSlotAliases[s]));
+    };
     for (int s : {kX, kY, kZ})
-        if (!has(s)) return fail(file, fmt::format("vertex element has no '{}' property", kSlotNames[s]));
+        if (!has(s)) return missing(s);
     layout.hasNormal = has(kNx) && has(kNy) && has(kNz);
     const bool normalsOptional = options.readFaces || !options.requireNormals;
     if (!layout.hasNormal && !(normalsOptional && !has(kNx) && !has(kNy) && !has(kNz))) {
         for (int s : {kNx, kNy, kNz})
-            if (!has(s)) return fail(file, fmt::format("vertex element has no '{}' property", kSlotNames[s]));
+            if (!has(s)) return missing(s);
     }
     layout.hasColour = has(kRed) && has(kGreen) && has(kBlue);
     layout.hasRadius = has(kRadius);
@@ -776,6 +790,14 @@ Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options
     if (vertex->count == 0) return fail(file, "no points");
 
     PlyData out;
+    out.comments = std::move(header->comments);
+    for (std::size_t p = 0; p < vertex->properties.size(); ++p)
+        if (std::find(layout->property.begin(), layout->property.end(), static_cast<int>(p)) ==
+            layout->property.end())
+            out.unusedProperties.push_back(printable(vertex->properties[p].name));
+    for (const Element& e : header->elements)
+        if (e.name != "vertex" && !(e.name == "face" && options.readFaces))
+            out.unusedElements.push_back({printable(e.name), e.count});
     const std::string_view body = bytes.substr(header->bodyOffset);
     Result<void> read;
     switch (header->encoding) {
@@ -808,10 +830,15 @@ Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options
 // ---------------------------------------------------------------------------------------------
 // Writing
 
-std::string plyHeader(const PointSet& points, PlyFormat format) {
+std::string plyHeader(const PointSet& points, PlyFormat format, std::span<const std::string> comments) {
     std::string header =
-        fmt::format("ply\nformat {} 1.0\ncomment written by pnsplat\nelement vertex {}\n",
-                    format == PlyFormat::Ascii ? "ascii" : "binary_little_endian", points.size());
+        fmt::format("ply\nformat {} 1.0\n", format == PlyFormat::Ascii ? "ascii" : "binary_little_endian");
+    for (const std::string& line : comments) {
+        assert((line.starts_with("comment") || line.starts_with("obj_info")) &&
+               line.find('\n') == std::string::npos);
+        header += line + '\n';
+    }
+    header += fmt::format("comment written by pnsplat\nelement vertex {}\n", points.size());
     for (const char* name : {"x", "y", "z", "nx", "ny", "nz"})
         header += fmt::format("property float {}\n", name);
     if (points.hasRadius()) header += "property float radius\n";
@@ -907,12 +934,17 @@ class TempFile {
 std::atomic<unsigned> tempCounter{0};
 
 Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyFormat format,
-                          std::string_view file) {
+                          std::span<const std::string> comments, std::string_view file) {
     assert(points.normal.size() == points.size());
     assert(!points.hasRadius() || points.radius.size() == points.size());
     assert(!points.hasColour() || points.colour.size() == points.size());
     assert(!points.hasCrease() || points.crease.size() == points.size());
 
+    std::string buffer = plyHeader(points, format, comments);
+    if (buffer.size() > kMaxHeaderBytes)
+        return fail(file, fmt::format("the header comments to carry over take {} KiB, more than a header "
+                                      "of {} KiB readPly reads",
+                                      (buffer.size() + 1023) / 1024, kMaxHeaderBytes / 1024));
     fs::path tempPath = path;
     tempPath += fmt::format(".tmp-{}-{}", ::getpid(), tempCounter.fetch_add(1));
     TempFile temp(tempPath);
@@ -920,7 +952,6 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
     if (!temp.open())
         return fail(file, fmt::format("cannot create a temporary file beside it: {}", errnoMessage(errno)));
 
-    std::string buffer = plyHeader(points, format);
     buffer.reserve(kWriteChunkBytes + 256);
     const auto writeError = [&] { return fail(file, fmt::format("cannot write: {}", errnoMessage(errno))); };
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -967,9 +998,10 @@ Result<PlyData> parsePly(std::string_view bytes, std::string_view name, const Pl
     return guarded(name, "reading", [&] { return parseBytes(bytes, options, name); });
 }
 
-Result<void> writePly(const std::filesystem::path& path, const PointSet& points, PlyFormat format) {
+Result<void> writePly(const std::filesystem::path& path, const PointSet& points, PlyFormat format,
+                      std::span<const std::string> comments) {
     const std::string file = path.string();
-    return guarded(file, "writing", [&] { return writePlyFile(path, points, format, file); });
+    return guarded(file, "writing", [&] { return writePlyFile(path, points, format, comments, file); });
 }
 
 } // namespace pnsplat

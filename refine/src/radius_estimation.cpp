@@ -62,6 +62,13 @@ void estimateRadii(PointSet& points, unsigned threads) {
                 survivors[i * kMaxCandidates + k] = s.set.index[k];
             }
             survivorCount[i] = static_cast<std::uint8_t>(s.set.size());
+            // Choice: a point with no valid neighbour (its normal fits none of theirs, eq. 6; one
+            // not flipped back by findFlippedNormals) has no one-ring to measure. It reaches its
+            // kRadiusNearest nearest points, as far as a one-ring of that many would: its splat
+            // covers its share of the surface, and a refinement finds no valid neighbour within
+            // it, so the point is kept and inserts nothing. (A radius of 0, or of the smallest
+            // float, would be refused, or too small to square.)
+            if (s.set.size() == 0) radius = glm::length(points.position[index[nth]] - x);
             // Neighbourhoods are open balls (|p - p_i| < r): reach the farthest survivor strictly.
             points.radius[i] = std::nextafter(radius, std::numeric_limits<float>::max());
         }

@@ -1823,10 +1823,13 @@ Result<void> validateForRefinement(const PointSet& points) {
             return Error{"point " + std::to_string(i) + " has a normal that is not of unit length"};
         if (!(points.radius[i] > 0.0f) || !std::isfinite(points.radius[i]))
             return Error{"point " + std::to_string(i) + " has a radius that is not positive and finite"};
-        if (!(points.radius[i] >= kMinRadius && points.radius[i] <= kMaxRadius))
-            return Error{fmt::format(
-                "point {} has a radius of {}, outside [{}, {}] (radii are squared in single precision)", i,
-                points.radius[i], kMinRadius, kMaxRadius)};
+        if (!(points.radius[i] >= kMinRadius && points.radius[i] <= kMaxRadius)) {
+            const bool small = points.radius[i] < kMinRadius;
+            return Error{fmt::format("point {} has a radius of {}, too {} to refine (radii from {} to {} can "
+                                     "be): scale the model {}",
+                                     i, points.radius[i], small ? "small" : "large", kMinRadius, kMaxRadius,
+                                     small ? "up" : "down")};
+        }
         if (points.isCrease(i)) {
             const glm::vec3 c = points.crease[i];
             if (!(std::abs(glm::length(c) - 1.0f) < 1e-3f))
@@ -1841,21 +1844,22 @@ Result<void> validateForRefinement(const PointSet& points) {
     // Cell keys and Morton codes divide by the extent of the set.
     const float extent = boundsOf(points.position).extent();
     if (!std::isfinite(extent))
-        return Error{
-            "the points span more than single precision holds (coordinates of both signs beyond 1.7e38)"};
+        return Error{"the points span more than 3.4e38 (coordinates of both signs beyond 1.7e38): scale the "
+                     "model down"};
     // Two copies of a point would each insert the same new points (removeCoincident merges them).
     if (const auto pair = findCoincident(points))
         return Error{"points " + std::to_string(pair->first) + " and " + std::to_string(pair->second) +
                      " coincide: the refinement needs distinct positions"};
     std::vector<float> radii(points.radius.begin(), points.radius.end());
     const int exponent = scaleExponent(points, std::min(radiusLimitOf(radii), extent));
-    if (const auto pair = findTooClose(points, std::ldexp(1.0, -63 - exponent)))
-        return Error{
-            fmt::format("points {} and {} are {:.3g} apart, too close to tell apart at the set's scale "
-                        "(squared distances in single precision)",
-                        pair->first, pair->second,
-                        glm::distance(glm::dvec3(points.position[pair->first]),
-                                      glm::dvec3(points.position[pair->second])))};
+    const double separation = std::ldexp(1.0, -63 - exponent);
+    if (const auto pair = findTooClose(points, separation))
+        return Error{fmt::format("points {} and {} are {:.3g} apart, too close to tell apart at the set's "
+                                 "scale (they must be {:.3g} apart): merge them, or remove one",
+                                 pair->first, pair->second,
+                                 glm::distance(glm::dvec3(points.position[pair->first]),
+                                               glm::dvec3(points.position[pair->second])),
+                                 separation)};
     return {};
 }
 

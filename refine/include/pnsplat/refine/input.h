@@ -1,8 +1,8 @@
 // A scan as the refinement takes it (ALGORITHM.md §9; what `pnsplat refine` and `render` do with a file):
-// points that repeat an earlier position merged, normals estimated when there are none, radii
-// estimated when there are none (or always, when asked). Not in the paper. Any thread may call it;
-// the estimations run on the given number of worker threads (0 = all), with results that do not
-// depend on it.
+// points that repeat an earlier position merged, normals estimated when there are none, flipped
+// normals turned back (or refused) when there are, radii estimated when there are none (or always,
+// when asked). Not in the paper. Any thread may call it; the estimations run on the given number
+// of worker threads (0 = all), with results that do not depend on it.
 #pragma once
 
 #include <cstddef>
@@ -12,16 +12,24 @@
 
 namespace pnsplat {
 
+struct InputOptions {
+    bool replaceRadii = false; // estimate radii even when the set has them
+    bool keepNormals = false;  // refuse flipped normals (findFlippedNormals) instead of turning them
+};
+
 struct InputCompletion {
     CoincidentRemoval repeats;        // points dropped for repeating an earlier position (removeCoincident)
     std::size_t normalComponents = 0; // normals estimated: the connected parts oriented (0: it had normals)
+    std::size_t turnedNormals = 0;    // given normals that were flipped, turned back (findFlippedNormals)
+    std::size_t firstTurned = 0;      // the first of them, an index into the completed set
     bool radiiEstimated = false;
 };
 
 // Completes `points` in place. Fails with one line, for: fewer than 3 distinct positions; normals
-// that cannot be estimated (estimateNormals); a point whose radius cannot be estimated (no
-// neighbour but points along its normal, or distances beyond single precision). It does not
-// validate the result: validateForRefinement (refiner.h) does.
-Result<InputCompletion> completeInput(PointSet& points, unsigned threads, bool replaceRadii = false);
+// that cannot be estimated (estimateNormals); flipped normals with options.keepNormals (naming
+// how many and the first, with its position); points too close together or too far apart for
+// their radii to be measured (estimateRadii). It does not validate the result:
+// validateForRefinement (refiner.h) does.
+Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const InputOptions& options = {});
 
 } // namespace pnsplat

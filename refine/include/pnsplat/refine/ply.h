@@ -2,9 +2,10 @@
 //
 // Reads ascii and binary little-endian (and big-endian) PLY files with one `vertex` element whose
 // properties may come in any order and any scalar type: `x y z nx ny nz` are required (`nx ny nz`
-// may be left out where PlyReadOptions allow), `red green blue` (uchar, or float in [0,1]) and
-// `radius` are optional; other properties and other elements (faces, ...) are skipped. Any thread
-// may call these functions.
+// may be left out where PlyReadOptions allow; PCL's `normal_x normal_y normal_z` are read where
+// the file has no `nx ny nz`), `red green blue` (uchar, or float in [0,1]) and `radius` are
+// optional; other properties and other elements (faces, ...) are skipped, and named in PlyData for
+// a warning. Any thread may call these functions.
 //
 // Details of reading: integer colours are clamped to 0..255, float colours scaled by 255 and
 // rounded; colour is kept only when all of red, green and blue are present. List properties of any
@@ -12,7 +13,9 @@
 // matter); data after the last element is ignored.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -37,6 +40,18 @@ struct PlyReadOptions {
 struct PlyData {
     PointSet points;
     std::vector<glm::u32vec3> triangles; // filled only with PlyReadOptions::readFaces
+    // What the file holds beyond that, for the reader to be told (names printable: other bytes
+    // are '?'): the vertex properties not read (a partial colour or crease normal included), in
+    // file order, and the other elements (`face` too, unless readFaces) with their counts.
+    std::vector<std::string> unusedProperties;
+    struct Element {
+        std::string name;
+        std::uint64_t count = 0;
+    };
+    std::vector<Element> unusedElements;
+    // The header's `comment` and `obj_info` lines as they stand, from the keyword on (writePly
+    // can carry them on).
+    std::vector<std::string> comments;
 };
 
 // Fails with a one-line message naming the file for: a missing or unreadable file, a malformed or
@@ -54,7 +69,11 @@ enum class PlyFormat { Ascii, BinaryLittleEndian };
 // present). The file appears complete or not at all: data goes to a temporary file in the same
 // folder that is renamed over `path` only after a successful write. Floats round-trip exactly in
 // both formats (ascii uses the shortest representation). `points.normal` must be filled.
+// `comments` (PlyData::comments of the file the points came from: lines that start with `comment`
+// or `obj_info` and hold no line break) go into the header before pnsplat's own comment; a header
+// they would take beyond the 64 KiB that readPly reads is an error.
 Result<void> writePly(const std::filesystem::path& path, const PointSet& points,
-                      PlyFormat format = PlyFormat::BinaryLittleEndian);
+                      PlyFormat format = PlyFormat::BinaryLittleEndian,
+                      std::span<const std::string> comments = {});
 
 } // namespace pnsplat

@@ -5,10 +5,11 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config
+  build-essential cmake ninja-build pkg-config clang-format
   libglm-dev libgtest-dev googletest
   libnanoflann-dev libcli11-dev libfmt-dev libstb-dev
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools
+  libglfw3-dev xvfb
 )
 if [ "${1:-}" = fuzz ]; then
   packages+=(clang libclang-rt-14-dev)

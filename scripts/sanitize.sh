@@ -1,9 +1,15 @@
 #!/usr/bin/env bash
 # The suite again under a sanitizer: `scripts/sanitize.sh address` (ASan + UBSan) or
-# `scripts/sanitize.sh thread` (TSan). Builds in build-<sanitizer>/ (Debug, asserts on).
+# `scripts/sanitize.sh thread` (TSan). Builds in build-<sanitizer>/ (Debug, asserts on); the
+# suite includes the install-and-consume test (tests/consumer).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kind=${1:?usage: scripts/sanitize.sh address|thread}
+# The address build uses CMake's default generator on Linux, Unix Makefiles; the thread build and
+# scripts/test.sh use Ninja. CI so builds with both generators, and in Debug, without extra builds.
+if [ "$kind" = address ]; then
+  export CMAKE_GENERATOR=${CMAKE_GENERATOR:-Unix Makefiles}
+fi
 # Debug keeps the asserts; -O1 keeps the acceptance-size tests within minutes.
 BUILD_DIR="build-$kind" BUILD_TYPE=Debug bash scripts/build.sh -DPNSPLAT_SANITIZE="$kind" -DPNSPLAT_WERROR=ON \
   -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g"

@@ -7,8 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "pnsplat/engine/context.h"
-#include "pnsplat/engine/image.h"
 #include "pnsplat/engine/engine.h"
+#include "pnsplat/engine/image.h"
 
 namespace pnsplat::test {
 

@@ -22,7 +22,8 @@ namespace {
 
 using Key = std::array<std::uint32_t, 3>;
 Key keyOf(glm::vec3 p) {
-    return {std::bit_cast<std::uint32_t>(p.x), std::bit_cast<std::uint32_t>(p.y), std::bit_cast<std::uint32_t>(p.z)};
+    return {std::bit_cast<std::uint32_t>(p.x), std::bit_cast<std::uint32_t>(p.y),
+            std::bit_cast<std::uint32_t>(p.z)};
 }
 
 PointSet withRadii(PointSet set) {
@@ -44,7 +45,8 @@ void refineEverywhere(NodeTree& tree, std::uint32_t level, std::uint64_t seed = 
         changed = false;
         std::vector<NodeId> leaves;
         for (NodeId id = 0; id < tree.slotCount(); ++id)
-            if (tree.isLive(id) && tree.node(id).isLeaf() && tree.node(id).level < level) leaves.push_back(id);
+            if (tree.isLive(id) && tree.node(id).isLeaf() && tree.node(id).level < level)
+                leaves.push_back(id);
         if (seed != 0) std::shuffle(leaves.begin(), leaves.end(), random);
         for (const NodeId id : leaves) {
             std::vector<NodeId> blockers;
@@ -63,8 +65,8 @@ std::map<Key, std::array<float, 7>> pointsOfLevel(const NodeTree& tree, std::uin
         const PointSet& p = tree.node(id).points;
         for (std::size_t i = 0; i < p.size(); ++i) {
             const bool fresh =
-                all.emplace(keyOf(p.position[i]), std::array<float, 7>{p.normal[i].x, p.normal[i].y, p.normal[i].z,
-                                                                       p.radius[i], 0, 0, 0})
+                all.emplace(keyOf(p.position[i]), std::array<float, 7>{p.normal[i].x, p.normal[i].y,
+                                                                       p.normal[i].z, p.radius[i], 0, 0, 0})
                     .second;
             EXPECT_TRUE(fresh) << "a point held twice at level " << level;
         }
@@ -143,7 +145,8 @@ TEST(NodeTree, RefiningEverywhereApproachesTheUniformLevels) {
         // On the sphere.
         double worst = 0.0;
         for (const auto& [key, value] : nodes) {
-            const glm::vec3 p{std::bit_cast<float>(key[0]), std::bit_cast<float>(key[1]), std::bit_cast<float>(key[2])};
+            const glm::vec3 p{std::bit_cast<float>(key[0]), std::bit_cast<float>(key[1]),
+                              std::bit_cast<float>(key[2])};
             worst = std::max(worst, std::abs(double(glm::length(p)) - 1.0));
         }
         EXPECT_LT(worst, 0.01);
@@ -193,7 +196,8 @@ TEST(NodeTree, LevelsStaySeparatedAcrossNodesOfDifferentLevels) {
     for (std::uint32_t round = 0; round < 40; ++round) {
         std::vector<NodeId> wanted;
         for (NodeId id = 0; id < tree->slotCount(); ++id)
-            if (tree->isLive(id) && tree->node(id).isLeaf() && tree->node(id).hi.x > 0.4f && tree->node(id).level < 3)
+            if (tree->isLive(id) && tree->node(id).isLeaf() && tree->node(id).hi.x > 0.4f &&
+                tree->node(id).level < 3)
                 wanted.push_back(id);
         if (wanted.empty()) break;
         for (const NodeId id : wanted) {

@@ -2,10 +2,10 @@
 // other, golden images that a broken pass fails, culling, and bad input.
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <numbers>
 #include <string>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -156,7 +156,8 @@ TEST_P(PathTest, ReusedRendererForgetsTheLastFrame) {
     const RgbaImage third = frame(**engine, away);
     ASSERT_EQ(third.width, 96u);
     for (std::uint32_t y = 0; y < 96; ++y)
-        for (std::uint32_t x = 0; x < 96; ++x) ASSERT_EQ(third.at(x, y), glm::u8vec4(0, 0, 0, 255)) << x << "," << y;
+        for (std::uint32_t x = 0; x < 96; ++x)
+            ASSERT_EQ(third.at(x, y), glm::u8vec4(0, 0, 0, 255)) << x << "," << y;
 }
 
 TEST_P(PathTest, EmptySceneAndCameraLookingAwayGiveBackground) {

@@ -60,8 +60,8 @@ CameraPath CameraPath::load(const std::string& file) {
                                            file, number, values.size()));
         if (values[0] < 0 || values[0] != std::floor(values[0]) || values[0] > 1e7 ||
             (!path.keys_.empty() && values[0] <= double(path.keys_.back().frame)))
-            throw CommandError(fmt::format("{}:{}: the frame index must be a whole number above the previous one",
-                                           file, number));
+            throw CommandError(fmt::format(
+                "{}:{}: the frame index must be a whole number above the previous one", file, number));
         engine::Camera camera;
         camera.eye = {float(values[1]), float(values[2]), float(values[3])};
         camera.target = {float(values[4]), float(values[5]), float(values[6])};

@@ -253,7 +253,8 @@ RenderTiming timeRenders(engine::Engine& engine, const engine::RenderSettings& s
         const auto start = std::chrono::steady_clock::now();
         const engine::FrameReport report = unwrap(engine.frame(camera, options));
         unwrap(engine.image(report.frame));
-        const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        const double wall =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
         engine.finish();
         const engine::PassTimes gpu = engine.reports().back().gpu;
         if (k == 0) continue;

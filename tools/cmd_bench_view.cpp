@@ -54,11 +54,13 @@ void runBenchView(BenchViewArgs args) {
     if (!args.capture.empty()) {
         std::error_code error;
         std::filesystem::create_directories(args.capture, error);
-        if (error) throw CommandError(args.capture + ": cannot create the capture folder: " + error.message());
+        if (error)
+            throw CommandError(args.capture + ": cannot create the capture folder: " + error.message());
     }
-    fmt::print(stderr, "bench view: {} ({} points) along {} ({} frames) at {}x{} on {} ({}), {} worker(s){}\n",
-               name, inputPoints, args.cameraPath, count, args.engine.width, args.engine.height,
-               context->deviceName(), context->driverName(), settings.workers, args.lockstep ? ", lockstep" : "");
+    fmt::print(
+        stderr, "bench view: {} ({} points) along {} ({} frames) at {}x{} on {} ({}), {} worker(s){}\n", name,
+        inputPoints, args.cameraPath, count, args.engine.width, args.engine.height, context->deviceName(),
+        context->driverName(), settings.workers, args.lockstep ? ", lockstep" : "");
 
     engine::FrameOptions options;
     options.lockstep = args.lockstep;
@@ -103,7 +105,8 @@ void addBenchViewCommand(CLI::App& bench) {
     args->engine.width = 640;
     args->engine.height = 480;
     CLI::App* view = bench.add_subcommand(
-        "view", "The real-time engine offscreen along a camera path: one JSON line per frame, then a summary");
+        "view",
+        "The real-time engine offscreen along a camera path: one JSON line per frame, then a summary");
     view->add_option("input", args->input, "input PLY; omitted: the embedded default model");
     view->add_option("--camera-path", args->cameraPath,
                      "orbit (a turn about the model), zoom (towards it and back), or a keyframe file "

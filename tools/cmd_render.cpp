@@ -9,9 +9,9 @@
 #include <fmt/core.h>
 
 #include "commands.h"
+#include "engine_setup.h"
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/engine.h"
-#include "engine_setup.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
@@ -81,8 +81,9 @@ engine::Camera chooseCamera(const RenderArgs& args, const PointSet& frame,
         (*up)[args.up[0] - 'x'] = 1.0f;
     }
     view = engine::chooseViewpoint(frame.position, frame.normal, up);
-    return engine::frameSphere(engine::boundingSphere(frame.position), float(args.engine.width) / float(args.engine.height),
-                               fov, static_cast<float>(radians(args.orbitDegrees)), *view,
+    return engine::frameSphere(engine::boundingSphere(frame.position),
+                               float(args.engine.width) / float(args.engine.height), fov,
+                               static_cast<float>(radians(args.orbitDegrees)), *view,
                                static_cast<float>(radians(args.elevationDegrees)));
 }
 
@@ -99,7 +100,8 @@ void runRender(const RenderArgs& args) {
     std::string name;
     PointSet points = loadForRendering(args.input, args.keepNormals, name);
     std::string frameName;
-    const PointSet frame = args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
+    const PointSet frame =
+        args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
     std::optional<Viewpoint> view;
     const Camera camera = chooseCamera(args, args.frame.empty() ? points : frame, view);
 
@@ -130,7 +132,8 @@ void runRender(const RenderArgs& args) {
     if (!created) throw CommandError(name + ": " + created.error().message);
     Engine& engine = **created;
 
-    FrameOptions frameOptions; // one frame; with --adaptive in lockstep: refined for this camera until settled
+    FrameOptions
+        frameOptions; // one frame; with --adaptive in lockstep: refined for this camera until settled
     frameOptions.lockstep = true;
     frameOptions.readBack = true;
     frameOptions.measureSplats = args.adaptive;
@@ -152,18 +155,20 @@ void runRender(const RenderArgs& args) {
             R"("refine_ms": {:.1f}}})"
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(args.output), inputCount, levels,
-            splats, drawn.splatsDrawn, args.engine.width, args.engine.height, jsonString(context->deviceName()),
-            path, gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, cameraValue(camera),
-            jsonNumber(args.fovDegrees), args.frame.empty() ? "null" : jsonString(args.frame),
+            splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
+            jsonString(context->deviceName()), path, gpu.visibilityMs, gpu.accumulationMs,
+            gpu.normalizationMs, cameraValue(camera), jsonNumber(args.fovDegrees),
+            args.frame.empty() ? "null" : jsonString(args.frame),
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
             drawn.maxSplatPx, drawn.overThreshold, drawn.refineWaitMs);
         return;
     }
-    fmt::print("{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
-               "normalization {:.1f} ms -> {}\n",
-               name, splats, drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(), path,
-               gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, args.output);
+    fmt::print(
+        "{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
+        "normalization {:.1f} ms -> {}\n",
+        name, splats, drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(), path,
+        gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, args.output);
     if (args.adaptive)
         fmt::print("{}: refined for this camera until its splats are at most {} px wide ({:.2f} % above; the "
                    "largest {:.2f} px): {} nodes, {} points from {} in {:.0f} ms\n",

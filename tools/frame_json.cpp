@@ -92,9 +92,10 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         seconds > 0 ? double(uploads) / seconds : 0.0,
         seconds > 0 ? double(uploadBytes) / double(1 << 20) / seconds : 0.0, evictions, median(splats),
         median(selection), median(upload), median(visibility), median(accumulation), median(normalization),
-        largest, worstOver, settings.threshold, double(settings.cacheBytes) / double(1 << 20), settings.workers,
-        settings.render.width, settings.render.height,
-        settings.render.path == engine::RenderPath::Compute ? "compute" : "graphics", device, driver, cpuName());
+        largest, worstOver, settings.threshold, double(settings.cacheBytes) / double(1 << 20),
+        settings.workers, settings.render.width, settings.render.height,
+        settings.render.path == engine::RenderPath::Compute ? "compute" : "graphics", device, driver,
+        cpuName());
 }
 
 } // namespace pnsplat::tools

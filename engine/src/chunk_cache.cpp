@@ -94,7 +94,8 @@ void ChunkCache::write(Chunk chunk, std::span<const gpu::Splat> splats, FrameRin
     Buffer& staging = staging_[slot];
     if (stagingUsed_[slot] + bytes > staging.size) {
         // Grow; what this frame staged already stays in the old buffer until the frame is done.
-        const VkDeviceSize size = std::max<VkDeviceSize>(2 * (stagingUsed_[slot] + bytes), VkDeviceSize{1} << 20);
+        const VkDeviceSize size =
+            std::max<VkDeviceSize>(2 * (stagingUsed_[slot] + bytes), VkDeviceSize{1} << 20);
         Buffer grown = createBuffer(context_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, MemoryUse::Upload);
         frames.defer(std::move(staging));
         staging = std::move(grown);
@@ -107,7 +108,8 @@ void ChunkCache::write(Chunk chunk, std::span<const gpu::Splat> splats, FrameRin
         VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
         barrier.srcAccessMask = VK_ACCESS_SHADER_READ_BIT;
         barrier.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-        vkCmdPipelineBarrier(uploads, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+        vkCmdPipelineBarrier(uploads,
+                             VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                              VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &barrier, 0, nullptr, 0, nullptr);
     }
     const VkBufferCopy region{stagingUsed_[slot], chunk.first * kSplatBytes, bytes};

@@ -58,8 +58,8 @@ struct Engine::Impl {
     struct NodeState {
         Chunk chunk;
         bool resident = false, permanent = false;
-        bool descended = false;   // drawn through its children last time it was visited
-        bool jobInFlight = false; // a refinement of it is with the workers
+        bool descended = false;             // drawn through its children last time it was visited
+        bool jobInFlight = false;           // a refinement of it is with the workers
         std::uint64_t lastVisited = kNever; // frame + 1 of the last selection that passed through it
         std::uint64_t lastDrawn = kNever;
         std::uint64_t uploaded = kNever; // frame + 1 of its upload
@@ -105,7 +105,8 @@ struct Engine::Impl {
     void measureSplats(const Camera& camera, FrameReport& report) const;
 };
 
-Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points, const EngineSettings& settings) {
+Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points,
+                                               const EngineSettings& settings) {
     if (!(settings.threshold > 0.0f) || !std::isfinite(settings.threshold))
         return Error{fmt::format("the splat size threshold must be a positive number of pixels (got {})",
                                  settings.threshold)};
@@ -121,17 +122,19 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
     if (!settings.adaptive) capacity = std::max<std::size_t>(inputPoints, 1); // no ring: the input only
     const auto mib = [](double bytes) { return bytes / double(1 << 20); };
     if (inputPoints > deviceSplats)
-        return Error{fmt::format("{} splats exceed the device's storage buffer range of {} splats ({:.0f} MiB)",
-                                 inputPoints, deviceSplats, mib(double(deviceSplats * splatBytes)))};
+        return Error{
+            fmt::format("{} splats exceed the device's storage buffer range of {} splats ({:.0f} MiB)",
+                        inputPoints, deviceSplats, mib(double(deviceSplats * splatBytes)))};
     if (capacity < inputPoints)
-        return Error{fmt::format("a cache of {:.1f} MiB cannot hold the input's {} points ({:.1f} MiB, 32 bytes "
-                                 "each), which stay resident; give it at least {:.0f} MiB",
-                                 mib(double(settings.cacheBytes)), inputPoints,
-                                 mib(double(inputPoints * splatBytes)),
-                                 std::ceil(mib(double(inputPoints * splatBytes)) * 2.0))};
+        return Error{
+            fmt::format("a cache of {:.1f} MiB cannot hold the input's {} points ({:.1f} MiB, 32 bytes "
+                        "each), which stay resident; give it at least {:.0f} MiB",
+                        mib(double(settings.cacheBytes)), inputPoints, mib(double(inputPoints * splatBytes)),
+                        std::ceil(mib(double(inputPoints * splatBytes)) * 2.0))};
     if (capacity > deviceSplats)
-        return Error{fmt::format("a cache of {:.0f} MiB exceeds the device's storage buffer range of {:.0f} MiB",
-                                 mib(double(settings.cacheBytes)), mib(double(deviceSplats * splatBytes)))};
+        return Error{
+            fmt::format("a cache of {:.0f} MiB exceeds the device's storage buffer range of {:.0f} MiB",
+                        mib(double(settings.cacheBytes)), mib(double(deviceSplats * splatBytes)))};
 
     auto tree = NodeTree::create(std::move(points), settings.nodes, settings.adaptive);
     if (!tree) return tree.error();
@@ -140,9 +143,11 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
     auto impl = std::make_unique<Impl>(context, settings, std::move(tree).value());
     impl->renderer = std::move(renderer).value();
     try {
-        impl->cache = std::make_unique<ChunkCache>(context, static_cast<std::uint32_t>(capacity), settings.forceStaging);
+        impl->cache = std::make_unique<ChunkCache>(context, static_cast<std::uint32_t>(capacity),
+                                                   settings.forceStaging);
         impl->frames = std::make_unique<FrameRing>(context);
-        if (settings.adaptive) impl->workers = std::make_unique<NodeWorkers>(settings.workers, settings.nodes);
+        if (settings.adaptive)
+            impl->workers = std::make_unique<NodeWorkers>(settings.workers, settings.nodes);
         // The input's chunks, at the front of the cache for good; uploaded with the first frame's
         // transfers (or directly).
         glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
@@ -169,8 +174,9 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
             // Nothing to submit: an empty submission signals the frame's fence.
             impl->frames->submit(impl->frames->commandBuffer(), true);
         }
-        impl->modelBounds = impl->tree.roots().empty() ? Sphere{glm::vec3(0.0f), 1.0f}
-                                                       : Sphere{(lo + hi) * 0.5f, glm::length(hi - lo) * 0.5f};
+        impl->modelBounds = impl->tree.roots().empty()
+                                ? Sphere{glm::vec3(0.0f), 1.0f}
+                                : Sphere{(lo + hi) * 0.5f, glm::length(hi - lo) * 0.5f};
         const Sphere& b = impl->modelBounds;
         if (!std::isfinite(b.radius) || !std::isfinite(b.centre.x) || !std::isfinite(b.centre.y) ||
             !std::isfinite(b.centre.z))
@@ -190,9 +196,9 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
     const glm::mat4 view = camera.view();
     const float aspect = float(settings.render.width) / float(settings.render.height);
     const float tanY = std::tan(camera.fovY * 0.5f);
-    const DepthRange range = depthRange(camera, {modelBounds.centre, modelBounds.radius * 1.05f +
-                                                                         2.0f * rootMaxRadius *
-                                                                             settings.render.radiusScale});
+    const DepthRange range =
+        depthRange(camera, {modelBounds.centre,
+                            modelBounds.radius * 1.05f + 2.0f * rootMaxRadius * settings.render.radiusScale});
     const Frustum frustum{tanY * aspect, tanY, range};
     const float focal = float(settings.render.height) / (2.0f * tanY); // pixels per unit at depth 1
     const float scale = settings.render.radiusScale;
@@ -211,7 +217,8 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
         const glm::vec3 toCentre = centre - camera.eye;
         const float distance = glm::length(toCentre);
         if (node.coneAngle >= kHalfPi || !(distance > radius)) return true;
-        const float between = std::acos(std::clamp(glm::dot(toCentre / distance, node.coneAxis), -1.0f, 1.0f));
+        const float between =
+            std::acos(std::clamp(glm::dot(toCentre / distance, node.coneAxis), -1.0f, 1.0f));
         return between + std::asin(radius / distance) + node.coneAngle >= kHalfPi;
     };
     // The splat diameter of a node on screen that kDrawnRadiusQuantile of its splats stay within, at
@@ -245,7 +252,8 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
                 for (const NodeId c : node.childIds()) self(self, c);
                 return;
             }
-        } else if (node.isLeaf() && settings.adaptive && size > threshold && node.level < tree.settings().maxLevel) {
+        } else if (node.isLeaf() && settings.adaptive && size > threshold &&
+                   node.level < tree.settings().maxLevel) {
             out.refine.push_back({id, node.level, size});
         }
         s.descended = false;
@@ -282,7 +290,8 @@ void Engine::Impl::integrate(FrameReport& report) {
 // Submits jobs for the wanted nodes, or for the coarser leaves they wait for (balance rule). Returns
 // the number submitted.
 std::size_t Engine::Impl::dispatch(const std::vector<Wanted>& wanted, bool lockstep) {
-    const std::size_t capacity = lockstep ? std::numeric_limits<std::size_t>::max() : 2 * workers->threads() + 1;
+    const std::size_t capacity =
+        lockstep ? std::numeric_limits<std::size_t>::max() : 2 * workers->threads() + 1;
     std::vector<NodeJob> jobs;
     std::vector<NodeId> blockers, pending;
     const auto full = [&] { return workers->outstanding() + jobs.size() >= capacity; };
@@ -328,9 +337,12 @@ std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockste
         if (s.resident) continue;
         const Node& node = tree.node(w.node);
         const std::size_t bytes = node.points.size() * sizeof(gpu::Splat);
-        if (!lockstep && report.bytesUploaded > 0 && report.bytesUploaded + bytes > settings.uploadBytesPerFrame) break;
+        if (!lockstep && report.bytesUploaded > 0 &&
+            report.bytesUploaded + bytes > settings.uploadBytesPerFrame)
+            break;
         evicted.clear();
-        const auto chunk = cache->allocate(static_cast<std::uint32_t>(node.points.size()), w.node, pinned, evicted);
+        const auto chunk =
+            cache->allocate(static_cast<std::uint32_t>(node.points.size()), w.node, pinned, evicted);
         if (!chunk) continue; // the cache is full of what is drawn: this node waits
         for (const std::uint32_t owner : evicted) state[owner].resident = false;
         report.evictions += evicted.size();
@@ -371,7 +383,8 @@ void Engine::Impl::releaseUnused() {
         bool releasable = true;
         for (const NodeId c : tree.node(id).childIds()) {
             const NodeState& s = stateOf(c);
-            if (!tree.node(c).isLeaf() || s.jobInFlight || s.lastVisited >= pinnedFrom || s.uploaded >= pinnedFrom) {
+            if (!tree.node(c).isLeaf() || s.jobInFlight || s.lastVisited >= pinnedFrom ||
+                s.uploaded >= pinnedFrom) {
                 releasable = false;
                 break;
             }
@@ -408,9 +421,9 @@ void Engine::Impl::measureSplats(const Camera& camera, FrameReport& report) cons
     const glm::mat4 view = camera.view();
     const float tanY = std::tan(camera.fovY * 0.5f);
     const float focal = float(settings.render.height) / (2.0f * tanY);
-    const DepthRange range = depthRange(camera, {modelBounds.centre, modelBounds.radius * 1.05f +
-                                                                         2.0f * rootMaxRadius *
-                                                                             settings.render.radiusScale});
+    const DepthRange range =
+        depthRange(camera, {modelBounds.centre,
+                            modelBounds.radius * 1.05f + 2.0f * rootMaxRadius * settings.render.radiusScale});
     const float scale = 2.0f * settings.render.radiusScale * focal;
     std::size_t inFront = 0, over = 0;
     float largest = 0.0f;
@@ -431,13 +444,15 @@ void Engine::Impl::measureSplats(const Camera& camera, FrameReport& report) cons
 
 Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& options) {
     if (!camera.valid())
-        return Error{"camera: eye and target must differ (by a distance single precision can measure), up must "
-                     "not be parallel to the view direction, and the field of view must lie in (0, 180) degrees"};
+        return Error{
+            "camera: eye and target must differ (by a distance single precision can measure), up must "
+            "not be parallel to the view direction, and the field of view must lie in (0, 180) degrees"};
     Impl& m = *impl_;
     const Clock::time_point start = Clock::now();
     try {
         // The frame that used this slot last must be done: its report first, then the slot.
-        m.frames->wait(m.frames->index() + 1 >= kFramesInFlight ? m.frames->index() + 1 - kFramesInFlight : 0);
+        m.frames->wait(m.frames->index() + 1 >= kFramesInFlight ? m.frames->index() + 1 - kFramesInFlight
+                                                                : 0);
         m.collectFinished();
         FrameReport report;
         report.frame = m.frames->begin();
@@ -475,13 +490,14 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
             report.splatsDrawn += chunk.count;
         }
         // Draw runs in cache order (adjacent chunks merge into one draw).
-        std::sort(ranges.begin(), ranges.end(), [](const DrawRange& a, const DrawRange& b) { return a.first < b.first; });
+        std::sort(ranges.begin(), ranges.end(),
+                  [](const DrawRange& a, const DrawRange& b) { return a.first < b.first; });
         report.nodesVisible = m.drawnNodes.size();
         if (options.measureSplats) m.measureSplats(camera, report);
         if (uploads != VK_NULL_HANDLE) m.frames->submit(uploads, false);
-        const DepthRange range =
-            depthRange(camera, {m.modelBounds.centre,
-                                m.modelBounds.radius * 1.05f + 2.0f * m.rootMaxRadius * m.settings.render.radiusScale});
+        const DepthRange range = depthRange(
+            camera, {m.modelBounds.centre,
+                     m.modelBounds.radius * 1.05f + 2.0f * m.rootMaxRadius * m.settings.render.radiusScale});
         FrameOutput output = options.output;
         output.readBack = options.readBack;
         m.slotDraws[m.frames->slot()] = ranges;
@@ -558,15 +574,16 @@ Result<std::size_t> Engine::verifyCache() {
         m.frames->waitAll();
         const Buffer& buffer = m.cache->buffer();
         const VkDeviceSize bytes = buffer.size;
-        Buffer readback = createBuffer(m.context, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUse::Readback);
+        Buffer readback =
+            createBuffer(m.context, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUse::Readback);
         m.context.submitAndWait([&](VkCommandBuffer cmd) {
             const VkBufferCopy region{0, 0, bytes};
             vkCmdCopyBuffer(cmd, buffer.buffer.get(), readback.buffer.get(), 1, &region);
             VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
             barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
             barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-            vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier, 0,
-                                 nullptr, 0, nullptr);
+            vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                                 &barrier, 0, nullptr, 0, nullptr);
         });
         const auto* gpu = static_cast<const gpu::Splat*>(readback.mapped);
         std::vector<gpu::Splat> expected;
@@ -576,12 +593,13 @@ Result<std::size_t> Engine::verifyCache() {
             const Node& node = m.tree.node(id);
             const Chunk chunk = m.state[id].chunk;
             if (chunk.count != node.points.size())
-                return Error{fmt::format("node {}: chunk of {} splats for {} points", id, chunk.count, node.points.size())};
+                return Error{fmt::format("node {}: chunk of {} splats for {} points", id, chunk.count,
+                                         node.points.size())};
             expected.resize(chunk.count);
             packSplats(node.points, 0, node.points.size(), expected.data());
             if (std::memcmp(expected.data(), gpu + chunk.first, chunk.count * sizeof(gpu::Splat)) != 0)
-                return Error{fmt::format("node {} (level {}): its chunk at splat {} differs from its points", id,
-                                         node.level, chunk.first)};
+                return Error{fmt::format("node {} (level {}): its chunk at splat {} differs from its points",
+                                         id, node.level, chunk.first)};
             ++compared;
         }
         return compared;

@@ -115,7 +115,8 @@ void FrameRing::waitAll() {
     for (Slot& slot : slots_) {
         if (!slot.submitted) continue;
         const VkFence fence = slot.fence.get();
-        vkWaitForFences(context_.device(), 1, &fence, VK_TRUE, kForever); // also from the destructor: no throw
+        vkWaitForFences(context_.device(), 1, &fence, VK_TRUE,
+                        kForever); // also from the destructor: no throw
     }
 }
 

@@ -171,8 +171,8 @@ struct SplatRenderer::Impl {
     void writeDescriptors(const Slot& slot, const Buffer& splats);
     void recordCompute(VkCommandBuffer cmd, const Slot& slot, int pass, bool cleared);
     void recordGraphics(VkCommandBuffer cmd, const Slot& slot, int pass, std::span<const DrawRange> draws);
-    void submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges, const Camera& camera,
-                DepthRange depth, const FrameOutput& output);
+    void submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,
+                const Camera& camera, DepthRange depth, const FrameOutput& output);
 };
 
 void SplatRenderer::Impl::createCommon() {
@@ -495,14 +495,15 @@ void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, const Slot& slot, i
     constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
     if (pass == 0 && !cleared) {
         bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT,
-                      VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                      VK_ACCESS_TRANSFER_WRITE_BIT);
+                      VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
         vkCmdFillBuffer(cmd, depthBits.buffer.get(), 0, VK_WHOLE_SIZE, gpu::kDepthCleared);
         vkCmdFillBuffer(cmd, accum.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else if (pass == 2) {
         // The output buffer was last read by the previous frame's copies.
-        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
+        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_SHADER_WRITE_BIT, kCompute,
+                      kRW);
     } else {
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
     }
@@ -708,9 +709,9 @@ PassTimes SplatRenderer::passTimes(std::uint64_t frame) const {
     // Only the queries this path wrote: waiting on one never written would never return.
     std::array<std::uint64_t, 6> ticks{};
     const auto queries = std::uint32_t(2 * impl_->passCount());
-    PNSPLAT_VK_CHECK(vkGetQueryPoolResults(impl_->device, slot.timestamps.get(), 0, queries,
-                                           queries * sizeof(std::uint64_t), ticks.data(), sizeof(std::uint64_t),
-                                           VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    PNSPLAT_VK_CHECK(vkGetQueryPoolResults(
+        impl_->device, slot.timestamps.get(), 0, queries, queries * sizeof(std::uint64_t), ticks.data(),
+        sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
     const double period = double(impl_->context.properties().limits.timestampPeriod) * 1e-6;
     const auto span = [&](int pass) {
         return pass < impl_->passCount() ? double(ticks[2 * pass + 1] - ticks[2 * pass]) * period : 0.0;

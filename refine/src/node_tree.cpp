@@ -7,9 +7,9 @@
 #include <numeric>
 #include <string>
 
+#include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
-#include <cmath>
 
 namespace pnsplat {
 
@@ -70,7 +70,8 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
     }
     for (const std::uint32_t i : indices) {
         const float c = points[i][axis];
-        const auto part = static_cast<std::size_t>(std::upper_bound(cuts.begin(), cuts.end(), c) - cuts.begin());
+        const auto part =
+            static_cast<std::size_t>(std::upper_bound(cuts.begin(), cuts.end(), c) - cuts.begin());
         parts[part].indices.push_back(i);
     }
     return parts;
@@ -81,8 +82,9 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
 float drawnRadiusOf(std::span<const float> radii) {
     if (radii.empty()) return 0.0f;
     std::vector<float> sorted(radii.begin(), radii.end());
-    const auto at = sorted.begin() + static_cast<std::ptrdiff_t>(
-                                         std::min(sorted.size() - 1, std::size_t(kDrawnRadiusQuantile * float(sorted.size()))));
+    const auto at =
+        sorted.begin() + static_cast<std::ptrdiff_t>(std::min(
+                             sorted.size() - 1, std::size_t(kDrawnRadiusQuantile * float(sorted.size()))));
     std::nth_element(sorted.begin(), at, sorted.end());
     return *at;
 }
@@ -118,7 +120,8 @@ std::vector<SplitPart> splitNode(std::span<const glm::vec3> points, const Region
 
 Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, bool forRefinement) {
     if (settings.maxNodePoints < 16)
-        return Error{"nodes must hold at least 16 points (got " + std::to_string(settings.maxNodePoints) + ")"};
+        return Error{"nodes must hold at least 16 points (got " + std::to_string(settings.maxNodePoints) +
+                     ")"};
     if (forRefinement) {
         if (auto valid = validateForRefinement(input); !valid) return valid.error();
     } else if (input.normal.size() != input.size() || input.radius.size() != input.size()) {
@@ -151,9 +154,9 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
             // distinct positions): roots of consecutive points sharing the region.
             for (std::size_t first = 0; first < part.indices.size(); first += settings.maxNodePoints) {
                 const auto begin = part.indices.begin() + static_cast<std::ptrdiff_t>(first);
-                const auto end = part.indices.begin() + static_cast<std::ptrdiff_t>(
-                                                             std::min<std::size_t>(part.indices.size(),
-                                                                                   first + settings.maxNodePoints));
+                const auto end =
+                    part.indices.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(
+                                               part.indices.size(), first + settings.maxNodePoints));
                 roots.push_back(SplitPart{part.region, std::vector<std::uint32_t>(begin, end)});
             }
             continue;
@@ -251,7 +254,8 @@ NodeJob NodeTree::makeJob(NodeId id, bool recordParents) const {
     input.segments = x.segments;
     input.recordParents = recordParents;
     const float reach = kRetryReach * x.maxRadius;
-    for (const NodeId root : roots_) gatherContext(id, x.lo - reach, x.hi + reach, x.level, root, input.points);
+    for (const NodeId root : roots_)
+        gatherContext(id, x.lo - reach, x.hi + reach, x.level, root, input.points);
     return job;
 }
 

@@ -540,7 +540,8 @@ struct Refiner::State {
     std::vector<std::uint32_t> segmentsOf;      // segment indices grouped by first point (this level)
     std::vector<std::uint32_t> segmentsOfBegin; // per point of P(l): range into segmentsOf
     std::vector<std::uint32_t> segmentChild; // per segment: offset of its first new point among a's children
-    std::vector<std::uint8_t> segmentInserted; // per segment: bit t set when its point at third t+1 was inserted
+    std::vector<std::uint8_t>
+        segmentInserted; // per segment: bit t set when its point at third t+1 was inserted
 
     // refineRegion: its one level refines only the region's points (not the context points), inserts
     // no point outside the region (scaled with the points during the level), and splits segments
@@ -553,7 +554,7 @@ struct Refiner::State {
     };
     std::optional<RegionRun> regionRun;
     std::vector<std::array<std::uint32_t, 3>> newPointParents; // recordParents: per new point (ParentRecord)
-    Region scaledRegion; // regionRun's region during the level
+    Region scaledRegion;                                       // regionRun's region during the level
     bool outsideRegion(glm::vec3 q) const { return regionRun && !scaledRegion.contains(q); }
     void recordParent(WorkerScratch& s, std::uint32_t cell, std::uint32_t local, std::uint32_t p,
                       std::uint32_t b, std::uint32_t c) const {
@@ -1492,7 +1493,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     });
     if (regionRun && regionRun->recordParents) {
         std::vector<ParentRecord> records;
-        for (const WorkerScratch& s : scratch) records.insert(records.end(), s.parents.begin(), s.parents.end());
+        for (const WorkerScratch& s : scratch)
+            records.insert(records.end(), s.parents.begin(), s.parents.end());
         const auto before = [](const ParentRecord& u, const ParentRecord& v) {
             return u.cell != v.cell ? u.cell < v.cell : u.local < v.local;
         };
@@ -1691,7 +1693,8 @@ std::vector<SegmentEnds> findSegments(const PointSet& input, const RefineOptions
     // The preparation of refineLevel's first level, up to its search for segments.
     HugePageVector<float> sortedRadii = state.points.radius;
     const float limit = radiusLimitOf(sortedRadii);
-    const int exponent = scaleExponent(state.points, std::min(limit, boundsOf(state.points.position).extent()));
+    const int exponent =
+        scaleExponent(state.points, std::min(limit, boundsOf(state.points.position).extent()));
     if (exponent != 0) scalePoints(state.points, std::ldexp(1.0f, exponent), state.pool);
     state.levelRadius = state.points.radius;
     state.hierarchy.updateBounds(state.points.position);
@@ -1702,7 +1705,8 @@ std::vector<SegmentEnds> findSegments(const PointSet& input, const RefineOptions
     std::vector<SegmentEnds> segments;
     segments.reserve(state.segments.size());
     for (const Refiner::State::Segment& segment : state.segments)
-        segments.push_back({state.points.position[segment.a], state.points.position[segment.b], segment.crease});
+        segments.push_back(
+            {state.points.position[segment.a], state.points.position[segment.b], segment.crease});
     return segments;
 }
 
@@ -1755,7 +1759,8 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
             result.segments.push_back({all.position[segment.a], all.position[segment.b], segment.crease});
     result.parents.reserve(state.newPointParents.size());
     for (const auto& corners : state.newPointParents)
-        result.parents.push_back({all.position[corners[0]], all.position[corners[1]], all.position[corners[2]]});
+        result.parents.push_back(
+            {all.position[corners[0]], all.position[corners[1]], all.position[corners[2]]});
     return result;
 }
 

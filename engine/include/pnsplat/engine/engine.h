@@ -70,9 +70,9 @@ struct FrameOptions {
 // frame has finished (reports()).
 struct FrameReport {
     std::uint64_t frame = 0;
-    double cpuMs = 0.0;                     // frame() from entry to submission
+    double cpuMs = 0.0;                       // frame() from entry to submission
     double selectionMs = 0.0, uploadMs = 0.0; // of that: choosing nodes; writing chunks
-    double refineWaitMs = 0.0;              // of that, in lockstep: waiting for the workers
+    double refineWaitMs = 0.0;                // of that, in lockstep: waiting for the workers
     PassTimes gpu;
     std::size_t splatsDrawn = 0, nodesVisible = 0;
     std::size_t nodesRefined = 0, pointsGenerated = 0; // refinements that joined the tree this frame
@@ -91,7 +91,8 @@ class Engine {
     // `points` need normals and radii (completeInput); with settings.adaptive they must pass
     // validateForRefinement. Errors: settings out of range, a cache too small for the input or too
     // large for the device, a Vulkan error.
-    static Result<std::unique_ptr<Engine>> create(Context& context, PointSet points, const EngineSettings& settings);
+    static Result<std::unique_ptr<Engine>> create(Context& context, PointSet points,
+                                                  const EngineSettings& settings);
     ~Engine();
     Engine(const Engine&) = delete;
     Engine& operator=(const Engine&) = delete;

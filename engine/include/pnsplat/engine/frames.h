@@ -29,7 +29,7 @@ class FrameRing {
     // destroys what was deferred to it, and recycles its command buffers. Returns the frame's index
     // (0, 1, 2, ...).
     std::uint64_t begin();
-    std::uint64_t index() const { return index_; }          // of the current frame
+    std::uint64_t index() const { return index_; } // of the current frame
     std::uint32_t slot() const { return static_cast<std::uint32_t>(index_ % kFramesInFlight); }
 
     // A new primary command buffer of the current frame, recording (one-time submit).

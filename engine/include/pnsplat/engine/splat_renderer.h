@@ -18,11 +18,11 @@
 
 #include <glm/vec3.hpp>
 
+#include "pnsplat/engine/buffer.h"
 #include "pnsplat/engine/camera.h"
 #include "pnsplat/engine/context.h"
-#include "pnsplat/engine/image.h"
-#include "pnsplat/engine/buffer.h"
 #include "pnsplat/engine/frames.h"
+#include "pnsplat/engine/image.h"
 
 namespace pnsplat::engine {
 
@@ -92,8 +92,8 @@ class SplatRenderer {
     // Records and submits the passes of the current frame of `frames` (begun by the caller), drawing
     // `ranges` of `splats` (a storage buffer of gpu::Splat) from `camera` (valid) with the depth
     // range `depth`. Does not wait: the frame's fence signals when it is done. Throws VulkanError.
-    void submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges, const Camera& camera,
-                DepthRange depth, const FrameOutput& output);
+    void submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,
+                const Camera& camera, DepthRange depth, const FrameOutput& output);
     // The pass times and, when read back, the image of frame `frame` of `frames`; the frame must have
     // finished (FrameRing::completed() > frame) and its slot not have been begun again since.
     PassTimes passTimes(std::uint64_t frame) const;

@@ -55,9 +55,9 @@ struct NodeSettings {
 };
 
 struct Node {
-    Region region;                        // the part of space the node owns
-    glm::vec3 lo{0.0f}, hi{0.0f};         // the box of its points (refit)
-    float maxRadius = 0.0f;               // of its points
+    Region region;                // the part of space the node owns
+    glm::vec3 lo{0.0f}, hi{0.0f}; // the box of its points (refit)
+    float maxRadius = 0.0f;       // of its points
     // The radius that kDrawnRadiusQuantile of its points do not exceed: what its level of detail is
     // chosen by (a few points of much larger radius, such as those whose new one-ring stayed empty,
     // would otherwise refine a whole node another level or two).
@@ -66,13 +66,13 @@ struct Node {
     // π/2 or more it tells nothing. A renderer skips a node seen from behind (one-sided splats).
     glm::vec3 coneAxis{0.0f, 0.0f, 1.0f};
     float coneAngle = 3.14159265f;
-    std::uint32_t level = 0;              // its points are P(level) in its region
-    NodeId parent = kNoNode;              // kNoNode for a root
+    std::uint32_t level = 0; // its points are P(level) in its region
+    NodeId parent = kNoNode; // kNoNode for a root
     std::array<NodeId, 4> children{kNoNode, kNoNode, kNoNode, kNoNode};
-    std::uint32_t childCount = 0;         // 0: a leaf (not refined, or its children released)
-    std::uint32_t generation = 0;         // counts the uses of this slot: jobs check it
-    PointSet points;                      // its points (normals, radii, colours, creases as P0's)
-    std::vector<SegmentEnds> segments;    // boundary and crease segments whose first point is its own
+    std::uint32_t childCount = 0;      // 0: a leaf (not refined, or its children released)
+    std::uint32_t generation = 0;      // counts the uses of this slot: jobs check it
+    PointSet points;                   // its points (normals, radii, colours, creases as P0's)
+    std::vector<SegmentEnds> segments; // boundary and crease segments whose first point is its own
 
     bool isLeaf() const { return childCount == 0; }
     std::span<const NodeId> childIds() const { return {children.data(), childCount}; }
@@ -94,7 +94,7 @@ struct NodeChild {
 struct NodeJobResult {
     NodeId node = kNoNode;
     std::uint32_t generation = 0;
-    std::vector<NodeChild> children; // 1 to 4
+    std::vector<NodeChild> children;               // 1 to 4
     std::vector<std::array<glm::vec3, 3>> parents; // RegionLevel::recordParents, per new point
     LevelStats stats;
 };

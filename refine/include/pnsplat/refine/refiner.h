@@ -255,12 +255,12 @@ std::vector<SegmentEnds> findSegments(const PointSet& points, const RefineOption
 // the real-time refinement relies on it. Runs on the calling thread. Preconditions: `points` as
 // for Refiner, owned <= points.size(), the owned points lie in `region`.
 struct RegionLevel {
-    PointSet points;               // the region's points of P(l) (the first `owned`), then context
+    PointSet points; // the region's points of P(l) (the first `owned`), then context
     std::size_t owned = 0;
     Region region;
-    std::uint32_t level = 0;       // l: level l+1 is built
+    std::uint32_t level = 0; // l: level l+1 is built
     std::vector<SegmentEnds> segments;
-    bool recordParents = false;    // fill RegionResult::parents (tests: levels stay separated)
+    bool recordParents = false; // fill RegionResult::parents (tests: levels stay separated)
 };
 struct RegionResult {
     // The owned points in their given order with their radii of P(l+1), then the new points,

@@ -35,11 +35,11 @@ std::string cpuName() {
 std::string frameJson(const engine::FrameReport& r, double frameMs) {
     return fmt::format(
         R"({{"frame": {}, "frame_ms": {:.2f}, "cpu_ms": {:.2f}, "selection_ms": {:.2f}, "upload_ms": {:.2f}, )"
-        R"("refine_wait_ms": {:.2f}, "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, "normalization_ms": {:.2f}, )"
+        R"("refine_wait_ms": {:.2f}, "gpu_wait_ms": {:.2f}, "refine_ms": {:.2f}, "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, "normalization_ms": {:.2f}, )"
         R"("splats_drawn": {}, "nodes_visible": {}, "nodes_refined": {}, "points_generated": {}, )"
         R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
         R"("tree_nodes": {}, "tree_points": {}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, "settled": {}}})",
-        r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpu.visibilityMs,
+        r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs, r.gpu.visibilityMs,
         r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.nodesVisible, r.nodesRefined,
         r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed, r.evictions, r.queueLength,
         r.treeNodes, r.treePoints, r.maxSplatPx, r.overThreshold, r.settled ? "true" : "false");

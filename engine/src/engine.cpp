@@ -451,20 +451,27 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
     const Clock::time_point start = Clock::now();
     try {
         // The frame that used this slot last must be done: its report first, then the slot.
+        const Clock::time_point slotWait = Clock::now();
         m.frames->wait(m.frames->index() + 1 >= kFramesInFlight ? m.frames->index() + 1 - kFramesInFlight
                                                                 : 0);
+        const double gpuWaitMs = millisecondsSince(slotWait);
         m.collectFinished();
         FrameReport report;
+        report.gpuWaitMs = gpuWaitMs;
         report.frame = m.frames->begin();
         VkCommandBuffer uploads = VK_NULL_HANDLE;
         Impl::Selection selection;
         for (std::size_t round = 0;; ++round) {
+            const Clock::time_point integrating = Clock::now();
             m.integrate(report);
+            report.refineMs += millisecondsSince(integrating);
             const Clock::time_point selecting = Clock::now();
             selection = m.select(camera);
             report.selectionMs += millisecondsSince(selecting);
+            const Clock::time_point dispatching = Clock::now();
             const std::size_t dispatched =
                 m.workers && !selection.refine.empty() ? m.dispatch(selection.refine, options.lockstep) : 0;
+            report.refineMs += millisecondsSince(dispatching);
             const Clock::time_point uploading = Clock::now();
             const std::size_t uploaded = m.upload(selection.upload, options.lockstep, report, uploads);
             report.uploadMs += millisecondsSince(uploading);
@@ -480,7 +487,9 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
             }
         }
         m.drawnNodes = std::move(selection.draw);
+        const Clock::time_point releasing = Clock::now();
         m.releaseUnused();
+        report.refineMs += millisecondsSince(releasing);
 
         std::vector<DrawRange> ranges;
         ranges.reserve(m.drawnNodes.size());

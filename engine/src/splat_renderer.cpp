@@ -130,6 +130,7 @@ struct SplatRenderer::Impl {
     // What one frame in flight owns (frames.h): written by the CPU while the other frame draws.
     struct Slot {
         Buffer uniforms, ranges, readback;
+        Buffer ticks; // the timestamps, copied here by the frame (host-visible)
         Unique<VkQueryPool> timestamps;
         VkDescriptorSet set = VK_NULL_HANDLE;
         std::uint32_t workItems = 0; // of its frame (compute path)
@@ -183,6 +184,8 @@ void SplatRenderer::Impl::createCommon() {
         slot.readback =
             createBuffer(context, pixelCount() * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, MemoryUse::Readback);
         if (!context.properties().limits.timestampComputeAndGraphics) continue;
+        slot.ticks = createBuffer(context, 6 * sizeof(std::uint64_t), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                  MemoryUse::Readback);
         VkQueryPoolCreateInfo info{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
         info.queryType = VK_QUERY_TYPE_TIMESTAMP;
         info.queryCount = 6;
@@ -642,6 +645,13 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats, std::s
                 bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
                               VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
             }
+            if (slot.timestamps) {
+                vkCmdCopyQueryPoolResults(cmd, slot.timestamps.get(), 0, std::uint32_t(2 * passCount()),
+                                          slot.ticks.buffer.get(), 0, sizeof(std::uint64_t),
+                                          VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+                bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                              VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+            }
             if (out.record) out.record(cmd, source);
         }
         frames.submit(cmd, last, last ? out.wait : VK_NULL_HANDLE, last ? out.waitStage : 0,
@@ -706,12 +716,8 @@ PassTimes SplatRenderer::passTimes(std::uint64_t frame) const {
     const Impl::Slot& slot = impl_->slots[frame % kFramesInFlight];
     PassTimes times;
     if (!slot.timestamps || slot.frame != frame) return times;
-    // Only the queries this path wrote: waiting on one never written would never return.
     std::array<std::uint64_t, 6> ticks{};
-    const auto queries = std::uint32_t(2 * impl_->passCount());
-    PNSPLAT_VK_CHECK(vkGetQueryPoolResults(
-        impl_->device, slot.timestamps.get(), 0, queries, queries * sizeof(std::uint64_t), ticks.data(),
-        sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    std::memcpy(ticks.data(), slot.ticks.mapped, sizeof(ticks));
     const double period = double(impl_->context.properties().limits.timestampPeriod) * 1e-6;
     const auto span = [&](int pass) {
         return pass < impl_->passCount() ? double(ticks[2 * pass + 1] - ticks[2 * pass]) * period : 0.0;

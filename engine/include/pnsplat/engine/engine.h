@@ -73,6 +73,8 @@ struct FrameReport {
     double cpuMs = 0.0;                       // frame() from entry to submission
     double selectionMs = 0.0, uploadMs = 0.0; // of that: choosing nodes; writing chunks
     double refineWaitMs = 0.0;                // of that, in lockstep: waiting for the workers
+    double gpuWaitMs = 0.0;                   // of that: waiting for the frame kFramesInFlight back
+    double refineMs = 0.0;                    // of that: results into the tree, jobs out, releases
     PassTimes gpu;
     std::size_t splatsDrawn = 0, nodesVisible = 0;
     std::size_t nodesRefined = 0, pointsGenerated = 0; // refinements that joined the tree this frame

@@ -95,7 +95,9 @@ class SplatRenderer {
     void submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,
                 const Camera& camera, DepthRange depth, const FrameOutput& output);
     // The pass times and, when read back, the image of frame `frame` of `frames`; the frame must have
-    // finished (FrameRing::completed() > frame) and its slot not have been begun again since.
+    // finished (FrameRing::completed() > frame) and its slot not have been begun again since. The
+    // timestamps are copied into host memory by the frame's last command buffer: asking the query
+    // pool for them would stall lavapipe, whose vkGetQueryPoolResults waits for the device to idle.
     PassTimes passTimes(std::uint64_t frame) const;
     RgbaImage image(std::uint64_t frame) const;
 

@@ -104,6 +104,7 @@ void addBenchViewCommand(CLI::App& bench) {
     auto args = std::make_shared<BenchViewArgs>();
     args->engine.width = 640;
     args->engine.height = 480;
+    args->engine.targetFps = 24.0; // the paper's real-time rate
     CLI::App* view = bench.add_subcommand(
         "view",
         "The real-time engine offscreen along a camera path: one JSON line per frame, then a summary");

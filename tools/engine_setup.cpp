@@ -42,6 +42,11 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
         ->check(CLI::Range(1u, 64u))
         ->capture_default_str();
     cmd.add_flag("--fast", args.fast, with + "the paper's faster variants (all four) for the levels refined");
+    cmd.add_option("--target-fps", args.targetFps,
+                   with + "keep this frame rate: where frames are slower, splats larger than --threshold are "
+                          "drawn (the threshold in force is reported); 0: never")
+        ->check(CLI::Range(0.0, 1000.0))
+        ->capture_default_str();
 }
 
 std::unique_ptr<engine::Context> createContext(const EngineArgs& args) {
@@ -70,6 +75,7 @@ engine::EngineSettings engineSettings(const EngineArgs& args, const engine::Cont
     settings.cacheBytes = static_cast<std::size_t>(args.cacheMb * double(1 << 20));
     settings.workers = args.workers;
     if (args.fast) settings.nodes.refine = RefineOptions::fast();
+    settings.targetFrameMs = args.targetFps > 0.0 ? static_cast<float>(1000.0 / args.targetFps) : 0.0f;
     return settings;
 }
 

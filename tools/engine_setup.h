@@ -31,6 +31,7 @@ struct EngineArgs {
     double cacheMb = 96.0;
     unsigned workers = 1;
     bool fast = false; // the paper's faster variants for the levels the engine refines
+    double targetFps = 0.0; // keep this frame rate by raising the threshold where needed (0: none)
 };
 // Registers --path, --device, --validation on `cmd`; with `adaptive`, also --threshold, --cache-mb,
 // --workers and --fast (their help says "with --adaptive" when `requiresFlag`).

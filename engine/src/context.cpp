@@ -55,7 +55,8 @@ int queueFamilyOf(VkPhysicalDevice device) {
     return -1;
 }
 
-VkInstance createInstance(bool validation) {
+VkInstance createInstance(const ContextOptions& options) {
+    const bool validation = options.validation;
     VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
     app.pApplicationName = "pnsplat";
     app.pEngineName = "pnsplat";
@@ -65,7 +66,13 @@ VkInstance createInstance(bool validation) {
         layers.push_back(kValidationLayer);
         extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
     }
+    for (const std::string& e : options.instanceExtensions) extensions.push_back(e.c_str());
     VkInstanceCreateInfo info{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+    const VkValidationFeatureEnableEXT synchronization = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+    VkValidationFeaturesEXT features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+    features.enabledValidationFeatureCount = 1;
+    features.pEnabledValidationFeatures = &synchronization;
+    if (validation && options.synchronizationValidation) info.pNext = &features;
     info.pApplicationInfo = &app;
     info.enabledLayerCount = static_cast<std::uint32_t>(layers.size());
     info.ppEnabledLayerNames = layers.data();
@@ -74,6 +81,17 @@ VkInstance createInstance(bool validation) {
     VkInstance instance = VK_NULL_HANDLE;
     PNSPLAT_VK_CHECK(vkCreateInstance(&info, nullptr, &instance));
     return instance;
+}
+
+bool hasDeviceExtensions(VkPhysicalDevice device, const std::vector<std::string>& wanted) {
+    std::uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(device, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> available(count);
+    vkEnumerateDeviceExtensionProperties(device, nullptr, &count, available.data());
+    return std::all_of(wanted.begin(), wanted.end(), [&](const std::string& name) {
+        return std::any_of(available.begin(), available.end(),
+                           [&](const VkExtensionProperties& e) { return name == e.extensionName; });
+    });
 }
 
 std::vector<VkPhysicalDevice> physicalDevices(VkInstance instance) {
@@ -102,7 +120,7 @@ void Context::initialise(const ContextOptions& options) {
     if (options.validation && !hasLayer(kValidationLayer))
         throw std::runtime_error("validation requested but VK_LAYER_KHRONOS_validation is not installed "
                                  "(Debian package vulkan-validationlayers)");
-    instance_ = createInstance(options.validation);
+    instance_ = createInstance(options);
     if (options.validation) {
         VkDebugUtilsMessengerCreateInfoEXT info{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
         info.messageSeverity =
@@ -126,7 +144,9 @@ void Context::initialise(const ContextOptions& options) {
         VkPhysicalDeviceProperties props;
         vkGetPhysicalDeviceProperties(candidate, &props);
         names.emplace_back(props.deviceName);
-        if (props.apiVersion < VK_API_VERSION_1_2 || queueFamilyOf(candidate) < 0) continue;
+        if (props.apiVersion < VK_API_VERSION_1_2 || queueFamilyOf(candidate) < 0 ||
+            !hasDeviceExtensions(candidate, options.deviceExtensions))
+            continue;
         if (!options.deviceName.empty()) {
             if (lower(props.deviceName).find(lower(options.deviceName)) == std::string::npos) continue;
             if (physical_ == VK_NULL_HANDLE) physical_ = candidate;
@@ -169,6 +189,7 @@ void Context::initialise(const ContextOptions& options) {
     enabled.pNext = &enabled12;
     enabled.features.shaderInt64 = int64Atomics_;
     std::vector<const char*> extensions;
+    for (const std::string& e : options.deviceExtensions) extensions.push_back(e.c_str());
 
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo queueInfo{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

@@ -29,6 +29,12 @@ namespace pnsplat::engine {
 struct ContextOptions {
     std::string deviceName; // empty: the default choice above
     bool validation = false;
+    // With validation: the layer's synchronization validation too (hazards between commands).
+    bool synchronizationValidation = false;
+    // Extensions a caller needs besides the engine's (a window: VK_KHR_surface and its platform's
+    // at instance level, VK_KHR_swapchain at device level); a device without the device ones is
+    // not chosen.
+    std::vector<std::string> instanceExtensions, deviceExtensions;
 };
 
 class Context {
@@ -38,6 +44,7 @@ class Context {
     Context(const Context&) = delete;
     Context& operator=(const Context&) = delete;
 
+    VkInstance instance() const { return instance_; }
     VkPhysicalDevice physicalDevice() const { return physical_; }
     VkDevice device() const { return device_; }
     VkQueue queue() const { return queue_; }

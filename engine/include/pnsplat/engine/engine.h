@@ -45,6 +45,11 @@ struct EngineSettings {
     // A node drawn refined (its children) goes back to being drawn itself once its own splats are
     // below threshold × hysteresis, in (0, 1]: a still camera never flips between two levels.
     float hysteresis = 0.8f;
+    // A frame time to keep to, in milliseconds (0: none). Where frames take longer, the threshold in
+    // force rises (coarser nodes, fewer splats) until they fit, and falls back towards `threshold`
+    // while they have room: a device too slow for the threshold keeps its frame rate, and a fast
+    // one draws at the threshold. The threshold in force is in each FrameReport. Not in lockstep.
+    float targetFrameMs = 0.0f;
     // The GPU cache, in bytes (32 bytes a splat); must hold the input's points.
     std::size_t cacheBytes = std::size_t{96} << 20;
     // Points the node tree keeps on the CPU, as a multiple of the cache's capacity: the nodes drawn,
@@ -82,6 +87,7 @@ struct FrameReport {
     std::size_t cacheBytesUsed = 0, queueLength = 0; // after the frame; jobs waiting or running
     std::size_t treeNodes = 0, treePoints = 0;       // on the CPU
     bool settled = false; // nothing was wanted for this camera: no refinement, no upload
+    float thresholdPx = 0.0f; // the threshold in force (EngineSettings::targetFrameMs)
     // With measureSplats: the largest projected splat diameter drawn (pixels) and the share of the
     // splats drawn (in front of the camera) above the threshold.
     float maxSplatPx = 0.0f;

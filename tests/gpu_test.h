@@ -48,10 +48,11 @@ class GpuTest : public ::testing::Test {
         auto engine = engine::Engine::create(context(), points, engineSettings);
         EXPECT_TRUE(engine.ok()) << engine.error().message;
         if (!engine) return {};
-        return frame(**engine, camera, report);
+        return frameOf(**engine, camera, report);
     }
+  public:
     // One frame of `engine`, read back; fails the test on error.
-    engine::RgbaImage frame(engine::Engine& engine, const engine::Camera& camera,
+    engine::RgbaImage frameOf(engine::Engine& engine, const engine::Camera& camera,
                             engine::FrameReport* report = nullptr, bool lockstep = true) {
         engine::FrameOptions options;
         options.readBack = true;

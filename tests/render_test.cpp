@@ -145,7 +145,7 @@ TEST_P(PathTest, ReusedRendererForgetsTheLastFrame) {
     ASSERT_TRUE((*engine)->frame(left).ok());
     auto second = (*engine)->frame(right, options);
     ASSERT_TRUE(second.ok());
-    const RgbaImage secondImage = frame(**engine, right); // a third frame, same camera
+    const RgbaImage secondImage = frameOf(**engine, right); // a third frame, same camera
     auto secondAgain = (*engine)->image(second->frame);
     ASSERT_TRUE(secondAgain.ok());
     const RgbaImage fresh = render(farDisk, settings, lookingDownZ(8.0f));
@@ -153,7 +153,7 @@ TEST_P(PathTest, ReusedRendererForgetsTheLastFrame) {
     EXPECT_TRUE(fresh.pixels == secondAgain->pixels);
     EXPECT_TRUE(fresh.pixels == secondImage.pixels);
     // And a frame of nothing after a frame of something is all background.
-    const RgbaImage third = frame(**engine, away);
+    const RgbaImage third = frameOf(**engine, away);
     ASSERT_EQ(third.width, 96u);
     for (std::uint32_t y = 0; y < 96; ++y)
         for (std::uint32_t x = 0; x < 96; ++x)

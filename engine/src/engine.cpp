@@ -275,21 +275,28 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
         const Node& node = tree.node(id);
         if (!visible(node)) return;
         NodeState& s = stateOf(id);
+        // Hysteresis holds only for a node seen without a break (in the last frame or earlier in
+        // this one): one that left the view (or whose subtree was released meanwhile) decides
+        // afresh, so what a frame draws does not depend on how long ago a node was last seen.
+        const bool descended = s.descended && s.lastVisited + 1 >= stamp;
         s.lastVisited = stamp;
         // Order of refinement and upload: the node's 99th percentile splat at its nearest depth.
         const float size = bound(node, node.drawnRadius);
-        if (!node.isLeaf() && exceeds(node, threshold * (s.descended ? settings.hysteresis : 1.0f))) {
+        if (!node.isLeaf() && exceeds(node, threshold * (descended ? settings.hysteresis : 1.0f))) {
             bool ready = true;
             for (const NodeId c : node.childIds()) {
                 if (stateOf(c).resident || !visible(tree.node(c))) continue;
                 out.upload.push_back({c, tree.node(c).level, size});
                 ready = false;
             }
+            s.descended = true; // wanted, even while its children are uploaded
             if (ready) {
-                s.descended = true;
                 for (const NodeId c : node.childIds()) self(self, c);
                 return;
             }
+            s.lastDrawn = stamp;
+            out.draw.push_back(id);
+            return;
         } else if (node.isLeaf() && settings.adaptive && node.level < tree.settings().maxLevel &&
                    exceeds(node, threshold)) {
             out.refine.push_back({id, node.level, size});

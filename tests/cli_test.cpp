@@ -101,15 +101,16 @@ struct RunResult {
     std::string out, err; // standard output and standard error
 };
 
-// Runs `pnsplat <args>` (args already quoted as needed).
-RunResult run(const std::string& args) {
+// Runs `pnsplat <args>` (args already quoted as needed), after the shell commands `before` (such
+// as "ulimit -v 3000000; ").
+RunResult run(const std::string& args, const std::string& before = "") {
     static const TempDir captures; // outside every test's own folder
     static std::atomic<unsigned> counter{0};
     const unsigned k = counter++;
     const fs::path out = captures / ("out-" + std::to_string(k)),
                    err = captures / ("err-" + std::to_string(k));
     const std::string command =
-        quote(test::programPath()) + " " + args + " >" + quote(out) + " 2>" + quote(err);
+        before + quote(test::programPath()) + " " + args + " >" + quote(out) + " 2>" + quote(err);
     const int status = std::system(command.c_str());
     RunResult r;
     // The shell may exec the program (a signal shows in the status) or report it as 128 + signal.
@@ -373,6 +374,96 @@ TEST(CliRefine, ThreadCountDoesNotChangeTheFile) {
               << " bytes, identical: " << (a == b ? "yes" : "NO") << "\n";
     ASSERT_GT(a.size(), 100000u);
     EXPECT_TRUE(a == b);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Memory (issue 20, defect 3): what does not fit is refused before it starts, with its estimate;
+// running out all the same, on any thread, is one line and a non-zero exit, never a signal.
+
+// Sanitizers reserve terabytes of address space for their shadow memory: under ulimit -v their
+// programs do not start.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__) // GCC
+#define PNSPLAT_SANITIZED 1
+#elif defined(__has_feature) // Clang
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define PNSPLAT_SANITIZED 1
+#endif
+#endif
+#ifdef PNSPLAT_SANITIZED
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#define PNSPLAT_SKIP_UNDER_SANITIZERS()                                                                      \
+    do {                                                                                                     \
+        if (kSanitized) GTEST_SKIP() << "a sanitizer's shadow memory does not fit under ulimit -v";          \
+    } while (0)
+
+// ulimit -v 3000000 (3.1 GB of address space) and 10 levels of igea's 600 points (some 35 million
+// points, 5 GB): refused at once. Before, the refinement ran into the limit, and with more than
+// one thread died of SIGSEGV or SIGABRT (std::bad_alloc on a worker thread).
+TEST(CliMemory, RefinementBeyondTheAddressSpaceLimitIsRefusedWithItsEstimate) {
+    PNSPLAT_SKIP_UNDER_SANITIZERS();
+    PNSPLAT_REQUIRE_DATA("igea-600-uniform.ply");
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    for (const unsigned threads : {1u, 2u, 8u}) {
+        SCOPED_TRACE(threads);
+        const RunResult r = run("refine " + quote(test::dataDir() / "igea-600-uniform.ply") +
+                                    " --levels 10 --threads " + std::to_string(threads) + " -o " + quote(out),
+                                "ulimit -v 3000000; ");
+        std::cout << "[ulimit -v 3000000; refine igea-600 --levels 10 --threads " << threads << "] exit "
+                  << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r));
+        EXPECT_NE(r.err.find("10 level(s) would make about 35.4 million points"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("the address-space limit (ulimit -v) allows 3.1 GB"), std::string::npos)
+            << r.err;
+        EXPECT_TRUE(dir.entries().empty());
+    }
+}
+
+// 64 levels (the largest --levels takes) make some 7e33 points: refused at once, saying so.
+TEST(CliMemory, SixtyFourLevelsAreRefusedAtOnce) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    const RunResult r = run("refine --levels 64 -o " + quote(out));
+    std::cout << "[refine --levels 64] exit " << r.exitCode << ": " << r.err;
+    EXPECT_TRUE(failsCleanly(r));
+    EXPECT_NE(r.err.find("64 level(s) would make about 6.9e+33 points"), std::string::npos) << r.err;
+    EXPECT_TRUE(dir.entries().empty());
+    // A target: at most three times the target (the level before it had fewer points).
+    const RunResult target = run("refine --target-points 100000 --max-points 200000 -o " + quote(out));
+    std::cout << "[refine --target-points 100000 --max-points 200000] exit " << target.exitCode << ": "
+              << target.err;
+    EXPECT_TRUE(failsCleanly(target));
+    EXPECT_NE(target.err.find("would make about 300000 points"), std::string::npos) << target.err;
+    EXPECT_NE(target.err.find("more than --max-points 200000"), std::string::npos) << target.err;
+    EXPECT_TRUE(dir.entries().empty());
+    // Within the bound it runs (2,000 points, 2 levels: about 18,000).
+    const RunResult within = run("refine --levels 2 --max-points 20000 -o " + quote(out));
+    EXPECT_TRUE(within.exited && within.exitCode == 0) << within.err;
+    EXPECT_TRUE(fs::exists(out));
+}
+
+// --max-points lifts the bound, and the refinement runs into the address-space limit (set at about
+// 120 MB plus 84 MiB per extra thread, which lets the default model reach level 5 or 6): the
+// allocation fails inside the levels, on whichever worker, and the program says so in one line.
+TEST(CliMemory, RunningOutOfMemoryOnAnyThreadIsOneLine) {
+    PNSPLAT_SKIP_UNDER_SANITIZERS();
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    for (const unsigned threads : {1u, 2u, 8u}) {
+        SCOPED_TRACE(threads);
+        const unsigned limitKb = 120000 + (threads - 1) * 86000;
+        const RunResult r = run("refine --levels 10 --max-points 1000000000 --threads " +
+                                    std::to_string(threads) + " -o " + quote(out),
+                                "ulimit -v " + std::to_string(limitKb) + "; ");
+        std::cout << "[ulimit -v " << limitKb << "; refine --levels 10 --threads " << threads << "] exit "
+                  << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r));
+        EXPECT_NE(r.err.find("out of memory in refinement level"), std::string::npos) << r.err;
+        EXPECT_TRUE(dir.entries().empty());
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -35,6 +35,7 @@ struct RefineArgs {
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
+    std::size_t maxPoints = 0;
 };
 
 constexpr unsigned kDefaultLevels = 4;
@@ -71,6 +72,7 @@ void runRefine(const RefineArgs& args) {
     job.evenOutFactor = args.evenOut;
     job.estimateRadii = args.estimateRadii;
     job.holes = parseHoles(args.holes);
+    job.maxPoints = args.maxPoints;
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
     const double refineSeconds = run.seconds;
     const unsigned done = run.levels;
@@ -166,6 +168,7 @@ void addRefineCommand(CLI::App& app) {
             "0 or [1, 100]"))
         ->capture_default_str();
     addFillHoleOption(*cmd, args->holes);
+    addMaxPointsOption(*cmd, args->maxPoints);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
     cmd->callback([args] { runRefine(*args); });

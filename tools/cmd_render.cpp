@@ -29,6 +29,7 @@ struct RenderArgs {
     double fovDegrees = 40.0;
     unsigned refineLevels = 0;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
+    std::size_t maxPoints = 0;
     std::string path = "auto";
     std::string device;
     std::vector<float> background{1.0f, 1.0f, 1.0f};
@@ -71,6 +72,7 @@ void runRender(const RenderArgs& args) {
         RefineJob job;
         job.levels = args.refineLevels;
         job.holes = parseHoles(args.holes);
+        job.maxPoints = args.maxPoints;
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
         fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount, points.size(),
@@ -146,6 +148,7 @@ void addRenderCommand(CLI::App& app) {
                     "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
     addFillHoleOption(*cmd, args->holes);
+    addMaxPointsOption(*cmd, args->maxPoints);
     cmd->add_option("--path", args->path,
                     "compute (atomics), graphics (raster pipeline), or auto: compute where the device can")
         ->check(CLI::IsMember({"auto", "compute", "graphics"}))

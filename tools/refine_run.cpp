@@ -1,5 +1,6 @@
 #include "refine_run.h"
 
+#include <new>
 #include <optional>
 #include <string_view>
 
@@ -7,6 +8,7 @@
 
 #include "commands.h"
 #include "pnsplat/refine/input.h"
+#include "pnsplat/refine/memory_budget.h"
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/text.h"
@@ -39,73 +41,55 @@ Hole parseHole(std::string_view text) {
     return Hole{glm::vec3(values[0], values[1], values[2]), values[3]};
 }
 
-} // namespace
-
-std::vector<Hole> parseHoles(const std::vector<std::string>& texts) {
-    std::vector<Hole> holes;
-    for (const std::string& text : texts) holes.push_back(parseHole(text));
-    return holes;
+// "about 35.4 million", "2.1e+33": a count for messages.
+std::string approximately(double count) {
+    if (count >= 1e15) return fmt::format("{:.1e}", count);
+    if (count >= 1e9) return fmt::format("{:.1f} billion", count / 1e9);
+    if (count >= 1e6) return fmt::format("{:.1f} million", count / 1e6);
+    return fmt::format("{:.0f}", count);
 }
 
-void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes) {
-    cmd.add_option(
-           "--fill-hole", holes,
-           "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: "
-           "the "
-           "radii of the points around it are enlarged to span it, and they and the points they insert are "
-           "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 "
-           "spacings)")
-        ->type_name("X,Y,Z,R")
-        ->expected(1)
-        ->allow_extra_args(false)
-        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+// "5.6 GB", "120 MB": a size for messages (decimal units).
+std::string bytesText(double bytes) {
+    if (bytes >= 1e15) return fmt::format("{:.1e} bytes", bytes);
+    if (bytes >= 1e9) return fmt::format("{:.1f} GB", bytes / 1e9);
+    if (bytes >= 1e6) return fmt::format("{:.0f} MB", bytes / 1e6);
+    return fmt::format("{:.0f} kB", bytes / 1e3);
 }
 
-PointSet readInput(const std::string& path) {
-    PlyReadOptions options;
-    options.requireNormals = false;
-    return unwrap(readPly(path, options)).points;
-}
-
-void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
-    const Result<InputCompletion> done = pnsplat::completeInput(points, threads, replaceRadii);
-    if (!done) throw CommandError(inputName + ": " + done.error().message);
-    if (const CoincidentRemoval& removed = done->repeats; removed.points > 0)
-        fmt::print(
-            stderr,
-            "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first){}\n",
-            inputName, removed.points,
-            removed.withOtherAttributes > 0
-                ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
-                              removed.withOtherAttributes)
-                : "");
-    if (done->normalComponents > 0)
-        fmt::print(stderr,
-                   "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented "
-                   "along a "
-                   "spanning tree ({} connected part(s), each facing +z at its top)\n",
-                   inputName, kNormalNearest, done->normalComponents);
-}
-
-RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
-    if (points.size() < 3)
-        throw CommandError(
-            fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
-    completeInput(points, job.options.threads, inputName, job.estimateRadii);
-    RefineRun run;
-    run.inputPoints = points.size();
-    if (auto valid = validateForRefinement(points); !valid)
-        throw CommandError(inputName + ": " + valid.error().message);
-    HoleRims rims;
-    if (!job.holes.empty()) {
-        auto enlarged = enlargeAroundHoles(points, job.holes);
-        if (!enlarged) throw CommandError(inputName + ": " + enlarged.error().message);
-        rims = *enlarged;
-        run.enlargedRadii = rims.enlarged;
-        job.options.maxNeighbours = kHoleFillingMaxNeighbours;
+// Refuses a job whose estimated output is above job.maxPoints, or with 0 above what the memory
+// budget leaves room for, saying what it would make and need.
+void checkFits(const PointSet& points, const RefineJob& job, const std::string& inputName) {
+    RefinementPlan plan;
+    plan.inputPoints = points.size();
+    plan.levels = job.levels;
+    plan.targetPoints = job.targetPoints;
+    plan.evenOutFactor = job.evenOutFactor;
+    plan.colour = points.hasColour();
+    plan.crease = points.hasCrease();
+    plan.threads = job.options.threads;
+    const RefinementEstimate estimate = estimateRefinement(plan);
+    const std::string would = fmt::format(
+        "{}: {} would make about {} points (a {} file) and need about {} of memory", inputName,
+        job.targetPoints != 0 ? fmt::format("--target-points {}", job.targetPoints)
+                              : fmt::format("{} level(s)", job.levels),
+        approximately(estimate.points), bytesText(estimate.fileBytes), bytesText(estimate.memoryBytes));
+    if (job.maxPoints != 0) {
+        if (estimate.points > static_cast<double>(job.maxPoints))
+            throw CommandError(fmt::format("{}, more than --max-points {}", would, job.maxPoints));
+        return;
     }
+    const MemoryBudget budget = memoryBudget();
+    const std::size_t fits = pointsWithin(budget.bytes, plan);
+    if (estimate.points > static_cast<double>(fits))
+        throw CommandError(fmt::format(
+            "{}; {} allows {}, about {} points (refine less, or with fewer threads; "
+            "--max-points sets the bound to try anyway)",
+            would, budget.source, bytesText(budget.bytes), approximately(static_cast<double>(fits))));
+}
 
-    run.maxNeighbours = job.options.maxNeighbours;
+// The levels of the job on a Refiner of `points`, counted in `run`, whose points they fill.
+void refineLevels(PointSet points, const RefineJob& job, const HoleRims& rims, RefineRun& run) {
     Refiner refiner(std::move(points), job.options);
     ProgressBar bar("refining");
     const auto progress = [&](std::size_t done, std::size_t total) { bar.update(done, total); };
@@ -138,6 +122,92 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     }
     bar.finish();
     run.points = std::move(refiner).takePoints();
+}
+
+} // namespace
+
+std::vector<Hole> parseHoles(const std::vector<std::string>& texts) {
+    std::vector<Hole> holes;
+    for (const std::string& text : texts) holes.push_back(parseHole(text));
+    return holes;
+}
+
+void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes) {
+    cmd.add_option(
+           "--fill-hole", holes,
+           "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: "
+           "the "
+           "radii of the points around it are enlarged to span it, and they and the points they insert are "
+           "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 "
+           "spacings)")
+        ->type_name("X,Y,Z,R")
+        ->expected(1)
+        ->allow_extra_args(false)
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+}
+
+void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints) {
+    cmd.add_option(
+           "--max-points", maxPoints,
+           "refuse to start a refinement estimated to make more points than this (default: as many as "
+           "the memory allows: the least of the physical memory, a control group's limit and ulimit -v "
+           "or -d, at about 140 bytes per point and 84 MiB per thread)")
+        ->check(CLI::PositiveNumber);
+}
+
+PointSet readInput(const std::string& path) {
+    PlyReadOptions options;
+    options.requireNormals = false;
+    return unwrap(readPly(path, options)).points;
+}
+
+void completeInput(PointSet& points, unsigned threads, const std::string& inputName, bool replaceRadii) {
+    const Result<InputCompletion> done = pnsplat::completeInput(points, threads, replaceRadii);
+    if (!done) throw CommandError(inputName + ": " + done.error().message);
+    if (const CoincidentRemoval& removed = done->repeats; removed.points > 0)
+        fmt::print(
+            stderr,
+            "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first){}\n",
+            inputName, removed.points,
+            removed.withOtherAttributes > 0
+                ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
+                              removed.withOtherAttributes)
+                : "");
+    if (done->normalComponents > 0)
+        fmt::print(stderr,
+                   "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented "
+                   "along a "
+                   "spanning tree ({} connected part(s), each facing +z at its top)\n",
+                   inputName, kNormalNearest, done->normalComponents);
+}
+
+RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
+    if (points.size() < 3)
+        throw CommandError(
+            fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
+    checkFits(points, job, inputName);
+    completeInput(points, job.options.threads, inputName, job.estimateRadii);
+    RefineRun run;
+    run.inputPoints = points.size();
+    if (auto valid = validateForRefinement(points); !valid)
+        throw CommandError(inputName + ": " + valid.error().message);
+    HoleRims rims;
+    if (!job.holes.empty()) {
+        auto enlarged = enlargeAroundHoles(points, job.holes);
+        if (!enlarged) throw CommandError(inputName + ": " + enlarged.error().message);
+        rims = *enlarged;
+        run.enlargedRadii = rims.enlarged;
+        job.options.maxNeighbours = kHoleFillingMaxNeighbours;
+    }
+
+    run.maxNeighbours = job.options.maxNeighbours;
+    try {
+        refineLevels(std::move(points), job, rims, run);
+    } catch (const std::bad_alloc&) { // the refiner's memory is free again here
+        throw CommandError(
+            fmt::format("{}: out of memory in refinement level {}; refine less, or with fewer threads",
+                        inputName, run.levels + 1));
+    }
     return run;
 }
 

@@ -30,7 +30,8 @@ struct RefineRun {
 // What to refine and how far: `holes` are filled first (enlargeAroundHoles, fillHoles; paper
 // figure 9); then `levels` uniform levels, stopping early once `targetPoints` (0: no target) is
 // reached or a level inserts nothing; then the points above `evenOutFactor` times the median
-// radius are evened out (evenOut; 0: not at all).
+// radius are evened out (evenOut; 0: not at all). A job whose estimated output (memory_budget.h)
+// exceeds `maxPoints`, or with 0 what memoryBudget() leaves room for, is refused before it starts.
 struct RefineJob {
     RefineOptions options;
     unsigned levels = 0;
@@ -38,10 +39,13 @@ struct RefineJob {
     float evenOutFactor = 0.0f;
     std::vector<Hole> holes;
     bool estimateRadii = false; // replace the input's radii by estimated ones
+    std::size_t maxPoints = 0;
 };
 
 // `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`.
 void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes);
+// `--max-points N` on `cmd`, into `maxPoints` (RefineJob::maxPoints).
+void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints);
 // The holes of the option's texts; a text that is not four finite numbers with R > 0 is a
 // CommandError naming the option and the text.
 std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
@@ -55,8 +59,9 @@ PointSet readInput(const std::string& path);
 void completeInput(PointSet& points, unsigned threads, const std::string& inputName,
                    bool replaceRadii = false);
 
-// Completes the input (completeInput, job.estimateRadii), checks it (CommandError naming
-// `inputName`), then runs the job.
+// Checks that the job fits (RefineJob::maxPoints), completes the input (completeInput,
+// job.estimateRadii), checks it, then runs the job. Errors, running out of memory included, are a
+// CommandError naming `inputName`.
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName);
 
 } // namespace pnsplat::tools

@@ -82,9 +82,7 @@ void writeJson(const std::string& output, const std::string& json) {
         fmt::print("{}", json);
         return;
     }
-    std::ofstream out(output);
-    out << json;
-    if (!out) throw CommandError(output + ": cannot write");
+    unwrap(writeFile(output, json));
 }
 
 double median(std::vector<double> v) {

@@ -2,6 +2,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 
@@ -30,6 +31,7 @@ struct RefineArgs {
     bool centroidCandidates = false;
     bool noSmoothing = false;
     bool ascii = false;
+    bool force = false;
     bool estimateRadii = false;
     double thetaFDegrees = 30.0;
     double thetaBDegrees = 165.0;
@@ -42,8 +44,20 @@ constexpr unsigned kDefaultLevels = 4;
 
 void runRefine(const RefineArgs& args) {
     using Clock = std::chrono::steady_clock;
+    // Standard input without -o goes to standard output, as filters do.
+    std::string output = args.output;
+    if (output.empty())
+        output = args.input == "-"
+                     ? "-"
+                     : (args.input.empty() ? std::string("default")
+                                           : std::filesystem::path(args.input).stem().string()) +
+                           "-refined.ply";
+    refuseToOverwriteInput(output, {args.input}, args.force);
+    // Standard output carries the file: the summary goes to standard error.
+    std::FILE* summary = isStandardOutput(output) ? stderr : stdout;
+
     PointSet points;
-    std::string inputName = args.input;
+    std::string inputName = pnsplat::inputName(args.input);
     if (args.input.empty()) {
         points = makeDefaultModel();
         inputName = "the default model";
@@ -78,11 +92,6 @@ void runRefine(const RefineArgs& args) {
     const unsigned done = run.levels;
     const std::size_t outputCount = run.points.size();
 
-    std::string output = args.output;
-    if (output.empty())
-        output = (args.input.empty() ? std::string("default")
-                                     : std::filesystem::path(args.input).stem().string()) +
-                 "-refined.ply";
     unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate =
@@ -94,10 +103,11 @@ void runRefine(const RefineArgs& args) {
                                    run.enlargedRadii, run.holeFillingLevels);
     const std::string distinct =
         run.inputPoints != inputCount ? fmt::format(" ({} distinct)", run.inputPoints) : std::string();
-    fmt::print("{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), "
+    fmt::print(summary,
+               "{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), "
                "{:.3f} s in all -> {}\n",
                inputName, inputCount, distinct, outputCount, done, levelDetail, refineSeconds, rate, total,
-               output);
+               outputName(output));
     if (run.cappedNeighbourhoods > 0)
         fmt::print(stderr,
                    "pnsplat: warning: {} neighbourhood(s) held more than {} points within the radius and "
@@ -118,9 +128,11 @@ void addRefineCommand(CLI::App& app) {
     cmd->add_option("input", args->input,
                     "input PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease "
                     "points; normals and radii "
-                    "estimated when absent); "
+                    "estimated when absent); - for standard input; "
                     "omitted: the embedded default model");
-    cmd->add_option("-o,--output", args->output, "output PLY (default: <input>-refined.ply)");
+    cmd->add_option("-o,--output", args->output,
+                    "output PLY, - for standard output (default: <input>-refined.ply; standard output for "
+                    "input -); links are followed, devices and pipes written through");
     auto* levels = cmd->add_option("-l,--levels", args->levels,
                                    fmt::format("refinement levels (default {})", kDefaultLevels))
                        ->check(CLI::Range(1u, 64u));
@@ -171,6 +183,7 @@ void addRefineCommand(CLI::App& app) {
     addMaxPointsOption(*cmd, args->maxPoints);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
+    addForceFlag(*cmd, args->force);
     cmd->callback([args] { runRefine(*args); });
 }
 

@@ -1,6 +1,7 @@
 // `pnsplat render`: splat a point set offscreen (optionally refined first) into a PNG.
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -36,6 +37,7 @@ struct RenderArgs {
     float radiusScale = 1.0f;
     bool validation = false;
     bool flipNormals = false;
+    bool force = false;
 };
 
 constexpr double kDegree = std::numbers::pi / 180.0;
@@ -48,7 +50,7 @@ PointSet loadForRendering(const std::string& input, std::string& name) {
         name = "the default model";
         points = makeDefaultModel();
     } else {
-        name = input;
+        name = inputName(input);
         points = readInput(input);
     }
     completeInput(points, 0, name);
@@ -65,6 +67,9 @@ engine::RenderPath choosePath(const std::string& path, const engine::Context& co
 
 void runRender(const RenderArgs& args) {
     using namespace engine;
+    refuseToOverwriteInput(args.output, {args.input}, args.force);
+    // Standard output carries the image: the summaries go to standard error.
+    std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
     std::string name;
     PointSet points = loadForRendering(args.input, name);
     const std::size_t inputCount = points.size();
@@ -75,8 +80,8 @@ void runRender(const RenderArgs& args) {
         job.maxPoints = args.maxPoints;
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
-        fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount, points.size(),
-                   run.levels, run.seconds);
+        fmt::print(summary, "refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount,
+                   points.size(), run.levels, run.seconds);
     }
     if (args.flipNormals)
         for (auto& n : points.normal) n = -n;
@@ -115,11 +120,12 @@ void runRender(const RenderArgs& args) {
     const RgbaImage image = unwrap(renderer->render(scene, camera, &stats));
     unwrap(writePng(args.output, image));
     fmt::print(
+        summary,
         "{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
         "normalization {:.1f} ms -> {}\n",
         name, stats.splats, stats.splatsDrawn, args.width, args.height, context->deviceName(),
         settings.path == RenderPath::Compute ? "compute" : "graphics", stats.visibilityMs,
-        stats.accumulationMs, stats.normalizationMs, args.output);
+        stats.accumulationMs, stats.normalizationMs, outputName(args.output));
     if (context->validationMessages() > 0)
         throw CommandError(fmt::format("{} validation message(s); the last: {}",
                                        context->validationMessages(), context->lastValidationMessage()));
@@ -131,8 +137,10 @@ void addRenderCommand(CLI::App& app) {
     auto args = std::make_shared<RenderArgs>();
     CLI::App* cmd =
         app.add_subcommand("render", "Render a point set offscreen as surface splats into a PNG (Vulkan)");
-    cmd->add_option("input", args->input, "input PLY; omitted: the embedded default model");
-    cmd->add_option("-o,--output", args->output, "output PNG")->capture_default_str();
+    cmd->add_option("input", args->input,
+                    "input PLY, - for standard input; omitted: the embedded default model");
+    cmd->add_option("-o,--output", args->output, "output PNG, - for standard output")->capture_default_str();
+    addForceFlag(*cmd, args->force);
     cmd->add_option("--width", args->width, "image width in pixels")->capture_default_str();
     cmd->add_option("--height", args->height, "image height in pixels")->capture_default_str();
     auto* camera = cmd->add_option("--camera", args->camera, "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz")

@@ -3,6 +3,7 @@
 // ("pnsplat: <message>") before exiting with status 1.
 #pragma once
 
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 
@@ -14,6 +15,7 @@
 #include <CLI/CLI.hpp>
 #pragma GCC diagnostic pop
 
+#include "pnsplat/refine/output_file.h"
 #include "pnsplat/refine/result.h"
 
 namespace pnsplat::tools {
@@ -27,6 +29,22 @@ template <typename T>
 T unwrap(Result<T>&& result) {
     if (!result) throw CommandError(result.error().message);
     if constexpr (!std::is_void_v<T>) return std::move(result).value();
+}
+
+// Refuses (CommandError) to write `output` over one of `inputs`, the same file by device and inode
+// (links, other spellings and hard links included: sameFile), unless `force`. Empty names are none.
+inline void refuseToOverwriteInput(const std::string& output, std::initializer_list<std::string> inputs,
+                                   bool force) {
+    if (force || output.empty()) return;
+    for (const std::string& input : inputs)
+        if (!input.empty() && sameFile(input, output))
+            throw CommandError(output + ": is the input " + input + "; not overwriting it without --force");
+}
+
+// `--force` on `cmd`, into `force` (refuseToOverwriteInput).
+inline void addForceFlag(CLI::App& cmd, bool& force) {
+    cmd.add_flag("--force", force,
+                 "write the output even where it is an input file (which is read whole first)");
 }
 
 void addRefineCommand(CLI::App& app);

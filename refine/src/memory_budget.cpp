@@ -42,7 +42,7 @@ RefinementEstimate estimateRefinement(const RefinementPlan& plan) {
         points = input >= target ? input : std::min(points, kLevelGrowth * target);
     }
     if (plan.evenOutFactor > 0.0f)
-        points *= 1.05 + 1.5 * std::max(0.0, 2.0 / double{plan.evenOutFactor} - 1.0);
+        points *= 1.05 + 1.5 * std::max(0.0, 2.0 / static_cast<double>(plan.evenOutFactor) - 1.0);
     RefinementEstimate estimate;
     estimate.points = points;
     estimate.fileBytes = points * pointFileBytes(plan);

@@ -5,13 +5,19 @@
 //
 // The program runs through std::system with stdout and stderr redirected to files of a private
 // temporary folder; every test works in its own folder, removed at the end.
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -30,46 +36,14 @@
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/shapes.h"
+#include "temp_dir.h"
 #include "test_data.h"
 
 namespace pnsplat {
 namespace {
 
 namespace fs = std::filesystem;
-
-// A fresh folder under the system's temporary directory, removed with everything in it.
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<unsigned> counter{0};
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        std::string name = info ? std::string(info->test_suite_name()) + "-" + info->name() : "test";
-        std::replace(name.begin(), name.end(), '/', '-');
-        path_ = fs::temp_directory_path() /
-                ("pnsplat-cli-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" + name);
-        fs::remove_all(path_);
-        fs::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ignored;
-        fs::remove_all(path_, ignored);
-    }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-
-    const fs::path& path() const { return path_; }
-    fs::path operator/(const std::string& name) const { return path_ / name; }
-
-    // Names of the files and folders directly inside.
-    std::set<std::string> entries() const {
-        std::set<std::string> names;
-        for (const auto& e : fs::directory_iterator(path_)) names.insert(e.path().filename().string());
-        return names;
-    }
-
-  private:
-    fs::path path_;
-};
+using test::TempDir;
 
 std::string quote(const std::string& s) {
     std::string q = "'";
@@ -103,15 +77,14 @@ struct RunResult {
     std::string out, err; // standard output and standard error
 };
 
-// Runs `pnsplat <args>` (args already quoted as needed).
-RunResult run(const std::string& args) {
+// Runs the shell command line `commandLine`, capturing its standard output and error.
+RunResult runShell(const std::string& commandLine) {
     static const TempDir captures; // outside every test's own folder
     static std::atomic<unsigned> counter{0};
     const unsigned k = counter++;
     const fs::path out = captures / ("out-" + std::to_string(k)),
                    err = captures / ("err-" + std::to_string(k));
-    const std::string command =
-        quote(test::programPath()) + " " + args + " >" + quote(out) + " 2>" + quote(err);
+    const std::string command = "{ " + commandLine + "; } >" + quote(out) + " 2>" + quote(err);
     const int status = std::system(command.c_str());
     RunResult r;
     // The shell may exec the program (a signal shows in the status) or report it as 128 + signal.
@@ -122,6 +95,17 @@ RunResult run(const std::string& args) {
     fs::remove(out);
     fs::remove(err);
     return r;
+}
+
+// The program, quoted for the shell.
+std::string program() {
+    return quote(test::programPath());
+}
+
+// Runs `pnsplat <args>` (args already quoted as needed), after the shell commands `before` (such
+// as "ulimit -v 3000000; ").
+RunResult run(const std::string& args, const std::string& before = "") {
+    return runShell(before + program() + " " + args);
 }
 
 std::vector<std::string> lines(const std::string& text) {
@@ -520,6 +504,295 @@ TEST(CliRefine, ThreadCountDoesNotChangeTheFile) {
               << " bytes, identical: " << (a == b ? "yes" : "NO") << "\n";
     ASSERT_GT(a.size(), 100000u);
     EXPECT_TRUE(a == b);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Memory (issue 20, defect 3): what does not fit is refused before it starts, with its estimate;
+// running out all the same, on any thread, is one line and a non-zero exit, never a signal.
+
+// Sanitizers reserve terabytes of address space for their shadow memory: under ulimit -v their
+// programs do not start.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__) // GCC
+#define PNSPLAT_SANITIZED 1
+#elif defined(__has_feature) // Clang
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define PNSPLAT_SANITIZED 1
+#endif
+#endif
+#ifdef PNSPLAT_SANITIZED
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#define PNSPLAT_SKIP_UNDER_SANITIZERS()                                                                      \
+    do {                                                                                                     \
+        if (kSanitized) GTEST_SKIP() << "a sanitizer's shadow memory does not fit under ulimit -v";          \
+    } while (0)
+
+// ulimit -v 3000000 (3.1 GB of address space) and 10 levels of igea's 600 points (some 35 million
+// points, 5 GB): refused at once. Before, the refinement ran into the limit, and with more than
+// one thread died of SIGSEGV or SIGABRT (std::bad_alloc on a worker thread).
+TEST(CliMemory, RefinementBeyondTheAddressSpaceLimitIsRefusedWithItsEstimate) {
+    PNSPLAT_SKIP_UNDER_SANITIZERS();
+    PNSPLAT_REQUIRE_DATA("igea-600-uniform.ply");
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    for (const unsigned threads : {1u, 2u, 8u}) {
+        SCOPED_TRACE(threads);
+        const RunResult r = run("refine " + quote(test::dataDir() / "igea-600-uniform.ply") +
+                                    " --levels 10 --threads " + std::to_string(threads) + " -o " + quote(out),
+                                "ulimit -v 3000000; ");
+        std::cout << "[ulimit -v 3000000; refine igea-600 --levels 10 --threads " << threads << "] exit "
+                  << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r));
+        EXPECT_NE(r.err.find("10 level(s) would make about 35.4 million points"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("the address-space limit (ulimit -v) allows 3.1 GB"), std::string::npos)
+            << r.err;
+        EXPECT_TRUE(dir.entries().empty());
+    }
+}
+
+// 64 levels (the largest --levels takes) make some 7e33 points: refused at once, saying so.
+TEST(CliMemory, SixtyFourLevelsAreRefusedAtOnce) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    const RunResult r = run("refine --levels 64 -o " + quote(out));
+    std::cout << "[refine --levels 64] exit " << r.exitCode << ": " << r.err;
+    EXPECT_TRUE(failsCleanly(r));
+    EXPECT_NE(r.err.find("64 level(s) would make about 6.9e+33 points"), std::string::npos) << r.err;
+    EXPECT_TRUE(dir.entries().empty());
+    // A target: at most three times the target (the level before it had fewer points).
+    const RunResult target = run("refine --target-points 100000 --max-points 200000 -o " + quote(out));
+    std::cout << "[refine --target-points 100000 --max-points 200000] exit " << target.exitCode << ": "
+              << target.err;
+    EXPECT_TRUE(failsCleanly(target));
+    EXPECT_NE(target.err.find("would make about 300000 points"), std::string::npos) << target.err;
+    EXPECT_NE(target.err.find("more than --max-points 200000"), std::string::npos) << target.err;
+    EXPECT_TRUE(dir.entries().empty());
+    // Within the bound it runs (2,000 points, 2 levels: about 18,000).
+    const RunResult within = run("refine --levels 2 --max-points 20000 -o " + quote(out));
+    EXPECT_TRUE(within.exited && within.exitCode == 0) << within.err;
+    EXPECT_TRUE(fs::exists(out));
+}
+
+// --max-points lifts the bound, and the refinement runs into the address-space limit (set at about
+// 120 MB plus 84 MiB per extra thread, which lets the default model reach level 5 or 6): the
+// allocation fails inside the levels, on whichever worker, and the program says so in one line.
+TEST(CliMemory, RunningOutOfMemoryOnAnyThreadIsOneLine) {
+    PNSPLAT_SKIP_UNDER_SANITIZERS();
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    for (const unsigned threads : {1u, 2u, 8u}) {
+        SCOPED_TRACE(threads);
+        const unsigned limitKb = 120000 + (threads - 1) * 86000;
+        const RunResult r = run("refine --levels 10 --max-points 1000000000 --threads " +
+                                    std::to_string(threads) + " -o " + quote(out),
+                                "ulimit -v " + std::to_string(limitKb) + "; ");
+        std::cout << "[ulimit -v " << limitKb << "; refine --levels 10 --threads " << threads << "] exit "
+                  << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r));
+        EXPECT_NE(r.err.find("out of memory in refinement level"), std::string::npos) << r.err;
+        EXPECT_TRUE(dir.entries().empty());
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outputs (issue 20, defect 4): one writer for every file (output_file.h).
+
+bool isLink(const fs::path& path) {
+    return fs::is_symlink(fs::symlink_status(path));
+}
+
+// Every output through a link: the link's target gets the file and the link stays. Before, the
+// link was replaced by a regular file (and bench wrote its JSON with a plain stream).
+TEST(CliOutput, EveryWriterWritesThroughALink) {
+    const TempDir dir;
+    const fs::path sphere = dir / "sphere.ply";
+    ASSERT_TRUE(writePly(sphere, sampleSphereUniform(600, 1.0f)).ok());
+    struct Case {
+        std::string what, args; // args end with the option that names the output
+    };
+    const std::vector<Case> cases = {
+        {"refine", "refine " + quote(sphere) + " -l 1 -o"},
+        {"eval -o", "eval " + quote(sphere) + " --reference sphere:1 -o"},
+        {"eval --hole-map", "eval " + quote(sphere) + " --reference sphere:1 --hole-map"},
+        {"render", "render --width 32 --height 24 -o"},
+        {"bench refine", "bench refine --sphere-points 200 --target-points 2000 --repeat 1 -o"},
+    };
+    std::vector<std::string> withLinks;
+    for (std::size_t k = 0; k < cases.size(); ++k) {
+        SCOPED_TRACE(cases[k].what);
+        const fs::path target = dir / ("target-" + std::to_string(k)),
+                       link = dir / ("link-" + std::to_string(k));
+        fs::create_symlink(target.filename(), link);
+        const RunResult r = run(cases[k].args + " " + quote(link));
+        EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
+        EXPECT_TRUE(isLink(link));
+        EXPECT_TRUE(fs::is_regular_file(target));
+        EXPECT_GT(readText(target).size(), 10u);
+    }
+    // diff's heat map, from the picture just rendered.
+    const fs::path picture = dir / "target-3", link = dir / "heat-link", target = dir / "heat.png";
+    fs::create_symlink("heat.png", link);
+    const RunResult r = run("diff " + quote(picture) + " " + quote(picture) + " --heatmap " + quote(link));
+    EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_TRUE(isLink(link));
+    EXPECT_EQ(readText(target).substr(1, 3), "PNG");
+}
+
+// `-` reads standard input and writes standard output, in a pipe: the same bytes as through files;
+// the summary goes to standard error. Before, `-o -` made a file named "-" and `-` was no input.
+TEST(CliOutput, StandardInputAndOutputInAPipe) {
+    const TempDir dir;
+    const fs::path in = dir / "in.ply", direct = dir / "direct.ply";
+    ASSERT_TRUE(writePly(in, sampleSphereUniform(600, 1.0f)).ok());
+    const RunResult files = run("refine " + quote(in) + " -l 2 -o " + quote(direct));
+    ASSERT_TRUE(files.exited && files.exitCode == 0) << files.err;
+    const std::string expected = readText(direct);
+    ASSERT_GT(expected.size(), 100000u);
+
+    const RunResult piped =
+        runShell("cd " + quote(dir.path()) + " && cat in.ply | " + program() + " refine - -l 2 -o - | cat");
+    std::cout << "[cat in.ply | refine - -l 2 -o - | cat] " << piped.err;
+    ASSERT_TRUE(piped.exited && piped.exitCode == 0) << piped.err;
+    EXPECT_TRUE(piped.out == expected) << piped.out.size() << " bytes, expected " << expected.size();
+    EXPECT_NE(piped.err.find("standard input: 600 points in"), std::string::npos) << piped.err;
+    EXPECT_NE(piped.err.find("-> standard output"), std::string::npos) << piped.err;
+
+    // Standard input without -o: standard output (a filter). A link to /proc/self/fd/1, as
+    // /dev/stdout is (which the program, as root, used to replace by its file; a link of our own
+    // here, so that a relapse cannot break the system's), is standard output too.
+    const RunResult filter = runShell(program() + " refine - -l 2 < " + quote(in));
+    EXPECT_TRUE(filter.exited && filter.exitCode == 0) << filter.err;
+    EXPECT_TRUE(filter.out == expected);
+    fs::create_symlink("/proc/self/fd/1", dir / "stdout");
+    const RunResult devStdout =
+        runShell(program() + " refine " + quote(in) + " -l 2 -o " + quote(dir / "stdout") + " | cat");
+    EXPECT_TRUE(devStdout.exited && devStdout.exitCode == 0) << devStdout.err;
+    EXPECT_TRUE(devStdout.out == expected);
+    EXPECT_TRUE(isLink(dir / "stdout"));
+
+    // A PNG to standard output.
+    const RunResult png = runShell(program() + " render --width 32 --height 24 -o - | cat");
+    EXPECT_TRUE(png.exited && png.exitCode == 0) << png.err;
+    EXPECT_EQ(png.out.substr(1, 3), "PNG");
+    EXPECT_TRUE(dir.entries() == (std::set<std::string>{"in.ply", "direct.ply", "stdout"}));
+}
+
+// A FIFO, a device node made with mknod (as root) and /dev/null are written through and stay what
+// they are; /dev/full fails in one line. Before, the program renamed its file over them (as root,
+// over the system's devices): the FIFO and the node come first, so that a relapse stops the test
+// before it reaches /dev/null.
+TEST(CliOutput, PipesAndDevicesAreWrittenThroughNotReplaced) {
+    const TempDir dir;
+    const fs::path fifo = dir / "fifo";
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    const RunResult piped = runShell("timeout 60 cat " + quote(fifo) + " | wc -c & " + program() +
+                                     " refine -l 1 -o " + quote(fifo) + " > /dev/null; wait");
+    EXPECT_TRUE(piped.exited && piped.exitCode == 0) << piped.err;
+    EXPECT_GT(std::stol("0" + piped.out), 100000) << piped.out; // the bytes the reader got
+    ASSERT_TRUE(fs::is_fifo(fs::symlink_status(fifo))) << "the FIFO was replaced";
+
+    struct stat s {};
+    if (::geteuid() != 0) {
+        std::cout << "    (not root: no device node made here)\n";
+    } else {
+        const fs::path node = dir / "node";
+        if (::mknod(node.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0) {
+            std::cout << "    (mknod refused: " << std::strerror(errno) << "; no device node made here)\n";
+        } else {
+            const RunResult r = run("refine -l 1 -o " + quote(node));
+            EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
+            ASSERT_EQ(::lstat(node.c_str(), &s), 0);
+            ASSERT_TRUE(S_ISCHR(s.st_mode) && s.st_rdev == makedev(1, 3)) << "the device node was replaced";
+        }
+    }
+
+    const RunResult null = run("refine -l 1 -o /dev/null");
+    EXPECT_TRUE(null.exited && null.exitCode == 0) << null.err;
+    ASSERT_EQ(::lstat("/dev/null", &s), 0);
+    EXPECT_TRUE(S_ISCHR(s.st_mode) && s.st_rdev == makedev(1, 3));
+
+    const RunResult full = run("refine -l 1 -o /dev/full");
+    std::cout << "[refine -o /dev/full] exit " << full.exitCode << ": " << full.err;
+    EXPECT_TRUE(failsCleanly(full));
+    EXPECT_NE(full.err.find("/dev/full: cannot write: No space left on device"), std::string::npos);
+    EXPECT_TRUE(dir.entries() == (std::set<std::string>{"fifo", "node"}) ||
+                dir.entries() == (std::set<std::string>{"fifo"}));
+}
+
+// An output that is an input, however it is spelled (another path, a symbolic or a hard link), is
+// refused before any work unless --force; with --force the input is replaced by the output.
+TEST(CliOutput, TheInputIsNotOverwrittenWithoutForce) {
+    const TempDir dir;
+    const fs::path in = dir / "in.ply";
+    ASSERT_TRUE(writePly(in, sampleSphereUniform(600, 1.0f)).ok());
+    const std::string original = readText(in);
+    fs::create_symlink("in.ply", dir / "soft.ply");
+    fs::create_hard_link(in, dir / "hard.ply");
+    for (const fs::path& out : {in, dir / "." / "in.ply", dir / "soft.ply", dir / "hard.ply"}) {
+        SCOPED_TRACE(out.string());
+        const RunResult r = run("refine " + quote(in) + " -l 1 -o " + quote(out));
+        std::cout << "[refine in.ply -o " << out.filename() << "] exit " << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r));
+        EXPECT_NE(r.err.find("not overwriting it without --force"), std::string::npos) << r.err;
+        EXPECT_TRUE(readText(in) == original);
+    }
+    for (const std::string& args :
+         {"eval " + quote(in) + " --reference sphere:1 -o " + quote(dir / "soft.ply"),
+          "eval " + quote(in) + " --reference sphere:1 --hole-map " + quote(in),
+          "render " + quote(in) + " -o " + quote(in),
+          "diff " + quote(in) + " " + quote(in) + " --heatmap " + quote(in)}) {
+        SCOPED_TRACE(args);
+        EXPECT_TRUE(failsCleanly(run(args)));
+        EXPECT_TRUE(readText(in) == original);
+    }
+    EXPECT_TRUE(dir.entries() == (std::set<std::string>{"in.ply", "soft.ply", "hard.ply"}));
+
+    const RunResult forced = run("refine " + quote(in) + " -l 1 --force -o " + quote(in));
+    EXPECT_TRUE(forced.exited && forced.exitCode == 0) << forced.err;
+    const auto refined = readPly(in);
+    ASSERT_TRUE(refined.ok()) << refined.error().message;
+    EXPECT_GT(refined->points.size(), 1500u);
+}
+
+// A signal while the output is written (an ascii PLY of half a million points, some 40 MB: the
+// program is signalled once it holds a file of the folder open) leaves the folder as it was. The
+// unnamed temporary file (O_TMPFILE) vanishes with the process, SIGKILL included. Before, the
+// program left OUT.ply.tmp-PID-0 behind.
+TEST(CliOutput, SignalsDuringAWriteLeaveNothing) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    const std::string prefix = dir.path().string() + "/";
+    for (const int signal : {SIGINT, SIGTERM, SIGKILL}) {
+        SCOPED_TRACE(strsignal(signal));
+        const std::string programPath = test::programPath().string(), outPath = out.string();
+        std::vector<std::string> arguments = {programPath, "refine", "-l", "5", "--ascii", "-o", outPath};
+        std::vector<char*> argv;
+        for (std::string& a : arguments) argv.push_back(a.data());
+        argv.push_back(nullptr);
+        posix_spawn_file_actions_t actions;
+        posix_spawn_file_actions_init(&actions);
+        posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+        posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
+        pid_t child = 0;
+        ASSERT_EQ(posix_spawn(&child, programPath.c_str(), &actions, nullptr, argv.data(), environ), 0);
+        posix_spawn_file_actions_destroy(&actions);
+        // Wait until it writes: a descriptor of it leads into the folder ("/dir/#123 (deleted)").
+        const fs::path fds = fs::path("/proc") / std::to_string(child) / "fd";
+        bool writing = false;
+        for (int exited = 0; !writing && exited == 0; exited = ::waitpid(child, nullptr, WNOHANG)) {
+            std::error_code ec;
+            for (fs::directory_iterator it(fds, ec), end; !ec && it != end; it.increment(ec))
+                writing |= fs::read_symlink(it->path(), ec).string().rfind(prefix, 0) == 0;
+        }
+        ASSERT_TRUE(writing) << "the program ended before it was seen writing";
+        ::kill(child, signal);
+        int status = 0;
+        ASSERT_EQ(::waitpid(child, &status, 0), child);
+        EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == signal) << status;
+        EXPECT_TRUE(dir.entries().empty()) << *dir.entries().begin();
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
 #include <glm/geometric.hpp>
+#include <gtest/gtest.h>
 
 #include "gpu_test.h"
 #include "pnsplat/engine/engine.h"
@@ -95,8 +95,20 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
         {"far (igea)", "igea-600-uniform.ply", 320, 240, {0.0f, 0.0f, 1.0f}, 2.9f},
         // A third of the face fills the view; a smaller image keeps the offline refinement of the whole
         // model that needs as small splats within the test's reach (8 levels, 4 M points).
-        {"close-up (igea)", "igea-600-uniform.ply", 160, 120, {0.15f, 0.1f, 1.0f}, 1.0f, {0.05f, 0.15f, 0.55f}},
-        {"grazing (bunny)", "bunny-3500-random.ply", 320, 240, {0.15f, 1.0f, 0.35f}, 2.4f, {0.0f, -0.15f, 0.0f}},
+        {"close-up (igea)",
+         "igea-600-uniform.ply",
+         160,
+         120,
+         {0.15f, 0.1f, 1.0f},
+         1.0f,
+         {0.05f, 0.15f, 0.55f}},
+        {"grazing (bunny)",
+         "bunny-3500-random.ply",
+         320,
+         240,
+         {0.15f, 1.0f, 0.35f},
+         2.4f,
+         {0.0f, -0.15f, 0.0f}},
     };
     for (const View& v : views) {
         SCOPED_TRACE(v.name);
@@ -129,13 +141,14 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
         // The points the picture uses: the splats drawn (the tree holds their ancestors too, and nodes
         // refined for the balance rule).
         const double ratio = double(drawn->splatsDrawn) / double(offline.points().size());
-        std::printf("[%s] PSNR %.2f dB, SSIM %.4f; adaptive: %zu splats drawn, largest %.2f px, %.3f %% above "
-                    "2 px, levels to %u, %zu points in the tree; offline: %u levels, %zu points; drawn / offline "
-                    "%.3f, tree / offline %.3f\n",
-                    v.name.c_str(), difference->psnr, difference->ssim, drawn->splatsDrawn,
-                    double(drawn->maxSplatPx), 100.0 * drawn->overThreshold, deepest, engine.tree().pointCount(),
-                    offline.levels(), offline.points().size(), ratio,
-                    double(engine.tree().pointCount()) / double(offline.points().size()));
+        std::printf(
+            "[%s] PSNR %.2f dB, SSIM %.4f; adaptive: %zu splats drawn, largest %.2f px, %.3f %% above "
+            "2 px, levels to %u, %zu points in the tree; offline: %u levels, %zu points; drawn / offline "
+            "%.3f, tree / offline %.3f\n",
+            v.name.c_str(), difference->psnr, difference->ssim, drawn->splatsDrawn, double(drawn->maxSplatPx),
+            100.0 * drawn->overThreshold, deepest, engine.tree().pointCount(), offline.levels(),
+            offline.points().size(), ratio,
+            double(engine.tree().pointCount()) / double(offline.points().size()));
         EXPECT_GE(difference->psnr, 38.0);
         EXPECT_GE(difference->ssim, 0.98);
         EXPECT_LE(drawn->overThreshold, 0.01); // acceptance 2: 99 % at or below the threshold
@@ -159,8 +172,8 @@ std::vector<Camera> randomWalk(const engine::Sphere& bounds, std::size_t frames,
         direction = glm::normalize(direction + velocity);
         speed = 0.9f * speed + 0.01f * step(random);
         distance = std::clamp(distance + speed, nearest, farthest);
-        look = glm::clamp(look + 0.01f * glm::vec3(step(random), step(random), step(random)), glm::vec3(-0.3f),
-                          glm::vec3(0.3f));
+        look = glm::clamp(look + 0.01f * glm::vec3(step(random), step(random), step(random)),
+                          glm::vec3(-0.3f), glm::vec3(0.3f));
         Camera camera;
         camera.target = bounds.centre + look * bounds.radius;
         camera.eye = bounds.centre + direction * distance * bounds.radius;
@@ -222,10 +235,11 @@ TEST_F(EngineTest, LockstepFramesAreTheSameForAnyWorkersAndCache) {
     auto small = Engine::create(context(), input, settings);
     ASSERT_TRUE(small.ok()) << small.error().message;
     runs.push_back(lockstepFrames(*this, **small, path));
-    std::printf("%zu frames to level %zu; the model at that level: %zu points; small cache %.1f MiB (the big one "
-                "%.0f MiB), the tree held up to %zu points\n",
-                path.size(), deepest, modelPoints, double(settings.cacheBytes) / double(1 << 20),
-                double(EngineSettings{}.cacheBytes) / double(1 << 20), mostTreePoints);
+    std::printf(
+        "%zu frames to level %zu; the model at that level: %zu points; small cache %.1f MiB (the big one "
+        "%.0f MiB), the tree held up to %zu points\n",
+        path.size(), deepest, modelPoints, double(settings.cacheBytes) / double(1 << 20),
+        double(EngineSettings{}.cacheBytes) / double(1 << 20), mostTreePoints);
     for (std::size_t run = 1; run < runs.size(); ++run)
         for (std::size_t k = 0; k < path.size(); ++k)
             EXPECT_TRUE(runs[run][k].pixels == runs[0][k].pixels) << "run " << run << ", frame " << k;
@@ -271,10 +285,11 @@ TEST(EngineStress, CacheOfAnEighthOfTheModelOnALongWalk) {
     }
     engine.finish();
     rssEnd = residentBytes();
-    std::printf("%zu frames, deepest level %zu, cache %.2f MiB (model at level 8: %zu points), %zu evictions, "
-                "%zu chunks compared, RSS %.1f MiB at frame %zu and %.1f MiB at %zu\n",
-                frames, deepest, double(settings.cacheBytes) / double(1 << 20), refiner.points().size(), evictions,
-                checked, double(rssWarm) / double(1 << 20), frames / 10, double(rssEnd) / double(1 << 20), frames);
+    std::printf(
+        "%zu frames, deepest level %zu, cache %.2f MiB (model at level 8: %zu points), %zu evictions, "
+        "%zu chunks compared, RSS %.1f MiB at frame %zu and %.1f MiB at %zu\n",
+        frames, deepest, double(settings.cacheBytes) / double(1 << 20), refiner.points().size(), evictions,
+        checked, double(rssWarm) / double(1 << 20), frames / 10, double(rssEnd) / double(1 << 20), frames);
     EXPECT_GT(evictions, 100u);
     EXPECT_EQ(engine.overwritesInFlight(), 0u);
     EXPECT_LT(double(rssEnd), 1.15 * double(rssWarm) + double(16 << 20));

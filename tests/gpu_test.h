@@ -50,10 +50,11 @@ class GpuTest : public ::testing::Test {
         if (!engine) return {};
         return frameOf(**engine, camera, report);
     }
+
   public:
     // One frame of `engine`, read back; fails the test on error.
     engine::RgbaImage frameOf(engine::Engine& engine, const engine::Camera& camera,
-                            engine::FrameReport* report = nullptr, bool lockstep = true) {
+                              engine::FrameReport* report = nullptr, bool lockstep = true) {
         engine::FrameOptions options;
         options.readBack = true;
         options.lockstep = lockstep;

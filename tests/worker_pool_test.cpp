@@ -1,10 +1,13 @@
-// The worker threads (worker_pool.h): every item and every graph node runs exactly once, and a
-// node only after all of its predecessors have finished.
+// The worker threads (worker_pool.h): every item and every graph node runs exactly once, a node
+// only after all of its predecessors have finished, and an exception thrown on any worker (out of
+// memory, for one) reaches the caller.
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <new>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -97,6 +100,50 @@ TEST(WorkerPool, RunGraphOfAChainIsSequential) {
     runGraph(pool, chain, [&](std::uint32_t node, unsigned) { order.push_back(node); }); // never concurrent
     ASSERT_EQ(order.size(), nodes);
     for (std::uint32_t k = 0; k < nodes; ++k) EXPECT_EQ(order[k], k);
+}
+
+// A task that throws on a worker thread: without the pool catching it, std::terminate (the
+// program dies of SIGABRT). Worker 0, the caller, waits until another worker has thrown, so the
+// throw happens off the calling thread; the exception arrives in the caller and the pool works on.
+TEST(WorkerPool, ParallelForRethrowsAWorkersExceptionInTheCaller) {
+    for (const unsigned threads : {2u, 8u}) {
+        WorkerPool pool(threads);
+        ASSERT_EQ(pool.size(), threads);
+        std::atomic<bool> thrown{false};
+        EXPECT_THROW(pool.parallelFor(1000,
+                                      [&](std::size_t, unsigned worker) {
+                                          if (worker != 0) {
+                                              thrown = true;
+                                              throw std::bad_alloc();
+                                          }
+                                          while (!thrown) std::this_thread::yield();
+                                      }),
+                     std::bad_alloc);
+        std::vector<std::atomic<int>> runs(100);
+        pool.parallelFor(runs.size(), [&](std::size_t item, unsigned) { runs[item].fetch_add(1); });
+        for (const std::atomic<int>& r : runs) EXPECT_EQ(r.load(), 1);
+    }
+}
+
+// A node that throws in the middle of a chain: the nodes after it wait for it forever without the
+// pool's care (and the caller unwinds past the graph's arrays while they spin on them). With it,
+// runGraph throws, and no node after the failed one runs.
+TEST(WorkerPool, RunGraphStopsAtANodeThatThrows) {
+    const std::uint32_t nodes = 100;
+    std::vector<std::vector<std::uint32_t>> successors(nodes);
+    for (std::uint32_t k = 0; k + 1 < nodes; ++k) successors[k].push_back(k + 1);
+    const TaskGraph chain = graphOf(successors);
+    for (const unsigned threads : {1u, 2u, 8u}) {
+        WorkerPool pool(threads);
+        std::uint32_t last = 0;
+        EXPECT_THROW(runGraph(pool, chain,
+                              [&](std::uint32_t node, unsigned) {
+                                  last = node;
+                                  if (node == 50) throw std::bad_alloc();
+                              }),
+                     std::bad_alloc);
+        EXPECT_EQ(last, 50u);
+    }
 }
 
 TEST(WorkerPool, RunGraphOfNoNodesReturns) {

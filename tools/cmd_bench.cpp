@@ -73,9 +73,7 @@ void writeJson(const std::string& output, const std::string& json) {
         fmt::print("{}", json);
         return;
     }
-    std::ofstream out(output);
-    out << json;
-    if (!out) throw CommandError(output + ": cannot write");
+    unwrap(writeFile(output, json));
 }
 
 double rate(const RunResult& r) {

@@ -17,9 +17,11 @@ struct DiffArgs {
     std::string heatmap;
     double maxRmse = -1.0;
     int pixelThreshold = 2;
+    bool force = false;
 };
 
 void runDiff(const DiffArgs& args) {
+    refuseToOverwriteInput(args.heatmap, {args.a, args.b}, args.force);
     const engine::RgbaImage a = unwrap(engine::readPng(args.a));
     const engine::RgbaImage b = unwrap(engine::readPng(args.b));
     const engine::ImageDifference d = unwrap(engine::compareImages(a, b, args.pixelThreshold));
@@ -43,6 +45,7 @@ void addDiffCommand(CLI::App& app) {
     cmd->add_option("a", args->a, "first PNG")->required();
     cmd->add_option("b", args->b, "second PNG")->required();
     cmd->add_option("--heatmap", args->heatmap, "write the per-pixel difference as a heat map PNG");
+    addForceFlag(*cmd, args->force);
     cmd->add_option("--max-rmse", args->maxRmse,
                     "exit with status 1 when RMSE (0..255 units) exceeds this (errors: 2 or 3)")
         ->check(CLI::NonNegativeNumber);

@@ -1,8 +1,5 @@
 // `pnsplat eval`: measures a refined point set against the true surface (an analytic sphere or
 // torus, or a dense reference PLY) and prints the metrics of refine/quality.h as JSON.
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -25,16 +22,8 @@ struct EvalArgs {
     std::string holeMap;
     unsigned threads = 0;
     bool flatNormals = false;
+    bool force = false;
 };
-
-void writeText(const std::string& path, const std::string& text) {
-    std::FILE* file = std::fopen(path.c_str(), "wb");
-    if (!file) throw CommandError(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
-    const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
-    const bool closed = std::fclose(file) == 0;
-    if (!written || !closed)
-        throw CommandError(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
-}
 
 // The refined points in grey with the reference points counted as holes among them, in their
 // colours (quality.h), as discs as wide as the hole test's distance: where the holes are, to
@@ -54,6 +43,8 @@ PointSet holeMap(PointSet refined, const QualityReport& report) {
 }
 
 void runEval(const EvalArgs& args) {
+    for (const std::string& output : {args.output, args.holeMap})
+        refuseToOverwriteInput(output, {args.refined, args.reference, args.input}, args.force);
     Result<Reference> parsed = parseReference(args.reference);
     if (!parsed) {
         // A spec ("sphere:abc", "cube:2") is a usage error; a file that cannot be read, a failure.
@@ -79,7 +70,7 @@ void runEval(const EvalArgs& args) {
     if (args.output.empty())
         fmt::print("{}", json);
     else
-        writeText(args.output, json);
+        unwrap(writeFile(args.output, json));
 }
 
 } // namespace
@@ -95,6 +86,7 @@ void addEvalCommand(CLI::App& app) {
     cmd->add_option("--input", args->input,
                     "The original sparse input (PLY), to check it is kept bit for bit");
     cmd->add_option("-o,--output", args->output, "Write the JSON report to this file instead of stdout");
+    addForceFlag(*cmd, args->force);
     cmd->add_option(
         "--hole-map", args->holeMap,
         "Write a PLY to look at (pnsplat render): the refined points in grey and the reference points "

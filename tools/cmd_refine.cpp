@@ -2,6 +2,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -34,6 +35,7 @@ struct RefineArgs {
     bool centroidCandidates = false;
     bool noSmoothing = false;
     bool ascii = false;
+    bool force = false;
     bool estimateRadii = false;
     bool json = false;
     bool keepNormals = false;
@@ -41,15 +43,28 @@ struct RefineArgs {
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
+    std::size_t maxPoints = 0;
 };
 
 constexpr unsigned kDefaultLevels = 4;
 
 void runRefine(const RefineArgs& args) {
     using Clock = std::chrono::steady_clock;
+    // Standard input without -o goes to standard output, as filters do.
+    std::string output = args.output;
+    if (output.empty())
+        output = args.input == "-"
+                     ? "-"
+                     : (args.input.empty() ? std::string("default")
+                                           : std::filesystem::path(args.input).stem().string()) +
+                           "-refined.ply";
+    refuseToOverwriteInput(output, {args.input}, args.force);
+    // Standard output carries the file: the summary goes to standard error.
+    std::FILE* summary = isStandardOutput(output) ? stderr : stdout;
+
     PointSet points;
     std::vector<std::string> comments; // the input's header comments, carried on to the output
-    std::string inputName = args.input;
+    std::string inputName = pnsplat::inputName(args.input);
     if (args.input.empty()) {
         points = makeDefaultModel();
         inputName = "the default model";
@@ -85,16 +100,12 @@ void runRefine(const RefineArgs& args) {
     job.estimateRadii = args.estimateRadii;
     job.keepNormals = args.keepNormals;
     job.holes = parseHoles(args.holes);
+    job.maxPoints = args.maxPoints;
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
     const double refineSeconds = run.seconds;
     const unsigned done = run.levels;
     const std::size_t outputCount = run.points.size();
 
-    std::string output = args.output;
-    if (output.empty())
-        output = (args.input.empty() ? std::string("default")
-                                     : std::filesystem::path(args.input).stem().string()) +
-                 "-refined.ply";
     unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian,
                     comments));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
@@ -102,11 +113,12 @@ void runRefine(const RefineArgs& args) {
         refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;
     if (args.json) {
         fmt::print(
+            summary,
             R"({{"input": {}, "output": {}, "points_in": {}, "distinct_in": {}, "points_out": {}, "levels": {}, )"
             R"("evening_out_levels": {}, "hole_filling_levels": {}, "holes": {}, "rim_points": {}, )"
             R"("refine_seconds": {:.4f}, "seconds": {:.4f}, "points_per_second": {:.0f}, "capped_neighbourhoods": {}, "turned_normals": {}}})"
             "\n",
-            args.input.empty() ? "null" : jsonString(args.input), jsonString(output), inputCount,
+            args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(output)), inputCount,
             run.inputPoints, outputCount, done, run.evenOutLevels, run.holeFillingLevels, job.holes.size(),
             run.enlargedRadii, refineSeconds, total, rate, run.cappedNeighbourhoods, run.turnedNormals);
     } else {
@@ -122,10 +134,11 @@ void runRefine(const RefineArgs& args) {
         const std::string distinct =
             inputDetail.empty() ? std::string() : fmt::format(" ({})", fmt::join(inputDetail, ", "));
         fmt::print(
+            summary,
             "{}: {} points in{}, {} out, {} level(s){}, {:.3f} s refining ({:.0f} points/s generated), "
             "{:.3f} s in all -> {}\n",
             inputName, inputCount, distinct, outputCount, done, levelDetail, refineSeconds, rate, total,
-            output);
+            outputName(output));
     }
     if (run.cappedNeighbourhoods > 0) {
         // Estimating the radii again changes nothing when they were estimated already.
@@ -151,9 +164,11 @@ void addRefineCommand(CLI::App& app) {
     cmd->add_option("input", args->input,
                     "input PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease "
                     "points; normals and radii "
-                    "estimated when absent); "
+                    "estimated when absent); - for standard input; "
                     "omitted: the embedded default model");
-    cmd->add_option("-o,--output", args->output, "output PLY (default: <input>-refined.ply)");
+    cmd->add_option("-o,--output", args->output,
+                    "output PLY, - for standard output (default: <input>-refined.ply; standard output for "
+                    "input -); links are followed, devices and pipes written through");
     auto* levels = cmd->add_option("-l,--levels", args->levels,
                                    fmt::format("refinement levels (default {})", kDefaultLevels))
                        ->check(CLI::Range(1u, 64u));
@@ -201,11 +216,13 @@ void addRefineCommand(CLI::App& app) {
             "0 or [1, 100]"))
         ->capture_default_str();
     addFillHoleOption(*cmd, args->holes);
+    addMaxPointsOption(*cmd, args->maxPoints);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     addKeepNormalsOption(*cmd, args->keepNormals);
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");
+    addForceFlag(*cmd, args->force);
 }
 
 } // namespace pnsplat::tools

@@ -1,6 +1,7 @@
 // `pnsplat render`: splat a point set offscreen (optionally refined first) into a PNG.
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -34,6 +35,7 @@ struct RenderArgs {
     double fovDegrees = 40.0;
     unsigned refineLevels = 0;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
+    std::size_t maxPoints = 0;
     std::vector<float> background{1.0f, 1.0f, 1.0f};
     float radiusScale = 1.0f;
     bool flipNormals = false;
@@ -41,6 +43,7 @@ struct RenderArgs {
     EngineArgs engine;
     bool json = false;
     bool keepNormals = false;
+    bool force = false;
 };
 
 // "+x", "-z", ...: the name of an axis direction.
@@ -97,6 +100,9 @@ std::string viewpointReason(const engine::Viewpoint& view, const RenderArgs& arg
 
 void runRender(const RenderArgs& args) {
     using namespace engine;
+    refuseToOverwriteInput(args.output, {args.input, args.frame}, args.force);
+    // Standard output carries the image: the summaries go to standard error.
+    std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
     std::string name;
     PointSet points = loadForRendering(args.input, args.keepNormals, name);
     std::string frameName;
@@ -112,11 +118,12 @@ void runRender(const RenderArgs& args) {
         job.levels = args.refineLevels;
         job.holes = parseHoles(args.holes);
         job.keepNormals = args.keepNormals;
+        job.maxPoints = args.maxPoints;
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
         levels = run.levels;
         if (!args.json)
-            fmt::print("refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount,
+            fmt::print(summary, "refined {}: {} -> {} points in {} level(s), {:.2f} s\n", name, inputCount,
                        points.size(), run.levels, run.seconds);
     }
     if (args.flipNormals)
@@ -148,14 +155,15 @@ void runRender(const RenderArgs& args) {
     const std::size_t splats = engine.tree().pointCount();
     if (args.json) {
         fmt::print(
+            summary,
             R"({{"input": {}, "output": {}, "input_points": {}, "levels": {}, "splats": {}, "splats_in_view": {}, )"
             R"("width": {}, "height": {}, "device": {}, "path": "{}", "visibility_ms": {:.3f}, "accumulation_ms": {:.3f}, )"
             R"("normalization_ms": {:.3f}, "camera": "{}", "fov_degrees": {}, "frame": {}, "up": {}, "eye_side": {}, )"
             R"("adaptive": {}, "threshold_px": {}, "nodes": {}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, )"
             R"("refine_ms": {:.1f}}})"
             "\n",
-            args.input.empty() ? "null" : jsonString(args.input), jsonString(args.output), inputCount, levels,
-            splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
+            args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
+            inputCount, levels, splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
             jsonString(context->deviceName()), path, gpu.visibilityMs, gpu.accumulationMs,
             gpu.normalizationMs, cameraValue(camera), jsonNumber(args.fovDegrees),
             args.frame.empty() ? "null" : jsonString(args.frame),
@@ -165,17 +173,19 @@ void runRender(const RenderArgs& args) {
         return;
     }
     fmt::print(
+        summary,
         "{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
         "normalization {:.1f} ms -> {}\n",
         name, splats, drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(), path,
-        gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, args.output);
+        gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, outputName(args.output));
     if (args.adaptive)
-        fmt::print("{}: refined for this camera until its splats are at most {} px wide ({:.2f} % above; the "
+        fmt::print(summary,
+                   "{}: refined for this camera until its splats are at most {} px wide ({:.2f} % above; the "
                    "largest {:.2f} px): {} nodes, {} points from {} in {:.0f} ms\n",
                    name, args.engine.threshold, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
                    engine.tree().nodeCount(), splats, pointsIn, drawn.refineWaitMs);
     if (view)
-        fmt::print("camera: --camera {} ({}{})\n", cameraValue(camera), viewpointReason(*view, args),
+        fmt::print(summary, "camera: --camera {} ({}{})\n", cameraValue(camera), viewpointReason(*view, args),
                    args.frame.empty() ? "" : ", framing " + args.frame);
 }
 
@@ -184,8 +194,10 @@ void runRender(const RenderArgs& args) {
 void addRenderCommand(CLI::App& app) {
     const auto [cmd, args] = addSubcommand(
         app, "render", "Render a point set offscreen as surface splats into a PNG (Vulkan)", runRender);
-    cmd->add_option("input", args->input, "input PLY; omitted: the embedded default model");
-    cmd->add_option("-o,--output", args->output, "output PNG")->capture_default_str();
+    cmd->add_option("input", args->input,
+                    "input PLY, - for standard input; omitted: the embedded default model");
+    cmd->add_option("-o,--output", args->output, "output PNG, - for standard output")->capture_default_str();
+    addForceFlag(*cmd, args->force);
     cmd->add_option("--width", args->engine.width, "image width in pixels")
         ->check(CLI::Range(1u, 16384u))
         ->capture_default_str();
@@ -220,6 +232,7 @@ void addRenderCommand(CLI::App& app) {
                     "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
     addFillHoleOption(*cmd, args->holes);
+    addMaxPointsOption(*cmd, args->maxPoints);
     cmd->add_option("--background", args->background, "background colour r,g,b in [0, 1]")
         ->delimiter(',')
         ->expected(3)

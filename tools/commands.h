@@ -3,6 +3,7 @@
 // ("pnsplat: <message>") before exiting with the error's status.
 #pragma once
 
+#include <initializer_list>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -16,6 +17,7 @@
 #include <CLI/CLI.hpp>
 #pragma GCC diagnostic pop
 
+#include "pnsplat/refine/output_file.h"
 #include "pnsplat/refine/result.h"
 
 namespace pnsplat::tools {
@@ -52,6 +54,22 @@ std::pair<CLI::App*, Args*> addSubcommand(CLI::App& parent, std::string name, st
     CLI::App* cmd = parent.add_subcommand(std::move(name), std::move(description));
     cmd->callback([args, run] { run(*args); });
     return {cmd, args.get()};
+}
+
+// Refuses (CommandError) to write `output` over one of `inputs`, the same file by device and inode
+// (links, other spellings and hard links included: sameFile), unless `force`. Empty names are none.
+inline void refuseToOverwriteInput(const std::string& output, std::initializer_list<std::string> inputs,
+                                   bool force) {
+    if (force || output.empty()) return;
+    for (const std::string& input : inputs)
+        if (!input.empty() && sameFile(input, output))
+            throw CommandError(output + ": is the input " + input + "; not overwriting it without --force");
+}
+
+// `--force` on `cmd`, into `force` (refuseToOverwriteInput).
+inline void addForceFlag(CLI::App& cmd, bool& force) {
+    cmd.add_flag("--force", force,
+                 "write the output even where it is an input file (which is read whole first)");
 }
 
 void addRefineCommand(CLI::App& app);

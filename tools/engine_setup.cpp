@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include "commands.h"
+#include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/shapes.h"
 #include "refine_run.h"
 
@@ -14,7 +15,7 @@ PointSet loadForRendering(const std::string& input, bool keepNormals, std::strin
         name = "the default model";
         points = makeDefaultModel();
     } else {
-        name = input;
+        name = inputName(input);
         points = readInput(input);
     }
     completeInput(points, 0, name, {.keepNormals = keepNormals});

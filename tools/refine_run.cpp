@@ -1,5 +1,6 @@
 #include "refine_run.h"
 
+#include <new>
 #include <optional>
 #include <string_view>
 
@@ -7,6 +8,8 @@
 #include <fmt/ranges.h>
 
 #include "commands.h"
+#include "pnsplat/refine/input.h"
+#include "pnsplat/refine/memory_budget.h"
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/text.h"
@@ -40,6 +43,89 @@ Hole parseHole(std::string_view text) {
     return Hole{glm::vec3(values[0], values[1], values[2]), values[3]};
 }
 
+// "about 35.4 million", "2.1e+33": a count for messages.
+std::string approximately(double count) {
+    if (count >= 1e15) return fmt::format("{:.1e}", count);
+    if (count >= 1e9) return fmt::format("{:.1f} billion", count / 1e9);
+    if (count >= 1e6) return fmt::format("{:.1f} million", count / 1e6);
+    return fmt::format("{:.0f}", count);
+}
+
+// "5.6 GB", "120 MB": a size for messages (decimal units).
+std::string bytesText(double bytes) {
+    if (bytes >= 1e15) return fmt::format("{:.1e} bytes", bytes);
+    if (bytes >= 1e9) return fmt::format("{:.1f} GB", bytes / 1e9);
+    if (bytes >= 1e6) return fmt::format("{:.0f} MB", bytes / 1e6);
+    return fmt::format("{:.0f} kB", bytes / 1e3);
+}
+
+// Refuses a job whose estimated output is above job.maxPoints, or with 0 above what the memory
+// budget leaves room for, saying what it would make and need.
+void checkFits(const PointSet& points, const RefineJob& job, const std::string& inputName) {
+    RefinementPlan plan;
+    plan.inputPoints = points.size();
+    plan.levels = job.levels;
+    plan.targetPoints = job.targetPoints;
+    plan.evenOutFactor = job.evenOutFactor;
+    plan.colour = points.hasColour();
+    plan.crease = points.hasCrease();
+    plan.threads = job.options.threads;
+    const RefinementEstimate estimate = estimateRefinement(plan);
+    const std::string would = fmt::format(
+        "{}: {} would make about {} points (a {} file) and need about {} of memory", inputName,
+        job.targetPoints != 0 ? fmt::format("--target-points {}", job.targetPoints)
+                              : fmt::format("{} level(s)", job.levels),
+        approximately(estimate.points), bytesText(estimate.fileBytes), bytesText(estimate.memoryBytes));
+    if (job.maxPoints != 0) {
+        if (estimate.points > static_cast<double>(job.maxPoints))
+            throw CommandError(fmt::format("{}, more than --max-points {}", would, job.maxPoints));
+        return;
+    }
+    const MemoryBudget budget = memoryBudget();
+    const std::size_t fits = pointsWithin(budget.bytes, plan);
+    if (estimate.points > static_cast<double>(fits))
+        throw CommandError(fmt::format(
+            "{}; {} allows {}, about {} points (refine less, or with fewer threads; "
+            "--max-points sets the bound to try anyway)",
+            would, budget.source, bytesText(budget.bytes), approximately(static_cast<double>(fits))));
+}
+
+// The levels of the job on a Refiner of `points`, counted in `run`, whose points they fill.
+void refineLevels(PointSet points, const RefineJob& job, const HoleRims& rims, RefineRun& run) {
+    Refiner refiner(std::move(points), job.options);
+    ProgressBar bar("refining");
+    const auto progress = [&](std::size_t done, std::size_t total) { bar.update(done, total); };
+    const auto count = [&](const LevelStats& stats) {
+        run.seconds += stats.seconds;
+        run.cappedNeighbourhoods += stats.cappedNeighbourhoods;
+        ++run.levels;
+    };
+    if (!job.holes.empty()) {
+        bar.setLabel("filling holes");
+        for (const LevelStats& stats : fillHoles(refiner, rims, progress)) {
+            count(stats);
+            ++run.holeFillingLevels;
+        }
+    }
+    for (unsigned level = 1;
+         level <= job.levels && (job.targetPoints == 0 || refiner.points().size() < job.targetPoints);
+         ++level) {
+        bar.setLabel(fmt::format("level {}", level));
+        const LevelStats stats = refiner.refineLevel(progress);
+        count(stats);
+        if (stats.inserted == 0) break; // converged: nothing more to insert
+    }
+    if (job.evenOutFactor > 0.0f) {
+        bar.setLabel("evening out");
+        for (const LevelStats& stats : evenOut(refiner, job.evenOutFactor, kEvenOutMaxLevels, progress)) {
+            count(stats);
+            ++run.evenOutLevels;
+        }
+    }
+    bar.finish();
+    run.points = std::move(refiner).takePoints();
+}
+
 } // namespace
 
 std::vector<Hole> parseHoles(const std::vector<std::string>& texts) {
@@ -62,6 +148,15 @@ void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes) {
         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
 }
 
+void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints) {
+    cmd.add_option(
+           "--max-points", maxPoints,
+           "refuse to start a refinement estimated to make more points than this (default: as many as "
+           "the memory allows: the least of the physical memory, a control group's limit and ulimit -v "
+           "or -d, at about 140 bytes per point and 84 MiB per thread)")
+        ->check(CLI::PositiveNumber);
+}
+
 void addKeepNormalsOption(CLI::App& cmd, bool& keep) {
     cmd.add_flag("--keep-normals", keep,
                  "keep the input's normals as given: refuse normals that point against their neighbours' "
@@ -79,7 +174,8 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments) 
     for (const PlyData::Element& element : data.unusedElements)
         unused.push_back(fmt::format("element {} ({} item(s))", element.name, element.count));
     if (!unused.empty())
-        fmt::print(stderr, "pnsplat: warning: {}: not used, dropped: {}\n", path, fmt::join(unused, "; "));
+        fmt::print(stderr, "pnsplat: warning: {}: not used, dropped: {}\n", inputName(path),
+                   fmt::join(unused, "; "));
     if (comments) *comments = std::move(data.comments);
     return std::move(data.points);
 }
@@ -115,6 +211,7 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     if (points.size() < 3)
         throw CommandError(
             fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
+    checkFits(points, job, inputName);
     const InputCompletion completed =
         completeInput(points, job.options.threads, inputName,
                       {.replaceRadii = job.estimateRadii, .keepNormals = job.keepNormals});
@@ -134,38 +231,13 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     }
 
     run.maxNeighbours = job.options.maxNeighbours;
-    Refiner refiner(std::move(points), job.options);
-    ProgressBar bar("refining");
-    const auto progress = [&](std::size_t done, std::size_t total) { bar.update(done, total); };
-    const auto count = [&](const LevelStats& stats) {
-        run.seconds += stats.seconds;
-        run.cappedNeighbourhoods += stats.cappedNeighbourhoods;
-        ++run.levels;
-    };
-    if (!job.holes.empty()) {
-        bar.setLabel("filling holes");
-        for (const LevelStats& stats : fillHoles(refiner, rims, progress)) {
-            count(stats);
-            ++run.holeFillingLevels;
-        }
+    try {
+        refineLevels(std::move(points), job, rims, run);
+    } catch (const std::bad_alloc&) { // the refiner's memory is free again here
+        throw CommandError(
+            fmt::format("{}: out of memory in refinement level {}; refine less, or with fewer threads",
+                        inputName, run.levels + 1));
     }
-    for (unsigned level = 1;
-         level <= job.levels && (job.targetPoints == 0 || refiner.points().size() < job.targetPoints);
-         ++level) {
-        bar.setLabel(fmt::format("level {}", level));
-        const LevelStats stats = refiner.refineLevel(progress);
-        count(stats);
-        if (stats.inserted == 0) break; // converged: nothing more to insert
-    }
-    if (job.evenOutFactor > 0.0f) {
-        bar.setLabel("evening out");
-        for (const LevelStats& stats : evenOut(refiner, job.evenOutFactor, kEvenOutMaxLevels, progress)) {
-            count(stats);
-            ++run.evenOutLevels;
-        }
-    }
-    bar.finish();
-    run.points = std::move(refiner).takePoints();
     return run;
 }
 

@@ -33,7 +33,8 @@ struct RefineRun {
 // What to refine and how far: `holes` are filled first (enlargeAroundHoles, fillHoles; paper
 // figure 9); then `levels` uniform levels, stopping early once `targetPoints` (0: no target) is
 // reached or a level inserts nothing; then the points above `evenOutFactor` times the median
-// radius are evened out (evenOut; 0: not at all).
+// radius are evened out (evenOut; 0: not at all). A job whose estimated output (memory_budget.h)
+// exceeds `maxPoints`, or with 0 what memoryBudget() leaves room for, is refused before it starts.
 struct RefineJob {
     RefineOptions options;
     unsigned levels = 0;
@@ -42,10 +43,13 @@ struct RefineJob {
     std::vector<Hole> holes;
     bool estimateRadii = false; // replace the input's radii by estimated ones
     bool keepNormals = false;   // refuse flipped input normals instead of turning them back
+    std::size_t maxPoints = 0;
 };
 
 // `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`.
 void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes);
+// `--max-points N` on `cmd`, into `maxPoints` (RefineJob::maxPoints).
+void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints);
 // The holes of the option's texts; a text that is not four finite numbers with R > 0 is a
 // CommandError (a usage error) naming the option and the text.
 std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
@@ -53,10 +57,10 @@ std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
 // `--keep-normals` on `cmd`, into `keep`.
 void addKeepNormalsOption(CLI::App& cmd, bool& keep);
 
-// The points of a PLY file for refinement or rendering: normals may be absent (completeInput
-// estimates them). A bad file is a CommandError. What the file holds beyond the points (other
-// properties and elements) is named in a warning on stderr; its header comments are returned in
-// `comments` when given, for the output to carry on.
+// The points of a PLY file (or "-": standard input) for refinement or rendering: normals may be
+// absent (completeInput estimates them). A bad file is a CommandError. What the file holds beyond
+// the points (other properties and elements) is named in a warning on stderr; its header comments
+// are returned in `comments` when given, for the output to carry on.
 PointSet readInput(const std::string& path, std::vector<std::string>* comments = nullptr);
 
 // Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
@@ -65,8 +69,9 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments =
 InputCompletion completeInput(PointSet& points, unsigned threads, const std::string& inputName,
                               const InputOptions& options = {});
 
-// Completes the input (completeInput, job.estimateRadii and job.keepNormals), checks it (CommandError naming
-// `inputName`), then runs the job.
+// Checks that the job fits (RefineJob::maxPoints), completes the input (completeInput,
+// job.estimateRadii and job.keepNormals), checks it, then runs the job. Errors, running out of
+// memory included, are a CommandError naming `inputName`.
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName);
 
 } // namespace pnsplat::tools

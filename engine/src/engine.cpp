@@ -32,7 +32,8 @@ constexpr float kHalfPi = 1.57079632679f;
 // so that a frame holds at most that share too: below the 1 % acceptance 2 of the real-time issue
 // allows, with room for the splats of nodes not yet refined.
 constexpr double kOverShare = 0.008;
-constexpr float kMaxThresholdRise = 1000.0f; // the threshold in force stays below this many times the one asked
+constexpr float kMaxThresholdRise =
+    1000.0f; // the threshold in force stays below this many times the one asked
 
 } // namespace
 
@@ -426,8 +427,10 @@ void Engine::Impl::adaptThreshold(Clock::time_point start, bool lockstep) {
         return;
     }
     const double target = settings.targetFrameMs;
-    if (meanFrameMs > 0.9 * target) threshold = std::min(threshold * 1.08f, kMaxThresholdRise * settings.threshold);
-    else if (meanFrameMs < 0.7 * target) threshold = std::max(settings.threshold, threshold / 1.04f);
+    if (meanFrameMs > 0.9 * target)
+        threshold = std::min(threshold * 1.08f, kMaxThresholdRise * settings.threshold);
+    else if (meanFrameMs < 0.7 * target)
+        threshold = std::max(settings.threshold, threshold / 1.04f);
 }
 
 // Keeps the tree's points within cpuCacheFactor × the cache's capacity: releases the children of

@@ -5,31 +5,35 @@
 #include <cmath>
 #include <limits>
 #include <string>
-#include <system_error>
 
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
+#include "pnsplat/refine/output_file.h"
+
 namespace pnsplat::engine {
 
 Result<void> writePng(const std::filesystem::path& path, const RgbaImage& image) {
-    if (image.width == 0 || image.height == 0) return Error{path.string() + ": cannot write an empty image"};
-    std::filesystem::path temporary = path;
-    temporary += ".partial";
+    const std::string name = outputName(path);
+    if (image.width == 0 || image.height == 0) return Error{name + ": cannot write an empty image"};
+    Result<OutputFile> out = OutputFile::open(path, OutputContent::Binary);
+    if (!out) return out.error();
+    // stb encodes the whole image, then hands it over (in one call or a few).
+    struct Sink {
+        OutputFile& file;
+        Result<void> written;
+    } sink{*out, {}};
+    const auto write = [](void* context, void* data, int size) {
+        Sink& s = *static_cast<Sink*>(context);
+        if (s.written)
+            s.written = s.file.write({static_cast<const char*>(data), static_cast<std::size_t>(size)});
+    };
     const int stride = static_cast<int>(image.width) * 4;
-    if (stbi_write_png(temporary.c_str(), static_cast<int>(image.width), static_cast<int>(image.height), 4,
-                       image.pixels.data(), stride) == 0) {
-        std::error_code ignored;
-        std::filesystem::remove(temporary, ignored);
-        return Error{path.string() + ": cannot write the PNG file"};
-    }
-    std::error_code error;
-    std::filesystem::rename(temporary, path, error);
-    if (error) {
-        std::filesystem::remove(temporary, error);
-        return Error{path.string() + ": cannot write the PNG file"};
-    }
-    return {};
+    if (stbi_write_png_to_func(write, &sink, static_cast<int>(image.width), static_cast<int>(image.height), 4,
+                               image.pixels.data(), stride) == 0)
+        return Error{name + ": cannot encode the PNG image (out of memory?)"};
+    if (!sink.written) return sink.written;
+    return out->commit();
 }
 
 Result<RgbaImage> readPng(const std::filesystem::path& path) {

@@ -20,8 +20,11 @@ std::size_t blockBytes(std::size_t bytes) {
 }
 
 // Released blocks (size, address), most recent last. Never destroyed: blocks may be released by
-// destructors of other static objects at exit.
+// destructors of other static objects at exit. The list never grows past its first capacity (each
+// block is a whole huge page at least), so releasing allocates nothing: it runs in deallocate,
+// which must not throw, also when memory has run out.
 struct KeptBlocks {
+    KeptBlocks() { blocks.reserve(kKeptHugePageBytes / kHugePageBytes); }
     std::mutex mutex;
     std::vector<std::pair<std::size_t, void*>> blocks;
     std::size_t bytes = 0;

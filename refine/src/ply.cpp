@@ -1,11 +1,10 @@
 // PLY input and output of oriented point sets: a header parser, a binary reader (either byte
 // order) that walks rows through a precomputed offset/type table, an ascii reader on
-// std::from_chars, validation of every point, and an atomic writer (temporary file + rename).
+// std::from_chars, validation of every point, and a writer through OutputFile (output_file.h).
 #include "pnsplat/refine/ply.h"
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <bit>
 #include <cassert>
 #include <cerrno>
@@ -24,9 +23,12 @@
 #include <system_error>
 #include <utility>
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <fmt/core.h>
+
+#include "pnsplat/refine/output_file.h"
 
 namespace pnsplat {
 namespace {
@@ -39,6 +41,7 @@ constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
 constexpr double kMinNormalLength = 1e-12;
 constexpr double kUnitTolerance = 1e-6;
 constexpr std::size_t kWriteChunkBytes = std::size_t{1} << 20;
+constexpr std::size_t kReadChunkBytes = std::size_t{1} << 20; // first buffer of a stream
 
 // ---------------------------------------------------------------------------------------------
 // Header model
@@ -756,13 +759,41 @@ struct FileData {
     std::string_view view() const { return {bytes.get(), size}; }
 };
 
+// The bytes of a stream (standard input, a pipe, a character device) up to its end.
+Result<FileData> readStream(int fd, std::string_view file) {
+    FileData data;
+    std::size_t capacity = 0;
+    for (;;) {
+        if (data.size == capacity) {
+            capacity = std::max(kReadChunkBytes, 2 * capacity);
+            auto bigger = std::make_unique_for_overwrite<char[]>(capacity + 1);
+            if (data.size > 0) std::memcpy(bigger.get(), data.bytes.get(), data.size);
+            data.bytes = std::move(bigger);
+        }
+        const ssize_t n = ::read(fd, data.bytes.get() + data.size, capacity - data.size);
+        if (n == 0) return data;
+        if (n < 0 && errno != EINTR) return fail(file, fmt::format("cannot read: {}", errnoMessage(errno)));
+        if (n > 0) data.size += static_cast<std::size_t>(n);
+    }
+}
+
 Result<FileData> readWholeFile(const fs::path& path, std::string_view file) {
+    if (path == "-") return readStream(STDIN_FILENO, file);
     std::error_code ec;
     const fs::file_status status = fs::status(path, ec);
     if (status.type() == fs::file_type::not_found) return fail(file, "no such file");
     if (ec) return fail(file, fmt::format("cannot read: {}", ec.message()));
     if (status.type() == fs::file_type::directory) return fail(file, "is a directory, not a file");
-    if (status.type() != fs::file_type::regular) return fail(file, "not a regular file");
+    if (status.type() == fs::file_type::fifo || status.type() == fs::file_type::character) {
+        errno = 0;
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) return fail(file, fmt::format("cannot open: {}", errnoMessage(errno)));
+        Result<FileData> data = readStream(fd, file);
+        ::close(fd);
+        return data;
+    }
+    if (status.type() != fs::file_type::regular)
+        return fail(file, "not a file, a pipe or a character device");
 
     errno = 0;
     std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "rb"));
@@ -891,48 +922,6 @@ void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyForma
         fmt::format_to(std::back_inserter(out), "{}{}", bytes[k], k + 1 < byteCount ? ' ' : '\n');
 }
 
-// A temporary file that is removed unless committed.
-class TempFile {
-  public:
-    explicit TempFile(fs::path path) : path_(std::move(path)) {}
-    TempFile(const TempFile&) = delete;
-    TempFile& operator=(const TempFile&) = delete;
-    ~TempFile() {
-        if (file_) std::fclose(file_);
-        if (!committed_) {
-            std::error_code ec;
-            fs::remove(path_, ec);
-        }
-    }
-
-    bool open() {
-        file_ = std::fopen(path_.c_str(), "wb");
-        return file_ != nullptr;
-    }
-    bool write(std::string_view bytes) {
-        return std::fwrite(bytes.data(), 1, bytes.size(), file_) == bytes.size();
-    }
-    // Flushes, syncs and closes; false on any error.
-    bool close() {
-        int error = 0;
-        if (std::fflush(file_) != 0 || std::ferror(file_)) error = errno ? errno : EIO;
-        if (!error && ::fsync(::fileno(file_)) != 0) error = errno;
-        if (std::fclose(file_) != 0 && !error) error = errno ? errno : EIO;
-        file_ = nullptr;
-        errno = error;
-        return error == 0;
-    }
-    void commit() { committed_ = true; }
-    const fs::path& path() const { return path_; }
-
-  private:
-    fs::path path_;
-    std::FILE* file_ = nullptr;
-    bool committed_ = false;
-};
-
-std::atomic<unsigned> tempCounter{0};
-
 Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyFormat format,
                           std::span<const std::string> comments, std::string_view file) {
     assert(points.normal.size() == points.size());
@@ -945,29 +934,19 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
         return fail(file, fmt::format("the header comments to carry over take {} KiB, more than a header "
                                       "of {} KiB readPly reads",
                                       (buffer.size() + 1023) / 1024, kMaxHeaderBytes / 1024));
-    fs::path tempPath = path;
-    tempPath += fmt::format(".tmp-{}-{}", ::getpid(), tempCounter.fetch_add(1));
-    TempFile temp(tempPath);
-    errno = 0;
-    if (!temp.open())
-        return fail(file, fmt::format("cannot create a temporary file beside it: {}", errnoMessage(errno)));
-
+    Result<OutputFile> out =
+        OutputFile::open(path, format == PlyFormat::Ascii ? OutputContent::Text : OutputContent::Binary);
+    if (!out) return out.error();
     buffer.reserve(kWriteChunkBytes + 256);
-    const auto writeError = [&] { return fail(file, fmt::format("cannot write: {}", errnoMessage(errno))); };
     for (std::size_t i = 0; i < points.size(); ++i) {
         appendRow(buffer, points, i, format);
         if (buffer.size() >= kWriteChunkBytes) {
-            if (!temp.write(buffer)) return writeError();
+            if (Result<void> written = out->write(buffer); !written) return written;
             buffer.clear();
         }
     }
-    if (!temp.write(buffer) || !temp.close()) return writeError();
-
-    std::error_code ec;
-    fs::rename(temp.path(), path, ec);
-    if (ec) return fail(file, fmt::format("cannot replace it with the written file: {}", ec.message()));
-    temp.commit();
-    return {};
+    if (Result<void> written = out->write(buffer); !written) return written;
+    return out->commit();
 }
 
 // run() with allocation failures and other exceptions turned into one-line errors; `doing` is
@@ -985,8 +964,12 @@ auto guarded(std::string_view file, std::string_view doing, const Run& run) -> d
 
 } // namespace
 
+std::string inputName(const std::filesystem::path& path) {
+    return path == "-" ? std::string("standard input") : path.string();
+}
+
 Result<PlyData> readPly(const std::filesystem::path& path, const PlyReadOptions& options) {
-    const std::string file = path.string();
+    const std::string file = inputName(path);
     return guarded(file, "reading", [&]() -> Result<PlyData> {
         Result<FileData> data = readWholeFile(path, file);
         if (!data) return data.error();
@@ -1000,7 +983,7 @@ Result<PlyData> parsePly(std::string_view bytes, std::string_view name, const Pl
 
 Result<void> writePly(const std::filesystem::path& path, const PointSet& points, PlyFormat format,
                       std::span<const std::string> comments) {
-    const std::string file = path.string();
+    const std::string file = outputName(path);
     return guarded(file, "writing", [&] { return writePlyFile(path, points, format, comments, file); });
 }
 

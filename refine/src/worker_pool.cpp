@@ -2,13 +2,20 @@
 #include "pnsplat/refine/worker_pool.h"
 
 #include <memory>
+#include <system_error>
+#include <utility>
 
 namespace pnsplat {
 
 WorkerPool::WorkerPool(unsigned threads) {
     if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
     threads_.reserve(threads - 1);
-    for (unsigned w = 1; w < threads; ++w) threads_.emplace_back([this, w] { workerLoop(w); });
+    try {
+        for (unsigned w = 1; w < threads; ++w) threads_.emplace_back([this, w] { workerLoop(w); });
+    } catch (const std::system_error&) {
+        // The system refused a thread (EAGAIN: no memory for its stack, or too many processes):
+        // the pool works with those started.
+    }
 }
 
 WorkerPool::~WorkerPool() {
@@ -24,7 +31,14 @@ void WorkerPool::runItems(unsigned worker) {
     for (;;) {
         const std::size_t item = next_.fetch_add(1, std::memory_order_relaxed);
         if (item >= count_) return;
-        (*task_)(item, worker);
+        try {
+            (*task_)(item, worker);
+        } catch (...) {
+            std::lock_guard lock(mutex_);
+            if (!failure_) failure_ = std::current_exception();
+            next_.store(count_, std::memory_order_relaxed); // start no further item
+            return;
+        }
     }
 }
 
@@ -64,6 +78,7 @@ void WorkerPool::parallelFor(std::size_t count, const std::function<void(std::si
     std::unique_lock lock(mutex_);
     done_.wait(lock, [&] { return busy_ == 0; });
     task_ = nullptr;
+    if (failure_) std::rethrow_exception(std::exchange(failure_, nullptr));
 }
 
 // Node k of the ready list is run by item k of a parallelFor: items are taken in increasing order,
@@ -76,6 +91,7 @@ void runGraph(WorkerPool& pool, const TaskGraph& graph,
     const auto waiting = std::make_unique<std::atomic<std::uint32_t>[]>(count);
     const auto ready = std::make_unique<std::atomic<std::uint32_t>[]>(count);
     std::atomic<std::size_t> readyEnd{0};
+    std::atomic<bool> failed{false}; // a task threw: the nodes after it will never be ready
     const auto release = [&](std::uint32_t node) {
         ready[readyEnd.fetch_add(1, std::memory_order_relaxed)].store(node, std::memory_order_release);
     };
@@ -87,8 +103,16 @@ void runGraph(WorkerPool& pool, const TaskGraph& graph,
         if (graph.waitCount[k] == 0) release(k);
     pool.parallelFor(count, [&](std::size_t item, unsigned worker) {
         std::uint32_t node;
-        while ((node = ready[item].load(std::memory_order_acquire)) == kNotYet) std::this_thread::yield();
-        task(node, worker);
+        while ((node = ready[item].load(std::memory_order_acquire)) == kNotYet) {
+            if (failed.load(std::memory_order_relaxed)) return;
+            std::this_thread::yield();
+        }
+        try {
+            task(node, worker);
+        } catch (...) {
+            failed.store(true, std::memory_order_relaxed);
+            throw;
+        }
         for (std::uint32_t k = graph.successorBegin[node]; k < graph.successorBegin[node + 1]; ++k) {
             const std::uint32_t next = graph.successors[k];
             if (waiting[next].fetch_sub(1, std::memory_order_acq_rel) == 1) release(next);

@@ -86,7 +86,7 @@ struct FrameReport {
     std::size_t nodesUploaded = 0, bytesUploaded = 0, evictions = 0;
     std::size_t cacheBytesUsed = 0, queueLength = 0; // after the frame; jobs waiting or running
     std::size_t treeNodes = 0, treePoints = 0;       // on the CPU
-    bool settled = false; // nothing was wanted for this camera: no refinement, no upload
+    bool settled = false;     // nothing was wanted for this camera: no refinement, no upload
     float thresholdPx = 0.0f; // the threshold in force (EngineSettings::targetFrameMs)
     // With measureSplats: the largest projected splat diameter drawn (pixels) and the share of the
     // splats drawn (in front of the camera) above the threshold.

@@ -24,7 +24,8 @@ struct RgbaImage {
     }
 };
 
-// Writes an RGBA PNG; the file appears complete or not at all (temporary file, then rename).
+// Writes an RGBA PNG through OutputFile (refine/output_file.h): complete or not at all, "-" for
+// standard output, links followed, devices and pipes written through, never to a terminal.
 Result<void> writePng(const std::filesystem::path& path, const RgbaImage& image);
 // Reads any PNG (converted to RGBA); a one-line error names the file.
 Result<RgbaImage> readPng(const std::filesystem::path& path);

@@ -54,24 +54,28 @@ struct PlyData {
     std::vector<std::string> comments;
 };
 
+// `path` "-" is standard input (inputName); pipes and character devices (/dev/stdin, process
+// substitution) are read to their end as well.
 // Fails with a one-line message naming the file for: a missing or unreadable file, a malformed or
 // unsupported header, a truncated body, a non-finite coordinate or normal, a normal of (near)
 // zero length, a negative or non-finite radius, and a file with no points. Normals are
 // normalised on reading (below 1e-12 counts as zero length); a normal already within 1e-6 of unit
 // length is kept bit for bit, so files from writePly read back exactly.
 Result<PlyData> readPly(const std::filesystem::path& path, const PlyReadOptions& options = {});
+// How messages name an input: "standard input" for "-", else the path.
+std::string inputName(const std::filesystem::path& path);
 // The same from bytes in memory (the fuzz targets' entry); `name` stands for the file in messages.
 Result<PlyData> parsePly(std::string_view bytes, std::string_view name, const PlyReadOptions& options = {});
 
 enum class PlyFormat { Ascii, BinaryLittleEndian };
 
 // Writes `points` (x y z nx ny nz as float, then radius when present, then red green blue when
-// present). The file appears complete or not at all: data goes to a temporary file in the same
-// folder that is renamed over `path` only after a successful write. Floats round-trip exactly in
-// both formats (ascii uses the shortest representation). `points.normal` must be filled.
-// `comments` (PlyData::comments of the file the points came from: lines that start with `comment`
-// or `obj_info` and hold no line break) go into the header before pnsplat's own comment; a header
-// they would take beyond the 64 KiB that readPly reads is an error.
+// present) through OutputFile (output_file.h): complete or not at all, "-" for standard output,
+// links followed, devices and pipes written through, binary data never to a terminal. Floats
+// round-trip exactly in both formats (ascii uses the shortest representation). `points.normal`
+// must be filled. `comments` (PlyData::comments of the file the points came from: lines that start
+// with `comment` or `obj_info` and hold no line break) go into the header before pnsplat's own
+// comment; a header they would take beyond the 64 KiB that readPly reads is an error.
 Result<void> writePly(const std::filesystem::path& path, const PointSet& points,
                       PlyFormat format = PlyFormat::BinaryLittleEndian,
                       std::span<const std::string> comments = {});

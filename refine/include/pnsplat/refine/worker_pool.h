@@ -7,6 +7,10 @@
 // write only memory that no other item of the same call reads or writes, and results must not
 // depend on `worker` except through per-worker scratch memory. parallelFor is not reentrant and
 // must be called from one thread at a time.
+//
+// Exceptions: when a task throws (std::bad_alloc on any worker, for one), the pool stops handing
+// out items; parallelFor waits for the items already running and rethrows the first exception in
+// the calling thread, where it unwinds as if the caller had thrown it. The pool stays usable.
 #pragma once
 
 #include <algorithm>
@@ -14,6 +18,7 @@
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <mutex>
 #include <thread>
@@ -23,7 +28,9 @@ namespace pnsplat {
 
 class WorkerPool {
   public:
-    // threads = 0 picks std::thread::hardware_concurrency().
+    // threads = 0 picks std::thread::hardware_concurrency(). Threads that the system refuses to
+    // start (out of memory for their stacks, or a limit on processes) are left out: size() counts
+    // those running, and results do not depend on it.
     explicit WorkerPool(unsigned threads);
     ~WorkerPool();
     WorkerPool(const WorkerPool&) = delete;
@@ -47,6 +54,7 @@ class WorkerPool {
     std::uint64_t generation_ = 0;
     unsigned busy_ = 0;
     bool stopping_ = false;
+    std::exception_ptr failure_; // the first exception a task of the current call threw
 };
 
 // A dependency graph of tasks for runGraph: node k waits for waitCount[k] predecessors, and its
@@ -63,7 +71,8 @@ struct TaskGraph {
 // of its predecessors have returned (their writes are visible to it), and returns when all are
 // done. Nodes that do not depend on each other run in any order, concurrently: they must not write
 // what the other reads or writes. A worker with no node ready waits (yielding) for one. Same
-// calling rules as parallelFor.
+// calling rules as parallelFor; when a task throws, the nodes not yet started never start (those
+// waiting for it stop waiting) and runGraph rethrows the first exception.
 void runGraph(WorkerPool& pool, const TaskGraph& graph,
               const std::function<void(std::uint32_t node, unsigned worker)>& task);
 

@@ -1,0 +1,77 @@
+// The estimate behind `pnsplat refine`'s refusal (memory_budget.h) against real refinements: it
+// must not fall below the points a run makes, nor lie far above them.
+#include "pnsplat/refine/memory_budget.h"
+
+#include <iostream>
+
+#include <gtest/gtest.h>
+
+#include "pnsplat/refine/input.h"
+#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/refiner.h"
+#include "pnsplat/refine/shapes.h"
+#include "test_data.h"
+
+namespace pnsplat {
+namespace {
+
+// Refines `input` level by level (two threads), comparing each level's count with the estimate.
+void expectEstimateCovers(PointSet input, const char* name, unsigned levels) {
+    ASSERT_TRUE(completeInput(input, 2).ok());
+    RefinementPlan plan;
+    plan.inputPoints = input.size();
+    plan.colour = input.hasColour();
+    Refiner refiner(std::move(input), RefineOptions{.threads = 2});
+    for (plan.levels = 1; plan.levels <= levels; ++plan.levels) {
+        refiner.refineLevel();
+        const double made = static_cast<double>(refiner.points().size());
+        const double estimate = estimateRefinement(plan).points;
+        std::cout << "    " << name << ", " << plan.levels << " level(s): " << made << " points, estimate "
+                  << estimate << "\n";
+        EXPECT_GE(estimate, 0.97 * made) << name << ", level " << plan.levels;
+        EXPECT_LE(estimate, 1.25 * made) << name << ", level " << plan.levels;
+    }
+}
+
+TEST(MemoryBudget, EstimateFollowsTheRefinement) {
+    expectEstimateCovers(makeDefaultModel(), "default model", 4);
+    expectEstimateCovers(sampleSphereUniform(600, 1.0f), "sphere", 4);
+    if (std::filesystem::exists(test::dataDir() / "bunny-3500-random.ply"))
+        expectEstimateCovers(readPly(test::dataDir() / "bunny-3500-random.ply")->points, "bunny (random)", 3);
+    else
+        std::cout << "    (bunny-3500-random.ply not in ../shared/data: skipped)\n";
+}
+
+TEST(MemoryBudget, TargetAndEvenOutAndThreads) {
+    RefinementPlan plan;
+    plan.inputPoints = 1000;
+    plan.levels = 64;
+    plan.targetPoints = 50000;
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).points, 150000.0); // at most 3 times the target
+    plan.targetPoints = 500;
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).points, 1000.0); // reached already: no level runs
+    plan.targetPoints = 0;
+    plan.levels = 2;
+    plan.evenOutFactor = 2.0f;
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).points, 9000.0 * 1.05);
+    plan.evenOutFactor = 1.0f;
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).points, 9000.0 * 2.55);
+    // Memory: 5 times the 28 bytes of a point in the file, and 84 MiB per thread.
+    plan.evenOutFactor = 0.0f;
+    plan.threads = 2;
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).memoryBytes, 9000.0 * 140.0 + 2.0 * kMemoryPerThread);
+    EXPECT_EQ(pointsWithin(2.0 * kMemoryPerThread + 140.0 * 1000.0, plan), 1000u);
+    EXPECT_EQ(pointsWithin(kMemoryPerThread, plan), 0u);
+    plan.colour = plan.crease = true;
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).fileBytes, 9000.0 * 44.0);
+}
+
+TEST(MemoryBudget, BudgetIsPositiveAndNamesItsSource) {
+    const MemoryBudget budget = memoryBudget();
+    std::cout << "    " << budget.bytes / 1e9 << " GB, set by " << budget.source << "\n";
+    EXPECT_GT(budget.bytes, 0.0);
+    EXPECT_FALSE(budget.source.empty());
+}
+
+} // namespace
+} // namespace pnsplat

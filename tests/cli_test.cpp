@@ -30,6 +30,7 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/angles.h"
@@ -1229,6 +1230,71 @@ TEST(CliRender, CameraInsideOrLookingAwayRenders) {
         EXPECT_TRUE(r.exited && r.exitCode == 0) << camera << ": " << r.err;
         EXPECT_TRUE(fs::exists(out));
     }
+}
+
+// The real-time engine from the command line: bench view prints one JSON line per frame and a
+// summary, captures frames, and refuses bad input in one line (acceptance 7 of the real-time issue).
+TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
+    const TempDir dir;
+    const RunResult r = run("bench view --frames 4 --width 48 --height 36 --lockstep --validation --capture " +
+                            quote(dir / "frames"));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    const std::vector<std::string> out = lines(r.out);
+    ASSERT_EQ(out.size(), 5u) << r.out;
+    for (std::size_t k = 0; k < 4; ++k) {
+        for (const char* field : {"\"frame_ms\"", "\"visibility_ms\"", "\"splats_drawn\"", "\"nodes_visible\"",
+                                  "\"nodes_refined\"", "\"points_generated\"", "\"cache_bytes_used\"",
+                                  "\"evictions\"", "\"queue_length\"", "\"max_splat_px\""})
+            EXPECT_NE(out[k].find(field), std::string::npos) << field << " in " << out[k];
+        EXPECT_NE(out[k].find("\"settled\": true"), std::string::npos) << out[k]; // lockstep
+        EXPECT_TRUE(fs::exists(dir / "frames" / fmt::format("frame-{:05}.png", k)));
+    }
+    EXPECT_NE(out[4].find("\"summary\": true"), std::string::npos);
+    EXPECT_NE(out[4].find("\"frame_ms_p95\""), std::string::npos);
+    EXPECT_NE(out[4].find("\"uploads_per_second\""), std::string::npos);
+}
+
+TEST(CliBadInput, RealTimeEngineRefusesBadInputInOneLine) {
+    const TempDir dir;
+    writeText(dir / "path.txt", "0 0 0 3 0 0 0\n5 0 0 3 oops 0 0\n");
+    writeText(dir / "empty.txt", "# nothing\n");
+    writeText(dir / "backwards.txt", "5 0 0 3 0 0 0\n2 0 0 4 0 0 0\n");
+    writeText(dir / "degenerate.txt", "0 0 0 0 0 0 0\n");
+    struct Case {
+        std::string args, says;
+        Exit status = Exit::Failure;
+    };
+    const std::vector<Case> cases = {
+        {"bench view --camera-path " + quote(dir / "path.txt"), "path.txt:2: 'oops' is not a number"},
+        {"bench view --camera-path " + quote(dir / "empty.txt"), "has no keyframe"},
+        {"bench view --camera-path " + quote(dir / "backwards.txt"), "above the previous one"},
+        {"bench view --camera-path " + quote(dir / "degenerate.txt"), "not a camera"},
+        {"bench view --camera-path " + quote(dir / "missing.txt"), "cannot open the camera path"},
+        {"bench view --frames 0", "--frames", Exit::Usage},
+        {"bench view --threshold 0", "--threshold", Exit::Usage},
+        {"bench view --threshold -2", "--threshold", Exit::Usage},
+        {"bench view --cache-mb 0.001 --frames 1", "cannot hold the input's"},
+        {"render --adaptive --cache-mb 0.001 -o " + quote(dir / "x.png"), "cannot hold the input's"},
+        {"render --adaptive --threshold 0 -o " + quote(dir / "x.png"), "--threshold", Exit::Usage},
+    };
+    for (const Case& c : cases) {
+        const RunResult r = run(c.args);
+        std::cout << "[" << c.args << "] exit " << r.exitCode << ": " << r.err;
+        EXPECT_TRUE(failsCleanly(r, c.status)) << c.args;
+        EXPECT_NE(r.err.find(c.says), std::string::npos) << c.args << ": " << r.err;
+    }
+    EXPECT_FALSE(fs::exists(dir / "x.png"));
+}
+
+// A path that leaves the model behind the camera: background frames, no error.
+TEST(CliBenchView, PathThatLeavesTheModelBehindDrawsBackground) {
+    const TempDir dir;
+    writeText(dir / "away.txt", "0 0 0 3 0 0 0\n3 0 0 3 0 0 6\n");
+    const RunResult r = run("bench view --width 32 --height 24 --validation --camera-path " + quote(dir / "away.txt"));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    const std::vector<std::string> out = lines(r.out);
+    ASSERT_EQ(out.size(), 5u) << r.out;
+    EXPECT_NE(out[3].find("\"splats_drawn\": 0,"), std::string::npos) << out[3]; // the last keyframe looks away
 }
 
 } // namespace

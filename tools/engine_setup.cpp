@@ -34,10 +34,10 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     if (!adaptive) return;
     const std::string with = requiresFlag ? "with --adaptive: " : "";
     cmd.add_option("--threshold", args.threshold, with + "largest splat diameter wanted on screen, pixels")
-        ->check(CLI::PositiveNumber)
+        ->check(CLI::Range(0.01, 1000.0))
         ->capture_default_str();
     cmd.add_option("--cache-mb", args.cacheMb, with + "the GPU cache of points, MiB (32 bytes a point)")
-        ->check(CLI::PositiveNumber)
+        ->check(CLI::Range(0.001, 1048576.0))
         ->capture_default_str();
     cmd.add_option("--workers", args.workers, with + "refinement worker threads")
         ->check(CLI::Range(1u, 64u))

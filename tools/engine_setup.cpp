@@ -42,6 +42,10 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     cmd.add_option("--workers", args.workers, with + "refinement worker threads")
         ->check(CLI::Range(1u, 64u))
         ->capture_default_str();
+    cmd.add_option("--worker-nice", args.workerNice,
+                   with + "nice value added to the workers' (Linux; 0: the same priority as drawing)")
+        ->check(CLI::Range(0, 19))
+        ->capture_default_str();
     cmd.add_flag("--fast", args.fast, with + "the paper's faster variants (all four) for the levels refined");
     cmd.add_option("--target-fps", args.targetFps,
                    with + "keep this frame rate: where frames are slower, splats larger than --threshold are "
@@ -75,6 +79,7 @@ engine::EngineSettings engineSettings(const EngineArgs& args, const engine::Cont
     settings.threshold = args.threshold;
     settings.cacheBytes = static_cast<std::size_t>(args.cacheMb * double(1 << 20));
     settings.workers = args.workers;
+    settings.workerNice = args.workerNice;
     if (args.fast) settings.nodes.refine = RefineOptions::fast();
     settings.targetFrameMs = args.targetFps > 0.0 ? static_cast<float>(1000.0 / args.targetFps) : 0.0f;
     return settings;

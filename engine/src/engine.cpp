@@ -164,7 +164,7 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
                                                    settings.forceStaging);
         impl->frames = std::make_unique<FrameRing>(context);
         if (settings.adaptive)
-            impl->workers = std::make_unique<NodeWorkers>(settings.workers, settings.nodes);
+            impl->workers = std::make_unique<NodeWorkers>(settings.workers, settings.nodes, settings.workerNice);
         // The input's chunks, at the front of the cache for good; uploaded with the first frame's
         // transfers (or directly).
         glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());

@@ -11,10 +11,10 @@
 
 namespace pnsplat {
 
-NodeWorkers::NodeWorkers(unsigned threads, const NodeSettings& settings) : settings_(settings) {
+NodeWorkers::NodeWorkers(unsigned threads, const NodeSettings& settings, int nice) : settings_(settings) {
     assert(threads >= 1);
     threads_.reserve(threads);
-    for (unsigned t = 0; t < threads; ++t) threads_.emplace_back([this] { loop(); });
+    for (unsigned t = 0; t < threads; ++t) threads_.emplace_back([this, nice] { loop(nice); });
 }
 
 NodeWorkers::~NodeWorkers() {
@@ -27,11 +27,14 @@ NodeWorkers::~NodeWorkers() {
     for (std::thread& t : threads_) t.join();
 }
 
-void NodeWorkers::loop() {
+void NodeWorkers::loop(int nice) {
 #ifdef __linux__
-    // Below the render thread (Linux schedules threads one by one: this thread only); a failure
-    // only leaves the priority as it was.
-    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kWorkerNice);
+    // Linux schedules threads one by one: this thread only; a failure leaves the priority as it was.
+    if (nice != 0)
+        setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)),
+                    getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))) + nice);
+#else
+    (void)nice;
 #endif
     for (;;) {
         NodeJob job;

@@ -55,8 +55,11 @@ struct EngineSettings {
     // Points the node tree keeps on the CPU, as a multiple of the cache's capacity: the nodes drawn,
     // their ancestors and recently drawn nodes (the least recently drawn are released first).
     float cpuCacheFactor = 2.0f;
-    // Refinement worker threads (>= 1); docs/REALTIME.md has the measurements behind the default.
+    // Refinement worker threads (>= 1), and the nice value added to theirs (Linux: 0 shares the
+    // processors equally with the render thread and the driver's threads); docs/REALTIME.md has the
+    // measurements behind the defaults.
     unsigned workers = 1;
+    int workerNice = 0;
     // Most bytes uploaded to the cache per frame (not in lockstep), so that a burst of refined
     // nodes does not stall one frame.
     std::size_t uploadBytesPerFrame = std::size_t{16} << 20;

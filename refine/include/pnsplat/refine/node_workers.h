@@ -4,9 +4,10 @@
 // Contract: submit() hands jobs to the pool in the order given (the caller sorts them: the
 // engine's breadth-first priority); each runs NodeTree::run on one worker thread, alone, and its
 // result waits in a queue until takeResults(). A job's result depends only on the job, so which
-// worker runs it and how many there are changes nothing. Workers run below the render thread's
-// priority where the system allows (Linux: nice +kWorkerNice), so that a busy pool does not steal
-// the frame. submit, takeResults, outstanding and waitIdle are for one thread (the render thread).
+// worker runs it and how many there are changes nothing. Workers may run below the render thread's
+// priority where the system allows (Linux: a nice value for their threads), so that a busy pool
+// does not steal the frame. submit, takeResults, outstanding and waitIdle are for one thread (the
+// render thread).
 #pragma once
 
 #include <condition_variable>
@@ -20,12 +21,10 @@
 
 namespace pnsplat {
 
-inline constexpr int kWorkerNice = 5;
-
 class NodeWorkers {
   public:
-    // threads >= 1.
-    NodeWorkers(unsigned threads, const NodeSettings& settings);
+    // threads >= 1; nice: added to the workers' nice value (0: the render thread's priority).
+    NodeWorkers(unsigned threads, const NodeSettings& settings, int nice = 0);
     ~NodeWorkers(); // drops the jobs not started, waits for the running ones
     NodeWorkers(const NodeWorkers&) = delete;
     NodeWorkers& operator=(const NodeWorkers&) = delete;
@@ -40,7 +39,7 @@ class NodeWorkers {
     void waitIdle();
 
   private:
-    void loop();
+    void loop(int nice);
 
     NodeSettings settings_;
     std::vector<std::thread> threads_;

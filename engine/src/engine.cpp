@@ -37,19 +37,20 @@ constexpr double kOverShare = 0.008;
 // and 42 ms: past 16 px the splats' footprints cost what their number saves (docs/REALTIME.md).
 constexpr float kMaxThresholdRise = 8.0f;
 
-} // namespace
-
-void packSplats(const PointSet& points, std::size_t begin, std::size_t end, void* out) {
-    auto* splats = static_cast<gpu::Splat*>(out);
-    for (std::size_t i = begin; i < end; ++i) {
+// The splats of a node's points (normals, radii, optional colours), 32 bytes each (gpu::Splat): a
+// chunk's contents, for its upload and its check.
+void packSplats(const PointSet& points, gpu::Splat* splats) {
+    for (std::size_t i = 0; i < points.size(); ++i) {
         std::uint32_t colour = kDefaultColour;
         if (points.hasColour()) {
             const glm::u8vec3 c = points.colour[i];
             colour = std::uint32_t{c.x} | std::uint32_t{c.y} << 8 | std::uint32_t{c.z} << 16;
         }
-        splats[i - begin] = gpu::Splat{points.position[i], points.radius[i], points.normal[i], colour};
+        splats[i] = gpu::Splat{points.position[i], points.radius[i], points.normal[i], colour};
     }
 }
+
+} // namespace
 
 struct Engine::Impl {
     Context& context;
@@ -65,11 +66,10 @@ struct Engine::Impl {
     // Per node slot of the tree.
     struct NodeState {
         Chunk chunk;
-        bool resident = false, permanent = false;
+        bool resident = false;
         bool descended = false;             // drawn through its children last time it was visited
         bool jobInFlight = false;           // a refinement of it is with the workers
         std::uint64_t lastVisited = kNever; // frame + 1 of the last selection that passed through it
-        std::uint64_t lastDrawn = kNever;
         std::uint64_t uploaded = kNever; // frame + 1 of its upload
     };
     std::vector<NodeState> state;
@@ -129,6 +129,9 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
         return Error{fmt::format("the hysteresis must lie in (0, 1] (got {})", settings.hysteresis)};
     if (settings.workers < 1) return Error{"at least one refinement worker is needed"};
     if (!(settings.cpuCacheFactor >= 1.0f)) return Error{"the CPU cache factor must be at least 1"};
+    if (!(settings.targetFrameMs >= 0.0f) || !std::isfinite(settings.targetFrameMs))
+        return Error{fmt::format("the target frame time must be a number of milliseconds (got {})",
+                                 settings.targetFrameMs)};
     if (points.empty() && settings.adaptive) return Error{"there are no points to refine"};
     const std::size_t inputPoints = points.size();
     const std::size_t splatBytes = sizeof(gpu::Splat);
@@ -155,9 +158,6 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
     if (!tree) return tree.error();
     auto renderer = SplatRenderer::create(context, settings.render);
     if (!renderer) return renderer.error();
-    if (!(settings.targetFrameMs >= 0.0f) || !std::isfinite(settings.targetFrameMs))
-        return Error{fmt::format("the target frame time must be a number of milliseconds (got {})",
-                                 settings.targetFrameMs)};
     auto impl = std::make_unique<Impl>(context, settings, std::move(tree).value());
     impl->threshold = settings.threshold;
     impl->renderer = std::move(renderer).value();
@@ -181,11 +181,11 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
             const auto chunk = impl->cache->allocatePermanent(static_cast<std::uint32_t>(node.points.size()));
             assert(chunk);
             splats.resize(node.points.size());
-            packSplats(node.points, 0, node.points.size(), splats.data());
+            packSplats(node.points, splats.data());
             impl->cache->write(*chunk, splats, *impl->frames, uploads);
             Impl::NodeState& s = impl->stateOf(root);
             s.chunk = *chunk;
-            s.resident = s.permanent = true;
+            s.resident = true;
         }
         if (uploads != VK_NULL_HANDLE) {
             impl->frames->submit(uploads, true);
@@ -297,7 +297,6 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
                 for (const NodeId c : node.childIds()) self(self, c);
                 return;
             }
-            s.lastDrawn = stamp;
             out.draw.push_back(id);
             return;
         } else if (node.isLeaf() && settings.adaptive && node.level < tree.settings().maxLevel &&
@@ -305,7 +304,6 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
             out.refine.push_back({id, node.level, size});
         }
         s.descended = false;
-        s.lastDrawn = stamp;
         out.draw.push_back(id);
     };
     for (const NodeId root : tree.roots()) visit(visit, root);
@@ -401,7 +399,7 @@ std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockste
                 if (d.first < chunk->first + chunk->count && chunk->first < d.first + d.count) ++overwrites;
         }
         splats.resize(node.points.size());
-        packSplats(node.points, 0, node.points.size(), splats.data());
+        packSplats(node.points, splats.data());
         cache->write(*chunk, splats, *frames, uploads);
         s.chunk = *chunk;
         s.resident = true;
@@ -685,7 +683,7 @@ Result<std::size_t> Engine::verifyCache() {
                 return Error{fmt::format("node {}: chunk of {} splats for {} points", id, chunk.count,
                                          node.points.size())};
             expected.resize(chunk.count);
-            packSplats(node.points, 0, node.points.size(), expected.data());
+            packSplats(node.points, expected.data());
             if (std::memcmp(expected.data(), gpu + chunk.first, chunk.count * sizeof(gpu::Splat)) != 0)
                 return Error{fmt::format("node {} (level {}): its chunk at splat {} differs from its points",
                                          id, node.level, chunk.first)};

@@ -141,8 +141,5 @@ class Engine {
     std::unique_ptr<Impl> impl_;
 };
 
-// Writes the splats of `points` [begin, end) (normals, radii, optional colours) as gpu::Splat
-// (32 bytes each) into `out`. The splats of a node's chunk, for uploads and their checks.
-void packSplats(const PointSet& points, std::size_t begin, std::size_t end, void* out);
 
 } // namespace pnsplat::engine

@@ -29,8 +29,8 @@
 #include <string>
 #include <vector>
 
-#include <glm/geometric.hpp>
 #include <fmt/format.h>
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/angles.h"
@@ -1236,15 +1236,17 @@ TEST(CliRender, CameraInsideOrLookingAwayRenders) {
 // summary, captures frames, and refuses bad input in one line (acceptance 7 of the real-time issue).
 TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
     const TempDir dir;
-    const RunResult r = run("bench view --frames 4 --width 48 --height 36 --lockstep --validation --capture " +
-                            quote(dir / "frames"));
+    const RunResult r =
+        run("bench view --frames 4 --width 48 --height 36 --lockstep --validation --capture " +
+            quote(dir / "frames"));
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
     ASSERT_EQ(out.size(), 5u) << r.out;
     for (std::size_t k = 0; k < 4; ++k) {
-        for (const char* field : {"\"frame_ms\"", "\"visibility_ms\"", "\"splats_drawn\"", "\"nodes_visible\"",
-                                  "\"nodes_refined\"", "\"points_generated\"", "\"cache_bytes_used\"",
-                                  "\"evictions\"", "\"queue_length\"", "\"max_splat_px\""})
+        for (const char* field :
+             {"\"frame_ms\"", "\"visibility_ms\"", "\"splats_drawn\"", "\"nodes_visible\"",
+              "\"nodes_refined\"", "\"points_generated\"", "\"cache_bytes_used\"", "\"evictions\"",
+              "\"queue_length\"", "\"max_splat_px\""})
             EXPECT_NE(out[k].find(field), std::string::npos) << field << " in " << out[k];
         EXPECT_NE(out[k].find("\"settled\": true"), std::string::npos) << out[k]; // lockstep
         EXPECT_TRUE(fs::exists(dir / "frames" / fmt::format("frame-{:05}.png", k)));
@@ -1290,11 +1292,13 @@ TEST(CliBadInput, RealTimeEngineRefusesBadInputInOneLine) {
 TEST(CliBenchView, PathThatLeavesTheModelBehindDrawsBackground) {
     const TempDir dir;
     writeText(dir / "away.txt", "0 0 0 3 0 0 0\n3 0 0 3 0 0 6\n");
-    const RunResult r = run("bench view --width 32 --height 24 --validation --camera-path " + quote(dir / "away.txt"));
+    const RunResult r =
+        run("bench view --width 32 --height 24 --validation --camera-path " + quote(dir / "away.txt"));
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
     ASSERT_EQ(out.size(), 5u) << r.out;
-    EXPECT_NE(out[3].find("\"splats_drawn\": 0,"), std::string::npos) << out[3]; // the last keyframe looks away
+    EXPECT_NE(out[3].find("\"splats_drawn\": 0,"), std::string::npos)
+        << out[3]; // the last keyframe looks away
 }
 
 } // namespace

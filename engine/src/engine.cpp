@@ -70,7 +70,7 @@ struct Engine::Impl {
         bool descended = false;             // drawn through its children last time it was visited
         bool jobInFlight = false;           // a refinement of it is with the workers
         std::uint64_t lastVisited = kNever; // frame + 1 of the last selection that passed through it
-        std::uint64_t uploaded = kNever; // frame + 1 of its upload
+        std::uint64_t uploaded = kNever;    // frame + 1 of its upload
     };
     std::vector<NodeState> state;
 
@@ -166,7 +166,8 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
                                                    settings.forceStaging);
         impl->frames = std::make_unique<FrameRing>(context);
         if (settings.adaptive)
-            impl->workers = std::make_unique<NodeWorkers>(settings.workers, settings.nodes, settings.workerNice);
+            impl->workers =
+                std::make_unique<NodeWorkers>(settings.workers, settings.nodes, settings.workerNice);
         // The input's chunks, at the front of the cache for good; uploaded with the first frame's
         // transfers (or directly).
         glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());

@@ -141,5 +141,4 @@ class Engine {
     std::unique_ptr<Impl> impl_;
 };
 
-
 } // namespace pnsplat::engine

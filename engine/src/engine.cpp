@@ -593,6 +593,10 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
 
 Result<void> Engine::setRenderSettings(const RenderSettings& render) {
     Impl& m = *impl_;
+    if (m.renderer->adjust(render)) { // the frame's uniforms only: no wait, same passes
+        m.settings.render = render;
+        return {};
+    }
     try {
         m.frames->waitAll();
         m.collectFinished(); // their pass times, before the old passes go

@@ -107,8 +107,10 @@ class Engine {
 
     // One frame for `camera` (which must be valid(): else an error, nothing drawn).
     Result<FrameReport> frame(const Camera& camera, const FrameOptions& options = {});
-    // New render settings (image size, path, splat look) for the frames that follow: waits for the
-    // frames in flight, then makes the passes anew. On error the old settings stay.
+    // New render settings (image size, path, splat look) for the frames that follow. A new size or
+    // path waits for the frames in flight, then makes the passes anew; the rest (background, splat
+    // look, heat map: SplatRenderer::adjust) applies from the next frame without waiting. On error
+    // the old settings stay.
     Result<void> setRenderSettings(const RenderSettings& render);
     // Reports of the frames that have finished since the last call (GPU times filled), in order.
     std::vector<FrameReport> reports();

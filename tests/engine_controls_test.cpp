@@ -1,6 +1,6 @@
-// What the viewer changes in a running engine (engine.h): the heat map of splat size
-// (RenderSettings::heatMapPx, applied by setRenderSettings without new passes), on lavapipe with
-// the validation layer.
+// What the viewer changes in a running engine (engine.h): the threshold (setThreshold) and the heat
+// map of splat size (RenderSettings::heatMapPx, applied by setRenderSettings without new passes),
+// on lavapipe with the validation layer.
 #include <cmath>
 #include <limits>
 #include <string>
@@ -24,6 +24,62 @@ using engine::RenderPath;
 using engine::RgbaImage;
 
 class EngineControlsTest : public test::GpuTest {};
+
+// The embedded default model, completed (normals and radii), and a camera that frames it.
+PointSet defaultModel() {
+    PointSet points = makeDefaultModel();
+    EXPECT_TRUE(completeInput(points, 1).ok());
+    return points;
+}
+
+Camera framing(const PointSet& points, float aspect) {
+    return engine::frameSphere(engine::boundingSphere(points.position), aspect, radians(40.0f), 0.3f);
+}
+
+// Lowering the threshold refines further (more, smaller splats drawn, at most 1 % of them above
+// the new threshold); raising it again draws coarser nodes; a threshold that is not a positive number
+// is refused and changes nothing. Fails when setThreshold does not reach the selection: the
+// splats drawn would stay the same.
+TEST_F(EngineControlsTest, SetThresholdRefinesToTheNewThreshold) {
+    const PointSet points = defaultModel();
+    EngineSettings settings;
+    settings.render.width = 160;
+    settings.render.height = 120;
+    settings.threshold = 8.0f;
+    auto created = Engine::create(context(), points, settings);
+    ASSERT_TRUE(created.ok()) << created.error().message;
+    Engine& engine = **created;
+    const Camera camera = framing(points, 160.0f / 120.0f);
+    engine::FrameOptions options;
+    options.lockstep = options.measureSplats = true;
+    const auto settle = [&] {
+        auto report = engine.frame(camera, options);
+        EXPECT_TRUE(report.ok()) << report.error().message;
+        EXPECT_TRUE(report->settled);
+        return report ? *report : FrameReport{};
+    };
+    const FrameReport coarse = settle();
+    EXPECT_EQ(coarse.thresholdPx, 8.0f);
+
+    ASSERT_TRUE(engine.setThreshold(2.0f).ok());
+    const FrameReport fine = settle();
+    EXPECT_EQ(fine.thresholdPx, 2.0f);
+    EXPECT_GT(fine.splatsDrawn, 2 * coarse.splatsDrawn);
+    EXPECT_LE(fine.overThreshold, 0.01);
+    EXPECT_EQ(engine.settings().threshold, 2.0f);
+
+    ASSERT_TRUE(engine.setThreshold(8.0f).ok());
+    const FrameReport again = settle();
+    EXPECT_LT(again.splatsDrawn, fine.splatsDrawn);
+
+    for (const float bad :
+         {0.0f, -1.0f, std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+        const auto refused = engine.setThreshold(bad);
+        ASSERT_FALSE(refused.ok()) << bad;
+        EXPECT_NE(refused.error().message.find("positive number of pixels"), std::string::npos);
+    }
+    EXPECT_EQ(settle().thresholdPx, 8.0f);
+}
 
 class HeatMapTest : public test::GpuTest, public ::testing::WithParamInterface<RenderPath> {};
 

@@ -610,6 +610,16 @@ Result<void> Engine::setRenderSettings(const RenderSettings& render) {
     return {};
 }
 
+Result<void> Engine::setThreshold(float px) {
+    if (!(px > 0.0f) || !std::isfinite(px))
+        return Error{
+            fmt::format("the splat size threshold must be a positive number of pixels (got {})", px)};
+    Impl& m = *impl_;
+    m.threshold = std::min(m.threshold * (px / m.settings.threshold), kMaxThresholdRise * px);
+    m.settings.threshold = px;
+    return {};
+}
+
 std::vector<FrameReport> Engine::reports() {
     impl_->collectFinished();
     return std::exchange(impl_->finished, {});

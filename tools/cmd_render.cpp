@@ -118,7 +118,7 @@ void runRender(const RenderArgs& args) {
             args.input.empty() ? "null" : jsonString(args.input), jsonString(args.output), inputCount, levels,
             splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
             jsonString(context->deviceName()), path, gpu.visibilityMs, gpu.accumulationMs,
-            gpu.normalizationMs, cameraValue(camera), jsonNumber(args.view.fovDegrees),
+            gpu.normalizationMs, engine::cameraText(camera), jsonNumber(args.view.fovDegrees),
             args.frame.empty() ? "null" : jsonString(args.frame),
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
@@ -136,7 +136,7 @@ void runRender(const RenderArgs& args) {
                    name, args.engine.threshold, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
                    engine.tree().nodeCount(), splats, pointsIn, drawn.refineWaitMs);
     if (view)
-        fmt::print("camera: --camera {} ({}{})\n", cameraValue(camera), viewpointReason(*view, args),
+        fmt::print("camera: --camera {} ({}{})\n", engine::cameraText(camera), viewpointReason(*view, args),
                    args.frame.empty() ? "" : ", framing " + args.frame);
 }
 
@@ -147,12 +147,7 @@ void addRenderCommand(CLI::App& app) {
         app, "render", "Render a point set offscreen as surface splats into a PNG (Vulkan)", runRender);
     cmd->add_option("input", args->input, "input PLY; omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PNG")->capture_default_str();
-    cmd->add_option("--width", args->engine.width, "image width in pixels")
-        ->check(CLI::Range(1u, 16384u))
-        ->capture_default_str();
-    cmd->add_option("--height", args->engine.height, "image height in pixels")
-        ->check(CLI::Range(1u, 16384u))
-        ->capture_default_str();
+    addSizeOptions(*cmd, args->engine, "image {} in pixels", 1);
     CLI::Option* camera = addCameraOptions(*cmd, args->view);
     cmd->add_option("--frame", args->frame,
                     "choose the camera for this PLY's points instead of the input's (a sparse input and its "
@@ -162,10 +157,7 @@ void addRenderCommand(CLI::App& app) {
                     "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
     addFillHoleOption(*cmd, args->holes);
-    cmd->add_option("--background", args->background, "background colour r,g,b in [0, 1]")
-        ->delimiter(',')
-        ->expected(3)
-        ->check(CLI::Range(0.0, 1.0));
+    addBackgroundOption(*cmd, args->background);
     cmd->add_option("--radius-scale", args->radiusScale, "splat radius as a multiple of the point radius")
         ->check(CLI::Range(0.01, 100.0))
         ->capture_default_str();

@@ -22,6 +22,21 @@ PointSet loadForRendering(const std::string& input, bool keepNormals, std::strin
     return points;
 }
 
+void addSizeOptions(CLI::App& cmd, EngineArgs& args, const std::string& what, unsigned minimum) {
+    for (const bool width : {true, false})
+        cmd.add_option(width ? "--width" : "--height", width ? args.width : args.height,
+                       fmt::format(fmt::runtime(what), width ? "width" : "height"))
+            ->check(CLI::Range(minimum, 16384u))
+            ->capture_default_str();
+}
+
+void addBackgroundOption(CLI::App& cmd, std::vector<float>& background) {
+    cmd.add_option("--background", background, "background colour r,g,b in [0, 1]")
+        ->delimiter(',')
+        ->expected(3)
+        ->check(CLI::Range(0.0, 1.0));
+}
+
 void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requiresFlag) {
     cmd.add_option("--path", args.path,
                    "compute (atomics), graphics (raster pipeline), or auto: compute where the device can")
@@ -100,13 +115,7 @@ engine::Camera chooseCamera(const CameraArgs& args, const PointSet& frame, float
                                static_cast<float>(radians(args.elevationDegrees)));
 }
 
-std::string cameraValue(const engine::Camera& c) {
-    return fmt::format("{},{},{},{},{},{},{},{},{}", c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y,
-                       c.target.z, c.up.x, c.up.y, c.up.z);
-}
-
-std::unique_ptr<engine::Context> createContext(const EngineArgs& args) {
-    engine::ContextOptions options;
+std::unique_ptr<engine::Context> createContext(const EngineArgs& args, engine::ContextOptions options) {
     options.deviceName = args.device;
 #ifndef NDEBUG
     options.validation = true;

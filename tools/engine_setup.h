@@ -36,6 +36,10 @@ struct EngineArgs {
     bool fast = false; // the paper's faster variants for the levels the engine refines
     double targetFps = 0.0; // keep this frame rate by raising the threshold where needed (0: none)
 };
+// Registers --width and --height on `cmd`: of `what` ("image width in pixels"), from 1 or `minimum`.
+void addSizeOptions(CLI::App& cmd, EngineArgs& args, const std::string& what, unsigned minimum);
+// Registers --background r,g,b (each in [0, 1]) on `cmd`, into `background`.
+void addBackgroundOption(CLI::App& cmd, std::vector<float>& background);
 // Registers --path, --device, --validation on `cmd`; with `adaptive`, also --threshold, --cache-mb,
 // --workers and --fast (their help says "with --adaptive" when `requiresFlag`).
 void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requiresFlag);
@@ -58,12 +62,10 @@ CLI::Option* addCameraOptions(CLI::App& cmd, CameraArgs& args);
 // is on its target or whose up lies along the line of sight.
 engine::Camera chooseCamera(const CameraArgs& args, const PointSet& frame, float aspect,
                             std::optional<engine::Viewpoint>& view);
-// The camera as the value of --camera that gives it again: each number in its shortest text that
-// reads back as the same float.
-std::string cameraValue(const engine::Camera& camera);
 
-// The Vulkan context for the args (validation layer with --validation, and always in debug builds).
-std::unique_ptr<engine::Context> createContext(const EngineArgs& args);
+// The Vulkan context for the args (validation layer with --validation, and always in debug builds);
+// `options` adds what else it needs (a window's extensions).
+std::unique_ptr<engine::Context> createContext(const EngineArgs& args, engine::ContextOptions options = {});
 // "auto" is the compute path where the device has what it needs (on lavapipe it is several times
 // faster than the raster pipeline), else the graphics path.
 engine::RenderPath choosePath(const std::string& path, const engine::Context& context);

@@ -45,26 +45,14 @@ struct Image {
 
 Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageUsageFlags usage,
                   VkImageAspectFlags aspect) {
-    const VkDevice device = context.device();
-    Image result;
-    VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    info.imageType = VK_IMAGE_TYPE_2D;
-    info.format = format;
-    info.extent = {extent.width, extent.height, 1};
-    info.mipLevels = 1;
-    info.arrayLayers = 1;
-    info.samples = VK_SAMPLE_COUNT_1_BIT;
-    info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    info.usage = usage;
-    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    result.image = PNSPLAT_VK_CREATE(Image, device, info);
-    result.memory = bindMemory(context, result.image.get(), VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    DeviceImage made = createDeviceImage(context, extent, format, usage);
+    Image result{std::move(made.image), std::move(made.memory), {}};
     VkImageViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
     viewInfo.image = result.image.get();
     viewInfo.viewType = VK_IMAGE_VIEW_TYPE_2D;
     viewInfo.format = format;
     viewInfo.subresourceRange = {aspect, 0, 1, 0, 1};
-    result.view = PNSPLAT_VK_CREATE(ImageView, device, viewInfo);
+    result.view = PNSPLAT_VK_CREATE(ImageView, context.device(), viewInfo);
     return result;
 }
 

@@ -839,7 +839,7 @@ TEST(CliExit, UsageErrorsExitWithTwoAndSuggestTheCommand) {
         {"rendr", "'rendr' is not a pnsplat command; did you mean 'render'?"},
         {"refien -l 2", "did you mean 'refine'?"},
         {"bench rendr", "'rendr' is not a pnsplat bench command; did you mean 'render'?"},
-        {"xyz", "(commands: refine, eval, render, diff, bench)"},
+        {"xyz", "(commands: refine, eval, render, view, diff, bench)"},
         {"", "subcommand is required"},
         {"render --bogus", "--bogus"},
         {"diff only-one.png", "is required"},

@@ -21,7 +21,7 @@ void main() {
     ViewSplat v = toView(s);
     ivec2 lo, hi;
     if (!frontFacing(v) || !footprint(v, lo, hi)) return;
-    vec3 colour = linearColour(s);
+    vec3 colour = linearColour(s, v);
     vec3 n = v.normal * 0.5 + 0.5;
     for (int y = lo.y; y <= hi.y; ++y)
         for (int x = lo.x; x <= hi.x; ++x) {

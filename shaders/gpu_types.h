@@ -53,7 +53,8 @@ struct FrameUniforms {
     // ndc = 2 (x + 0.5) / size - 1; z = near plane distance, w = unused.
     vec4 rayScale;
     // x: radius scale, y: depth offset ε as a multiple of the splat radius, z: Gaussian
-    // sharpness k (w = exp(-k ρ²), ρ the distance from the centre over the radius), w: unused.
+    // sharpness k (w = exp(-k ρ²), ρ the distance from the centre over the radius), w: the heat
+    // map's diameter in pixels (RenderSettings::heatMapPx; 0: splats keep their colour).
     vec4 splat;
     // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y: work items of the
     // compute path's splat passes, z, w: unused.

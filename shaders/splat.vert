@@ -21,7 +21,7 @@ void main() {
     ViewSplat v = toView(s);
     vec2 corner = kCorners[gl_VertexIndex % 6];
     outLocal = corner;
-    outColour = linearColour(s);
+    outColour = linearColour(s, v);
     outNormal = v.normal;
     outRadius = v.radius;
     if (!frontFacing(v)) {

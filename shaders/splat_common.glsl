@@ -29,8 +29,25 @@ ViewSplat toView(Splat s) {
     return v;
 }
 
-// A splat's colour in linear RGB (only the accumulation pass needs it).
-vec3 linearColour(Splat s) {
+// The heat map of splat size (RenderSettings::heatMapPx): the colour, in sRGB, of a splat whose
+// projected diameter is `ratio` times the heat map's diameter. Below it, blue (a quarter or less)
+// through cyan to green; above it, yellow through orange to red (four times or more): the jump from
+// green to yellow marks the threshold.
+vec3 heatColour(float ratio) {
+    float x = clamp(0.25 * log2(ratio) + 0.5, 0.0, 1.0);
+    return x < 0.5 ? mix(vec3(0.1, 0.25, 0.95), vec3(0.1, 0.8, 0.35), 2.0 * x)
+                   : mix(vec3(1.0, 0.85, 0.1), vec3(0.9, 0.1, 0.1), 2.0 * x - 1.0);
+}
+
+// A splat's colour in linear RGB (only the accumulation pass needs it): its own, or with the heat
+// map its projected diameter's (2 r f / depth, f = height / (2 tan(fovY / 2)) pixels, as the
+// engine measures splats, engine.h FrameReport::maxSplatPx).
+vec3 linearColour(Splat s, ViewSplat v) {
+    if (frame.splat.w > 0.0) {
+        float focal = frame.viewport.y / (2.0 * frame.rayScale.y);
+        float diameter = 2.0 * v.radius * focal / max(-v.centre.z, frame.rayScale.z);
+        return srgbToLinear(heatColour(diameter / frame.splat.w));
+    }
     return srgbToLinear(unpackUnorm4x8(s.colour).rgb);
 }
 

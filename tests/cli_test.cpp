@@ -3,8 +3,7 @@
 // and bad input (CONTRIBUTING.md "Errors": one line naming the file and the problem, a non-zero exit,
 // never a crash, and no output file left behind).
 //
-// The program runs through std::system with stdout and stderr redirected to files of a private
-// temporary folder; every test works in its own folder, removed at the end.
+// The program runs through program.h's run(); every test works in its own folder, removed at the end.
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/stat.h>
@@ -37,111 +36,14 @@
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/shapes.h"
-#include "temp_dir.h"
+#include "program.h"
 #include "test_data.h"
 
 namespace pnsplat {
 namespace {
 
 namespace fs = std::filesystem;
-using test::TempDir;
-
-std::string quote(const std::string& s) {
-    std::string q = "'";
-    for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
-}
-std::string quote(const fs::path& p) {
-    return quote(p.string());
-}
-
-// The whole file ("" when it cannot be read).
-std::string readText(const fs::path& path) {
-    std::error_code ec;
-    const auto size = fs::file_size(path, ec);
-    if (ec) return {};
-    std::string bytes(static_cast<std::size_t>(size), '\0');
-    std::ifstream in(path, std::ios::binary);
-    in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    bytes.resize(static_cast<std::size_t>(in.gcount()));
-    return bytes;
-}
-
-void writeText(const fs::path& path, const std::string& text) {
-    std::ofstream out(path, std::ios::binary);
-    out << text;
-}
-
-struct RunResult {
-    bool exited = false;  // ended by exit(), not by a signal
-    int exitCode = -1;    // valid when exited
-    std::string out, err; // standard output and standard error
-};
-
-// Runs the shell command line `commandLine`, capturing its standard output and error.
-RunResult runShell(const std::string& commandLine) {
-    static const TempDir captures; // outside every test's own folder
-    static std::atomic<unsigned> counter{0};
-    const unsigned k = counter++;
-    const fs::path out = captures / ("out-" + std::to_string(k)),
-                   err = captures / ("err-" + std::to_string(k));
-    const std::string command = "{ " + commandLine + "; } >" + quote(out) + " 2>" + quote(err);
-    const int status = std::system(command.c_str());
-    RunResult r;
-    // The shell may exec the program (a signal shows in the status) or report it as 128 + signal.
-    r.exited = status != -1 && WIFEXITED(status) && WEXITSTATUS(status) < 128;
-    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = readText(out);
-    r.err = readText(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
-}
-
-// The program, quoted for the shell.
-std::string program() {
-    return quote(test::programPath());
-}
-
-// Runs `pnsplat <args>` (args already quoted as needed), after the shell commands `before` (such
-// as "ulimit -v 3000000; ").
-RunResult run(const std::string& args, const std::string& before = "") {
-    return runShell(before + program() + " " + args);
-}
-
-std::vector<std::string> lines(const std::string& text) {
-    std::vector<std::string> result;
-    std::istringstream in(text);
-    for (std::string line; std::getline(in, line);) result.push_back(line);
-    return result;
-}
-
-// The program's exit statuses (README, "Exit status"; tools/commands.h).
-enum class Exit { Differs = 1, Usage = 2, Failure = 3 };
-
-// A clean failure: a normal exit with the expected status (usage errors 2, failures 3) and on
-// stderr exactly one line "pnsplat: ...".
-::testing::AssertionResult failsCleanly(const RunResult& r, Exit expected = Exit::Failure) {
-    if (!r.exited) return ::testing::AssertionFailure() << "crashed or killed by a signal; stderr: " << r.err;
-    if (r.exitCode != int(expected))
-        return ::testing::AssertionFailure()
-               << "exit status " << r.exitCode << ", not " << int(expected) << "; stderr: " << r.err;
-    const std::vector<std::string> l = lines(r.err);
-    if (l.size() == 1 && l[0].rfind("pnsplat: ", 0) == 0 && l[0].size() > 9)
-        return ::testing::AssertionSuccess();
-    return ::testing::AssertionFailure() << "stderr is not one error line (" << l.size() << " lines):\n"
-                                         << r.err;
-}
-
-// The value of `key` in a one-line JSON object: a string's text without its quotes, or a number's
-// or literal's text ("" when absent).
-std::string jsonField(const std::string& json, const std::string& key) {
-    const std::size_t at = json.find("\"" + key + "\": ");
-    if (at == std::string::npos) return "";
-    std::size_t begin = at + key.size() + 4;
-    if (json[begin] == '"') return json.substr(begin + 1, json.find('"', begin + 1) - begin - 1);
-    return json.substr(begin, json.find_first_of(",}", begin) - begin);
-}
+using namespace test;
 
 std::string headerAscii(std::size_t count) {
     return "ply\nformat ascii 1.0\nelement vertex " + std::to_string(count) +
@@ -1113,7 +1015,7 @@ TEST(CliExit, UsageErrorsExitWithTwoAndSuggestTheCommand) {
         {"rendr", "'rendr' is not a pnsplat command; did you mean 'render'?"},
         {"refien -l 2", "did you mean 'refine'?"},
         {"bench rendr", "'rendr' is not a pnsplat bench command; did you mean 'render'?"},
-        {"xyz", "(commands: refine, eval, render, diff, bench)"},
+        {"xyz", "(commands: refine, eval, render, view, diff, bench)"},
         {"", "subcommand is required"},
         {"render --bogus", "--bogus"},
         {"diff only-one.png", "is required"},

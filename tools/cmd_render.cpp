@@ -27,12 +27,8 @@ namespace {
 struct RenderArgs {
     std::string input;
     std::string output = "render.png";
-    std::vector<float> camera;
-    std::string frame;       // choose the camera for this file's points instead of the input's
-    std::string up = "auto"; // auto, x, y or z
-    double orbitDegrees = 0.0;
-    double elevationDegrees = 0.0;
-    double fovDegrees = 40.0;
+    CameraArgs view;
+    std::string frame; // choose the camera for this file's points instead of the input's
     unsigned refineLevels = 0;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
     std::size_t maxPoints = 0;
@@ -54,46 +50,10 @@ std::string axisName(glm::vec3 direction) {
     return "?";
 }
 
-// The camera as the value of --camera that gives it again: each number in its shortest text that
-// reads back as the same float.
-std::string cameraValue(const engine::Camera& c) {
-    return fmt::format("{},{},{},{},{},{},{},{},{}", c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y,
-                       c.target.z, c.up.x, c.up.y, c.up.z);
-}
-
-// The camera of --camera, or the one chosen for `frame` (the input's points or those of --frame,
-// completed, before any refinement): engine::chooseViewpoint and frameSphere. `view` receives the
-// viewpoint chosen (unset for --camera).
-engine::Camera chooseCamera(const RenderArgs& args, const PointSet& frame,
-                            std::optional<engine::Viewpoint>& view) {
-    const float fov = static_cast<float>(radians(args.fovDegrees));
-    engine::Camera camera;
-    if (!args.camera.empty()) {
-        camera.eye = {args.camera[0], args.camera[1], args.camera[2]};
-        camera.target = {args.camera[3], args.camera[4], args.camera[5]};
-        camera.up = {args.camera[6], args.camera[7], args.camera[8]};
-        camera.fovY = fov;
-        if (!camera.valid())
-            throw CommandError("--camera: the eye is on the target, or up lies along the line of sight",
-                               kExitUsage);
-        return camera;
-    }
-    std::optional<glm::vec3> up;
-    if (args.up != "auto") {
-        up = glm::vec3(0.0f);
-        (*up)[args.up[0] - 'x'] = 1.0f;
-    }
-    view = engine::chooseViewpoint(frame.position, frame.normal, up);
-    return engine::frameSphere(engine::boundingSphere(frame.position),
-                               float(args.engine.width) / float(args.engine.height), fov,
-                               static_cast<float>(radians(args.orbitDegrees)), *view,
-                               static_cast<float>(radians(args.elevationDegrees)));
-}
-
 // How the viewpoint was chosen, for the summary.
 std::string viewpointReason(const engine::Viewpoint& view, const RenderArgs& args) {
     const char* up =
-        args.up != "auto" ? "given" : (view.upFromBase ? "the model's base" : "no base stands out");
+        args.view.up != "auto" ? "given" : (view.upFromBase ? "the model's base" : "no base stands out");
     return fmt::format("up {}: {}; eye on {}{}", axisName(view.up), up, axisName(view.front),
                        view.frontFlipped ? " (a flat face fills the other side)" : "");
 }
@@ -109,7 +69,8 @@ void runRender(const RenderArgs& args) {
     const PointSet frame =
         args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
     std::optional<Viewpoint> view;
-    const Camera camera = chooseCamera(args, args.frame.empty() ? points : frame, view);
+    const Camera camera = chooseCamera(args.view, args.frame.empty() ? points : frame,
+                                       float(args.engine.width) / float(args.engine.height), view);
 
     const std::size_t inputCount = points.size();
     unsigned levels = 0;
@@ -165,7 +126,7 @@ void runRender(const RenderArgs& args) {
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
             inputCount, levels, splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
             jsonString(context->deviceName()), path, gpu.visibilityMs, gpu.accumulationMs,
-            gpu.normalizationMs, cameraValue(camera), jsonNumber(args.fovDegrees),
+            gpu.normalizationMs, engine::cameraText(camera), jsonNumber(args.view.fovDegrees),
             args.frame.empty() ? "null" : jsonString(args.frame),
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
@@ -185,8 +146,8 @@ void runRender(const RenderArgs& args) {
                    name, args.engine.threshold, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
                    engine.tree().nodeCount(), splats, pointsIn, drawn.refineWaitMs);
     if (view)
-        fmt::print(summary, "camera: --camera {} ({}{})\n", cameraValue(camera), viewpointReason(*view, args),
-                   args.frame.empty() ? "" : ", framing " + args.frame);
+        fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
+                   viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);
 }
 
 } // namespace
@@ -198,45 +159,18 @@ void addRenderCommand(CLI::App& app) {
                     "input PLY, - for standard input; omitted: the embedded default model");
     cmd->add_option("-o,--output", args->output, "output PNG, - for standard output")->capture_default_str();
     addForceFlag(*cmd, args->force);
-    cmd->add_option("--width", args->engine.width, "image width in pixels")
-        ->check(CLI::Range(1u, 16384u))
-        ->capture_default_str();
-    cmd->add_option("--height", args->engine.height, "image height in pixels")
-        ->check(CLI::Range(1u, 16384u))
-        ->capture_default_str();
-    auto* camera = cmd->add_option("--camera", args->camera,
-                                   "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz (as render prints it)")
-                       ->delimiter(',')
-                       ->expected(9);
+    addSizeOptions(*cmd, args->engine, "image {} in pixels", 1);
+    CLI::Option* camera = addCameraOptions(*cmd, args->view);
     cmd->add_option("--frame", args->frame,
                     "choose the camera for this PLY's points instead of the input's (a sparse input and its "
                     "refinement framed by the same file are seen from the same camera)")
         ->excludes(camera);
-    cmd->add_option("--up", args->up,
-                    "the model's up axis; auto: the axis of its broadest base, else y (see README, Use)")
-        ->check(CLI::IsMember({"auto", "x", "y", "z"}))
-        ->excludes(camera)
-        ->capture_default_str();
-    cmd->add_option("--orbit", args->orbitDegrees, "turn the framing camera about the up axis, degrees")
-        ->excludes(camera)
-        ->capture_default_str();
-    cmd->add_option("--elevation", args->elevationDegrees,
-                    "raise the framing camera towards the up axis, degrees")
-        ->check(CLI::Range(-89.0, 89.0))
-        ->excludes(camera)
-        ->capture_default_str();
-    cmd->add_option("--fov", args->fovDegrees, "vertical field of view, degrees")
-        ->check(CLI::Range(1.0, 179.0))
-        ->capture_default_str();
     cmd->add_option("--refine-levels", args->refineLevels,
                     "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
     addFillHoleOption(*cmd, args->holes);
     addMaxPointsOption(*cmd, args->maxPoints);
-    cmd->add_option("--background", args->background, "background colour r,g,b in [0, 1]")
-        ->delimiter(',')
-        ->expected(3)
-        ->check(CLI::Range(0.0, 1.0));
+    addBackgroundOption(*cmd, args->background);
     cmd->add_option("--radius-scale", args->radiusScale, "splat radius as a multiple of the point radius")
         ->check(CLI::Range(0.01, 100.0))
         ->capture_default_str();

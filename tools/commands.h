@@ -77,6 +77,7 @@ void addEvalCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addDiffCommand(CLI::App& app);
+void addViewCommand(CLI::App& app);
 // `bench view`, under `bench`.
 void addBenchViewCommand(CLI::App& bench);
 

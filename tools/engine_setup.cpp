@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include "commands.h"
+#include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/shapes.h"
 #include "refine_run.h"
@@ -20,6 +21,21 @@ PointSet loadForRendering(const std::string& input, bool keepNormals, std::strin
     }
     completeInput(points, 0, name, {.keepNormals = keepNormals});
     return points;
+}
+
+void addSizeOptions(CLI::App& cmd, EngineArgs& args, const std::string& what, unsigned minimum) {
+    for (const bool width : {true, false})
+        cmd.add_option(width ? "--width" : "--height", width ? args.width : args.height,
+                       fmt::format(fmt::runtime(what), width ? "width" : "height"))
+            ->check(CLI::Range(minimum, 16384u))
+            ->capture_default_str();
+}
+
+void addBackgroundOption(CLI::App& cmd, std::vector<float>& background) {
+    cmd.add_option("--background", background, "background colour r,g,b in [0, 1]")
+        ->delimiter(',')
+        ->expected(3)
+        ->check(CLI::Range(0.0, 1.0));
 }
 
 void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requiresFlag) {
@@ -54,8 +70,57 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
         ->capture_default_str();
 }
 
-std::unique_ptr<engine::Context> createContext(const EngineArgs& args) {
-    engine::ContextOptions options;
+CLI::Option* addCameraOptions(CLI::App& cmd, CameraArgs& args) {
+    CLI::Option* camera =
+        cmd.add_option("--camera", args.camera,
+                       "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz (as render prints it)")
+            ->delimiter(',')
+            ->expected(9);
+    cmd.add_option("--up", args.up,
+                   "the model's up axis; auto: the axis of its broadest base, else y (see README, Use)")
+        ->check(CLI::IsMember({"auto", "x", "y", "z"}))
+        ->excludes(camera)
+        ->capture_default_str();
+    cmd.add_option("--orbit", args.orbitDegrees, "turn the framing camera about the up axis, degrees")
+        ->excludes(camera)
+        ->capture_default_str();
+    cmd.add_option("--elevation", args.elevationDegrees,
+                   "raise the framing camera towards the up axis, degrees")
+        ->check(CLI::Range(-89.0, 89.0))
+        ->excludes(camera)
+        ->capture_default_str();
+    cmd.add_option("--fov", args.fovDegrees, "vertical field of view, degrees")
+        ->check(CLI::Range(1.0, 179.0))
+        ->capture_default_str();
+    return camera;
+}
+
+engine::Camera chooseCamera(const CameraArgs& args, const PointSet& frame, float aspect,
+                            std::optional<engine::Viewpoint>& view) {
+    const float fov = static_cast<float>(radians(args.fovDegrees));
+    engine::Camera camera;
+    if (!args.camera.empty()) {
+        camera.eye = {args.camera[0], args.camera[1], args.camera[2]};
+        camera.target = {args.camera[3], args.camera[4], args.camera[5]};
+        camera.up = {args.camera[6], args.camera[7], args.camera[8]};
+        camera.fovY = fov;
+        if (!camera.valid())
+            throw CommandError("--camera: the eye is on the target, or up lies along the line of sight",
+                               kExitUsage);
+        return camera;
+    }
+    std::optional<glm::vec3> up;
+    if (args.up != "auto") {
+        up = glm::vec3(0.0f);
+        (*up)[args.up[0] - 'x'] = 1.0f;
+    }
+    view = engine::chooseViewpoint(frame.position, frame.normal, up);
+    return engine::frameSphere(engine::boundingSphere(frame.position), aspect, fov,
+                               static_cast<float>(radians(args.orbitDegrees)), *view,
+                               static_cast<float>(radians(args.elevationDegrees)));
+}
+
+std::unique_ptr<engine::Context> createContext(const EngineArgs& args, engine::ContextOptions options) {
     options.deviceName = args.device;
 #ifndef NDEBUG
     options.validation = true;

@@ -4,7 +4,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/engine.h"
@@ -12,7 +14,8 @@
 
 namespace CLI {
 class App;
-}
+class Option;
+} // namespace CLI
 
 namespace pnsplat::tools {
 
@@ -34,12 +37,36 @@ struct EngineArgs {
     bool fast = false;      // the paper's faster variants for the levels the engine refines
     double targetFps = 0.0; // keep this frame rate by raising the threshold where needed (0: none)
 };
+// Registers --width and --height on `cmd`: of `what` ("image width in pixels"), from 1 or `minimum`.
+void addSizeOptions(CLI::App& cmd, EngineArgs& args, const std::string& what, unsigned minimum);
+// Registers --background r,g,b (each in [0, 1]) on `cmd`, into `background`.
+void addBackgroundOption(CLI::App& cmd, std::vector<float>& background);
 // Registers --path, --device, --validation on `cmd`; with `adaptive`, also --threshold, --cache-mb,
 // --workers and --fast (their help says "with --adaptive" when `requiresFlag`).
 void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requiresFlag);
 
-// The Vulkan context for the args (validation layer with --validation, and always in debug builds).
-std::unique_ptr<engine::Context> createContext(const EngineArgs& args);
+// The camera options that `render` and `view` share: --camera, or the framing camera's --up,
+// --orbit and --elevation; --fov for both.
+struct CameraArgs {
+    std::vector<float> camera; // eye, target, up (9 values) or empty
+    std::string up = "auto";   // auto, x, y or z
+    double orbitDegrees = 0.0;
+    double elevationDegrees = 0.0;
+    double fovDegrees = 40.0;
+};
+// Registers them on `cmd`; returns --camera (which the framing options exclude).
+CLI::Option* addCameraOptions(CLI::App& cmd, CameraArgs& args);
+// The camera of --camera, or the one chosen for `frame` (the points to frame: a model as loaded,
+// before any refinement) in an image of the given aspect (width / height):
+// engine::chooseViewpoint, then frameSphere about boundingSphere(frame.position). `view`
+// receives the viewpoint chosen (unset for --camera). Throws a usage error for a --camera whose eye
+// is on its target or whose up lies along the line of sight.
+engine::Camera chooseCamera(const CameraArgs& args, const PointSet& frame, float aspect,
+                            std::optional<engine::Viewpoint>& view);
+
+// The Vulkan context for the args (validation layer with --validation, and always in debug builds);
+// `options` adds what else it needs (a window's extensions).
+std::unique_ptr<engine::Context> createContext(const EngineArgs& args, engine::ContextOptions options = {});
 // "auto" is the compute path where the device has what it needs (on lavapipe it is several times
 // faster than the raster pipeline), else the graphics path.
 engine::RenderPath choosePath(const std::string& path, const engine::Context& context);

@@ -76,6 +76,7 @@ int main(int argc, char** argv) {
     pnsplat::tools::addRefineCommand(app);
     pnsplat::tools::addEvalCommand(app);
     pnsplat::tools::addRenderCommand(app);
+    pnsplat::tools::addViewCommand(app);
     pnsplat::tools::addDiffCommand(app);
     pnsplat::tools::addBenchCommand(app);
     try {

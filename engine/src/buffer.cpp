@@ -41,6 +41,23 @@ Unique<VkDeviceMemory> bindMemory(Context& context, VkImage image, VkMemoryPrope
                         required, preferred, type);
 }
 
+DeviceImage createDeviceImage(Context& context, VkExtent2D extent, VkFormat format, VkImageUsageFlags usage) {
+    VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = format;
+    info.extent = {extent.width, extent.height, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = 1;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    info.usage = usage;
+    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    DeviceImage result;
+    result.image = PNSPLAT_VK_CREATE(Image, context.device(), info);
+    result.memory = bindMemory(context, result.image.get(), VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    return result;
+}
+
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use) {
     const VkDevice device = context.device();
     Buffer result;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include <fmt/format.h>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -75,6 +76,11 @@ bool Camera::valid() const {
 
 glm::mat4 Camera::view() const {
     return glm::lookAtRH(eye, target, up);
+}
+
+std::string cameraText(const Camera& c) {
+    return fmt::format("{},{},{},{},{},{},{},{},{}", c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y,
+                       c.target.z, c.up.x, c.up.y, c.up.z);
 }
 
 Sphere boundingSphere(std::span<const glm::vec3> positions) {

@@ -606,6 +606,10 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
 
 Result<void> Engine::setRenderSettings(const RenderSettings& render) {
     Impl& m = *impl_;
+    if (m.renderer->adjust(render)) { // the frame's uniforms only: no wait, same passes
+        m.settings.render = render;
+        return {};
+    }
     try {
         m.frames->waitAll();
         m.collectFinished(); // their pass times, before the old passes go
@@ -616,6 +620,16 @@ Result<void> Engine::setRenderSettings(const RenderSettings& render) {
     if (!renderer) return renderer.error();
     m.renderer = std::move(renderer).value();
     m.settings.render = render;
+    return {};
+}
+
+Result<void> Engine::setThreshold(float px) {
+    if (!(px > 0.0f) || !std::isfinite(px))
+        return Error{
+            fmt::format("the splat size threshold must be a positive number of pixels (got {})", px)};
+    Impl& m = *impl_;
+    m.threshold = std::min(m.threshold * (px / m.settings.threshold), kMaxThresholdRise * px);
+    m.settings.threshold = px;
     return {};
 }
 

@@ -45,26 +45,14 @@ struct Image {
 
 Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageUsageFlags usage,
                   VkImageAspectFlags aspect) {
-    const VkDevice device = context.device();
-    Image result;
-    VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    info.imageType = VK_IMAGE_TYPE_2D;
-    info.format = format;
-    info.extent = {extent.width, extent.height, 1};
-    info.mipLevels = 1;
-    info.arrayLayers = 1;
-    info.samples = VK_SAMPLE_COUNT_1_BIT;
-    info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    info.usage = usage;
-    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    result.image = PNSPLAT_VK_CREATE(Image, device, info);
-    result.memory = bindMemory(context, result.image.get(), VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    DeviceImage made = createDeviceImage(context, extent, format, usage);
+    Image result{std::move(made.image), std::move(made.memory), {}};
     VkImageViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
     viewInfo.image = result.image.get();
     viewInfo.viewType = VK_IMAGE_VIEW_TYPE_2D;
     viewInfo.format = format;
     viewInfo.subresourceRange = {aspect, 0, 1, 0, 1};
-    result.view = PNSPLAT_VK_CREATE(ImageView, device, viewInfo);
+    result.view = PNSPLAT_VK_CREATE(ImageView, context.device(), viewInfo);
     return result;
 }
 
@@ -111,6 +99,13 @@ VkAttachmentDescription attachment(VkFormat format, VkAttachmentLoadOp load, VkI
             .stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE,
             .initialLayout = initial,
             .finalLayout = final};
+}
+
+// The settings that only the frame's uniforms carry are finite, and positive where they must be.
+bool lookInRange(const RenderSettings& s) {
+    return s.radiusScale > 0.0f && std::isfinite(s.radiusScale) && s.depthOffset >= 0.0f &&
+           std::isfinite(s.depthOffset) && s.sharpness >= 0.0f && std::isfinite(s.sharpness) &&
+           s.heatMapPx >= 0.0f && std::isfinite(s.heatMapPx);
 }
 
 struct GraphicsPipelineDesc {
@@ -593,7 +588,7 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats, std::s
     frame.viewport = {float(settings.width), float(settings.height), 1.0f / float(settings.width),
                       1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
-    frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, 0.0f};
+    frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, settings.heatMapPx};
     frame.flags = {settings.normalize ? 1u : 0u, slot.workItems, 0u, 0u};
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
     writeDescriptors(slot, splats);
@@ -669,11 +664,9 @@ Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
     if (settings.width > limits.maxImageDimension2D || settings.height > limits.maxImageDimension2D)
         return Error{"image size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
                      " exceeds the device's limit of " + std::to_string(limits.maxImageDimension2D)};
-    if (!(settings.radiusScale > 0.0f) || !std::isfinite(settings.radiusScale) ||
-        !(settings.depthOffset >= 0.0f) || !std::isfinite(settings.depthOffset) ||
-        !(settings.sharpness >= 0.0f) || !std::isfinite(settings.sharpness))
-        return Error{
-            "render settings: radius scale must be positive, depth offset and sharpness non-negative"};
+    if (!lookInRange(settings))
+        return Error{"render settings: radius scale must be positive, depth offset, sharpness and heat map "
+                     "diameter non-negative"};
     if (settings.path == RenderPath::Compute) {
         if (!context.hasInt64Atomics())
             return Error{"the compute path needs 64-bit storage buffer atomics, which " +
@@ -704,6 +697,15 @@ SplatRenderer::~SplatRenderer() = default;
 
 const RenderSettings& SplatRenderer::settings() const {
     return impl_->settings;
+}
+
+bool SplatRenderer::adjust(const RenderSettings& settings) {
+    const RenderSettings& current = impl_->settings;
+    if (settings.width != current.width || settings.height != current.height ||
+        settings.path != current.path || !lookInRange(settings))
+        return false;
+    impl_->settings = settings;
+    return true;
 }
 
 void SplatRenderer::submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,

@@ -31,6 +31,14 @@ Unique<VkDeviceMemory> bindMemory(Context& context, VkImage image, VkMemoryPrope
 // Throws VulkanError on failure. size must be positive.
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use);
 
+// A 2D image of one mip level and one layer, optimal tiling, UNDEFINED layout, with device-local memory
+// of its own. Throws VulkanError on failure; the extent must not be empty.
+struct DeviceImage {
+    Unique<VkImage> image;
+    Unique<VkDeviceMemory> memory;
+};
+DeviceImage createDeviceImage(Context& context, VkExtent2D extent, VkFormat format, VkImageUsageFlags usage);
+
 // Copies `size` bytes into the start of a Device buffer (created with TRANSFER_DST usage): directly
 // when its memory is host-visible (lavapipe, integrated GPUs), else through a staging buffer.
 void upload(Context& context, const Buffer& destination, const void* data, std::size_t size);

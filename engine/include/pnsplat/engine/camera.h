@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
@@ -22,6 +23,10 @@ struct Camera {
     bool valid() const;
     glm::mat4 view() const;
 };
+
+// The camera as text: eye, target and up, nine numbers separated by commas, each in its shortest
+// form that reads back as the same float (what `pnsplat render --camera` takes and prints).
+std::string cameraText(const Camera& camera);
 
 // A bounding sphere (of a model or a node).
 struct Sphere {

@@ -110,9 +110,16 @@ class Engine {
 
     // One frame for `camera` (which must be valid(): else an error, nothing drawn).
     Result<FrameReport> frame(const Camera& camera, const FrameOptions& options = {});
-    // New render settings (image size, path, splat look) for the frames that follow: waits for the
-    // frames in flight, then makes the passes anew. On error the old settings stay.
+    // New render settings (image size, path, splat look) for the frames that follow. A new size or
+    // path waits for the frames in flight, then makes the passes anew; the rest (background, splat
+    // look, heat map: SplatRenderer::adjust) applies from the next frame without waiting. On error
+    // the old settings stay.
     Result<void> setRenderSettings(const RenderSettings& render);
+    // The threshold asked for (EngineSettings::threshold: pixels, > 0) from the next frame on: nodes
+    // are refined, or drawn coarser, to it as frames go (no wait, nothing refined is dropped). A
+    // threshold in force raised by the frame-time target keeps its ratio to the one asked. On
+    // error (not a positive number) nothing changes.
+    Result<void> setThreshold(float px);
     // Reports of the frames that have finished since the last call (GPU times filled), in order.
     std::vector<FrameReport> reports();
     // Waits for every frame submitted; then reports() returns all of them.

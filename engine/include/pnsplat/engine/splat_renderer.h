@@ -48,6 +48,10 @@ struct RenderSettings {
     float sharpness = 2.0f;
     bool normalize = true; // false shows raw accumulated colour (a switch for tests)
     bool cullNodes = true; // false draws every node (a switch for tests of the culling)
+    // The heat map of splat size, in pixels (>= 0; 0: off): each splat is coloured by its projected
+    // diameter over this (blue for a quarter or less, green just below 1, yellow just above, red for
+    // 4 or more; splat_common.glsl, heatColour), then shaded as usual. Both splatting paths.
+    float heatMapPx = 0.0f;
 };
 
 // The GPU time of each pass of one frame, from timestamps around each pass (each pass is its own
@@ -102,6 +106,11 @@ class SplatRenderer {
     RgbaImage image(std::uint64_t frame) const;
 
     const RenderSettings& settings() const;
+    // Takes `settings` for the frames submitted from now on, without waiting, when they differ from
+    // the current ones only in what the frame's uniforms carry (background, radius scale, depth
+    // offset, sharpness, normalize, heat map), and returns true; false, with nothing changed, when
+    // the size or path differ (a new renderer is needed) or a value is out of range.
+    bool adjust(const RenderSettings& settings);
 
   private:
     struct Impl;

@@ -1,0 +1,132 @@
+// `pnsplat view`: the real-time engine in a window (the viewer library, viewer.h), with the options
+// `render` and `bench view` share; --stats writes bench view's JSON lines.
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/core.h>
+
+#include "commands.h"
+#include "engine_setup.h"
+#include "frame_json.h"
+#include "pnsplat/viewer/viewer.h"
+#include "refine_run.h"
+
+namespace pnsplat::tools {
+
+namespace {
+
+struct ViewArgs {
+    std::string input;
+    EngineArgs engine;
+    CameraArgs camera;
+    std::vector<float> background{1.0f, 1.0f, 1.0f};
+    std::string vsync = "on";
+    std::string script, screenshot, stats;
+    std::size_t frames = 0;
+    bool screenshotOverlay = false;
+    bool keepNormals = false;
+};
+
+// The model of `path` (empty: the embedded default model) framed as `render` frames it.
+viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float aspect, bool keepNormals) {
+    viewer::Model model;
+    model.points = loadForRendering(path, keepNormals, model.name);
+    std::optional<engine::Viewpoint> view;
+    model.camera = chooseCamera(camera, model.points, aspect, view);
+    model.bounds = engine::boundingSphere(model.points.position);
+    return model;
+}
+
+void runView(const ViewArgs& args) {
+    // The window system first: without a display, nothing else is worth doing.
+    auto windows = viewer::WindowSystem::open();
+    if (!windows) throw CommandError(windows.error().message);
+    std::unique_ptr<std::ofstream> stats;
+    if (!args.stats.empty()) {
+        stats = std::make_unique<std::ofstream>(args.stats);
+        if (!*stats) throw CommandError(args.stats + ": cannot write the statistics");
+    }
+    viewer::Model model = loadModel(args.input, args.camera,
+                                    float(args.engine.width) / float(args.engine.height), args.keepNormals);
+
+    engine::ContextOptions contextOptions;
+    for (const std::string& name : (*windows)->instanceExtensions())
+        contextOptions.instanceExtensions.push_back(name);
+    contextOptions.deviceExtensions = viewer::WindowSystem::deviceExtensions();
+    auto context = createContext(args.engine, contextOptions);
+
+    viewer::ViewerOptions options;
+    options.width = args.engine.width;
+    options.height = args.engine.height;
+    options.vsync = args.vsync == "on";
+    options.engine = engineSettings(args.engine, *context, true);
+    options.engine.render.background = {args.background[0], args.background[1], args.background[2]};
+    options.script = args.script;
+    options.frames = args.frames;
+    options.screenshot = args.screenshot;
+    options.screenshotOverlay = args.screenshotOverlay;
+
+    // Dropped files are framed anew (--camera belongs to the first model); --fov stays.
+    CameraArgs framing;
+    framing.fovDegrees = args.camera.fovDegrees;
+    const bool keepNormals = args.keepNormals;
+    const viewer::ModelLoader loader = [framing, keepNormals](const std::string& path, float aspect) {
+        return loadModel(path, framing, aspect, keepNormals);
+    };
+    FrameSeries series;
+    viewer::FrameSink sink;
+    if (stats)
+        sink = [&](const engine::FrameReport& report, double frameMs) {
+            *stats << frameJson(report, frameMs) << '\n';
+            series.add(report, frameMs);
+        };
+    const auto summary = viewer::run(**windows, *context, std::move(model), options, loader, sink);
+    if (!summary) throw CommandError(summary.error().message);
+    if (stats) {
+        *stats << series.summaryJson(summary->seconds, summary->settings, context->deviceName(),
+                                     context->driverName())
+               << '\n';
+        stats->flush();
+        if (!*stats) throw CommandError(args.stats + ": cannot write the statistics");
+    }
+    checkValidation(*context);
+}
+
+} // namespace
+
+void addViewCommand(CLI::App& app) {
+    const auto [cmd, args] = addSubcommand(app, "view",
+                                           "Show a point set in a window as the real-time engine refines it "
+                                           "(camera controls, live statistics; H "
+                                           "in the window lists the keys)",
+                                           runView);
+    cmd->add_option("input", args->input,
+                    "input PLY; omitted: the embedded default model (or drop a file on the window)");
+    addSizeOptions(*cmd, args->engine, "window {} (screen units; the picture has the framebuffer's pixels)",
+                   64);
+    addCameraOptions(*cmd, args->camera);
+    addBackgroundOption(*cmd, args->background);
+    cmd->add_option("--vsync", args->vsync, "wait for the display between frames (off: as fast as they come)")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
+    addEngineOptions(*cmd, args->engine, true, false);
+    cmd->add_option("--script", args->script,
+                    "replay the timed input events of FILE (format: docs/VIEWER.md)");
+    cmd->add_option("--frames", args->frames, "draw this many frames, then quit (0: until the window closes)")
+        ->check(CLI::Range(std::size_t{0}, std::size_t{100000000}))
+        ->capture_default_str();
+    cmd->add_option(
+        "--screenshot", args->screenshot,
+        "after --frames frames (at least one), write the first frame drawn once the refinement has "
+        "settled as a PNG, then quit");
+    cmd->add_flag("--screenshot-overlay", args->screenshotOverlay,
+                  "screenshots (this, P and a script's) include the statistics and other panels shown");
+    cmd->add_option("--stats", args->stats,
+                    "write one JSON line per frame to FILE, then a summary line (the fields of bench view)");
+    addKeepNormalsOption(*cmd, args->keepNormals);
+}
+
+} // namespace pnsplat::tools

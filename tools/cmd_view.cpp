@@ -103,6 +103,8 @@ void addViewCommand(CLI::App& app) {
                                            "(camera controls, live statistics; H "
                                            "in the window lists the keys)",
                                            runView);
+    // As bench view: at 2 px, lavapipe draws the bunny at 5 frames a second (docs/VIEWER.md).
+    args->engine.targetFps = 24.0;
     cmd->add_option("input", args->input,
                     "input PLY; omitted: the embedded default model (or drop a file on the window)");
     addSizeOptions(*cmd, args->engine, "window {} (screen units; the picture has the framebuffer's pixels)",

@@ -32,7 +32,7 @@ struct EngineArgs {
     bool validation = false;
     float threshold = 2.0f;
     double cacheMb = 96.0;
-    unsigned workers = 1;
+    unsigned workers = 2;
     int workerNice = 0;
     bool fast = false;      // the paper's faster variants for the levels the engine refines
     double targetFps = 0.0; // keep this frame rate by raising the threshold where needed (0: none)

@@ -58,7 +58,7 @@ struct EngineSettings {
     // Refinement worker threads (>= 1), and the nice value added to theirs (Linux: 0 shares the
     // processors equally with the render thread and the driver's threads); docs/REALTIME.md has the
     // measurements behind the defaults.
-    unsigned workers = 1;
+    unsigned workers = 2;
     int workerNice = 0;
     // Most bytes uploaded to the cache per frame (not in lockstep), so that a burst of refined
     // nodes does not stall one frame.

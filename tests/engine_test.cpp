@@ -297,7 +297,11 @@ TEST_F(EngineTest, StagedUploadsAndTheGraphicsPathDrawTheSame) {
 // Acceptance 4 of the real-time issue: a long random walk in lockstep with a cache an eighth of the
 // refined model's size, under synchronization validation: no chunk written while a frame in flight
 // reads it, the cache read back at checkpoints equal to every resident node's points, resident
-// memory flat after warm-up, no validation message.
+// memory flat after warm-up, no validation message. Warm-up: the node tree reaches its bound (about
+// 1.0 million points) by frame 200, but the heap goes on growing to frame 700 or so as nodes of
+// every size are made and released (219 -> 282 MiB, then 284 MiB at frame 2,000; 198 -> 263 MiB
+// without the validation layer, the same with one malloc arena), so memory is compared between
+// the middle and the end of the walk. Sanitizers keep freed memory in quarantine: not checked there.
 TEST(EngineStress, CacheOfAnEighthOfTheModelOnALongWalk) {
     PNSPLAT_REQUIRE_DATA("igea-600-uniform.ply");
     engine::ContextOptions options;
@@ -314,7 +318,7 @@ TEST(EngineStress, CacheOfAnEighthOfTheModelOnALongWalk) {
     Engine& engine = **created;
     const std::size_t frames = kSanitized ? 300 : 2000;
     const std::vector<Camera> walk = randomWalk(engine.bounds(), frames, 11);
-    std::size_t evictions = 0, checked = 0, deepest = 0, rssWarm = 0, rssEnd = 0;
+    std::size_t evictions = 0, checked = 0, deepest = 0, rssEarly = 0, rssWarm = 0, rssEnd = 0;
     FrameOptions lockstep;
     lockstep.lockstep = true;
     for (std::size_t k = 0; k < frames; ++k) {
@@ -329,18 +333,22 @@ TEST(EngineStress, CacheOfAnEighthOfTheModelOnALongWalk) {
             ASSERT_TRUE(compared.ok()) << "frame " << k << ": " << compared.error().message;
             checked += *compared;
         }
-        if (k + 1 == frames / 10) rssWarm = residentBytes();
+        if (k + 1 == frames / 10) rssEarly = residentBytes();
+        if (k + 1 == frames / 2) rssWarm = residentBytes();
     }
     engine.finish();
     rssEnd = residentBytes();
     std::printf(
         "%zu frames, deepest level %zu, cache %.2f MiB (model at level 8: %zu points), %zu evictions, "
-        "%zu chunks compared, RSS %.1f MiB at frame %zu and %.1f MiB at %zu\n",
+        "%zu chunks compared, RSS %.1f MiB at frame %zu, %.1f MiB at %zu and %.1f MiB at %zu\n",
         frames, deepest, double(settings.cacheBytes) / double(1 << 20), std::size_t(modelPoints), evictions,
-        checked, double(rssWarm) / double(1 << 20), frames / 10, double(rssEnd) / double(1 << 20), frames);
+        checked, double(rssEarly) / double(1 << 20), frames / 10, double(rssWarm) / double(1 << 20),
+        frames / 2, double(rssEnd) / double(1 << 20), frames);
     EXPECT_GT(evictions, 100u);
     EXPECT_EQ(engine.overwritesInFlight(), 0u);
-    EXPECT_LT(double(rssEnd), 1.15 * double(rssWarm) + double(16 << 20));
+    if (!kSanitized) {
+        EXPECT_LT(double(rssEnd), 1.05 * double(rssWarm) + double(8 << 20));
+    }
     EXPECT_EQ((*context)->validationMessages(), 0u) << (*context)->lastValidationMessage();
 }
 

@@ -33,7 +33,6 @@ struct RenderArgs {
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
     std::size_t maxPoints = 0;
     std::vector<float> background{1.0f, 1.0f, 1.0f};
-    float radiusScale = 1.0f;
     bool flipNormals = false;
     bool adaptive = false;
     EngineArgs engine;
@@ -94,7 +93,6 @@ void runRender(const RenderArgs& args) {
     auto context = createContext(engineArgs);
     EngineSettings settings = engineSettings(engineArgs, *context, args.adaptive);
     settings.render.background = {args.background[0], args.background[1], args.background[2]};
-    settings.render.radiusScale = args.radiusScale;
     const std::size_t pointsIn = points.size();
     auto created = Engine::create(*context, std::move(points), settings);
     if (!created) throw CommandError(name + ": " + created.error().message);
@@ -171,9 +169,6 @@ void addRenderCommand(CLI::App& app) {
     addFillHoleOption(*cmd, args->holes);
     addMaxPointsOption(*cmd, args->maxPoints);
     addBackgroundOption(*cmd, args->background);
-    cmd->add_option("--radius-scale", args->radiusScale, "splat radius as a multiple of the point radius")
-        ->check(CLI::Range(0.01, 100.0))
-        ->capture_default_str();
     cmd->add_flag("--flip-normals", args->flipNormals, "negate every normal (shows why orientation matters)");
     cmd->add_flag("--adaptive", args->adaptive,
                   "refine, for this camera, exactly what it needs (the real-time engine, until settled)");

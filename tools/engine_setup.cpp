@@ -47,6 +47,9 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
                    "Vulkan device whose name contains this text (default: a GPU, else lavapipe)");
     cmd.add_flag("--validation", args.validation,
                  "load the Vulkan validation layer; any message fails the command");
+    cmd.add_option("--radius-scale", args.radiusScale, "splat radius as a multiple of the point radius")
+        ->check(CLI::Range(0.01, 100.0))
+        ->capture_default_str();
     if (!adaptive) return;
     const std::string with = requiresFlag ? "with --adaptive: " : "";
     cmd.add_option("--threshold", args.threshold, with + "largest splat diameter wanted on screen, pixels")
@@ -141,6 +144,7 @@ engine::EngineSettings engineSettings(const EngineArgs& args, const engine::Cont
     settings.render.height = args.height;
     settings.render.path = choosePath(args.path, context);
     settings.adaptive = adaptive;
+    settings.render.radiusScale = args.radiusScale;
     settings.threshold = args.threshold;
     settings.cacheBytes = static_cast<std::size_t>(args.cacheMb * double(1 << 20));
     settings.workers = args.workers;

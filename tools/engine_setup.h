@@ -31,6 +31,7 @@ struct EngineArgs {
     std::string device;
     bool validation = false;
     float threshold = 2.0f;
+    float radiusScale = 1.0f; // splat radius = point radius × this
     double cacheMb = 96.0;
     unsigned workers = 2;
     int workerNice = 0;
@@ -41,7 +42,8 @@ struct EngineArgs {
 void addSizeOptions(CLI::App& cmd, EngineArgs& args, const std::string& what, unsigned minimum);
 // Registers --background r,g,b (each in [0, 1]) on `cmd`, into `background`.
 void addBackgroundOption(CLI::App& cmd, std::vector<float>& background);
-// Registers --path, --device, --validation on `cmd`; with `adaptive`, also --threshold, --cache-mb,
+// Registers --path, --device, --validation, --radius-scale on `cmd`; with `adaptive`, also --threshold,
+// --cache-mb,
 // --workers and --fast (their help says "with --adaptive" when `requiresFlag`).
 void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requiresFlag);
 

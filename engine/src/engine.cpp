@@ -32,6 +32,8 @@ constexpr float kHalfPi = 1.57079632679f;
 // so that a frame holds at most that share too: below the 1 % acceptance 2 of the real-time issue
 // allows, with room for the splats of nodes not yet refined.
 constexpr double kOverShare = 0.008;
+// Reports of finished frames kept until reports() takes them.
+constexpr std::size_t kKeptReports = 256;
 // The threshold in force stays at most this many times the one asked for (adaptThreshold). On
 // lavapipe at 640×480 a frame of the bunny settled at 2, 4, 8, 16 and 32 px took 149, 81, 65, 44
 // and 42 ms: past 16 px the splats' footprints cost what their number saves (docs/REALTIME.md).
@@ -487,6 +489,8 @@ void Engine::Impl::collectFinished() {
         FrameReport report = submitted.front();
         submitted.pop_front();
         report.gpu = renderer->passTimes(report.frame);
+        // A caller that never asks for them keeps only the latest.
+        if (finished.size() == kKeptReports) finished.erase(finished.begin());
         finished.push_back(report);
     }
 }

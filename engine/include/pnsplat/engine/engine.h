@@ -120,9 +120,10 @@ class Engine {
     // threshold in force raised by the frame-time target keeps its ratio to the one asked. On
     // error (not a positive number) nothing changes.
     Result<void> setThreshold(float px);
-    // Reports of the frames that have finished since the last call (GPU times filled), in order.
+    // Reports of the frames that have finished since the last call (GPU times filled), in order; the
+    // latest 256 at most.
     std::vector<FrameReport> reports();
-    // Waits for every frame submitted; then reports() returns all of them.
+    // Waits for every frame submitted; then reports() returns all of them (the latest 256).
     void finish();
     // The image of `frame`, which was drawn with readBack: waits for it. Only until its frame slot
     // is used again (kFramesInFlight frames later).

@@ -125,6 +125,10 @@ TEST(ViewerScript, BadLinesNameTheLine) {
         {"0 drag up 0 0 1 1 2\n", "s.txt:1: drag: expected BUTTON"},
         {"0 screenshot   # no name\n", "s.txt:1: screenshot: expected a file name"},
         {"0 settle now\n", "s.txt:1: settle: takes no arguments"},
+        {"99999999999999999999 key W\n", "s.txt:1: frame 99999999999999999999 is past the last"},
+        {"1000000001 key W\n", "s.txt:1: frame 1000000001 is past the last"},
+        {"0 drag left 0 0 1 1 999990\n0 drag left 0 0 1 1 10\n",
+         "s.txt:2: drag: the script would hold more than 1000000 events"},
     };
     for (const auto& [text, says] : cases) {
         const auto script = parse(text);
@@ -261,6 +265,12 @@ TEST(ViewerOverlay, PanelsHoldTheirTextAndPasteClipped) {
     EXPECT_LT(red, 1000u);
     EXPECT_GT(green, 20u);
     EXPECT_LT(green, 1000u);
+
+    // Bytes stb_easy_font has no glyph for (UTF-8 in a file name, a tab) are drawn as '?': the same
+    // panel, and no read outside its table (UBSan's bounds check in the sanitized suite).
+    const std::vector<viewer::TextLine> accented = {{"caf\xc3\xa9\t.ply", {255, 0, 0}}};
+    const std::vector<viewer::TextLine> asked = {{"caf???.ply", {255, 0, 0}}};
+    EXPECT_EQ(viewer::drawPanel(accented, 1).pixels, viewer::drawPanel(asked, 1).pixels);
 
     engine::RgbaImage picture(50, 20);
     viewer::paste(picture, {one, 40, -10}); // its bottom left part lands in the top right corner

@@ -20,13 +20,22 @@ struct FontVertex {
     unsigned char rgba[4];
 };
 
+// The text stb_easy_font can draw: it indexes a table of the 95 printable ASCII characters by the
+// byte, so any other byte (UTF-8 in a file name, a tab) becomes '?'.
+std::string printable(const std::string& text) {
+    std::string out = text;
+    for (char& c : out)
+        if (c != '\n' && (c < 32 || c > 126)) c = '?';
+    return out;
+}
+
 } // namespace
 
 engine::RgbaImage drawPanel(std::span<const TextLine> lines, int scale) {
     assert(!lines.empty() && scale >= 1);
     int widthUnits = 0;
     for (const TextLine& line : lines) {
-        std::string text = line.text;
+        std::string text = printable(line.text);
         widthUnits = std::max(widthUnits, stb_easy_font_width(text.data()));
     }
     const int width = (widthUnits + 2 * kMargin) * scale;
@@ -40,7 +49,7 @@ engine::RgbaImage drawPanel(std::span<const TextLine> lines, int scale) {
     }
     std::vector<FontVertex> quads;
     for (std::size_t k = 0; k < lines.size(); ++k) {
-        std::string text = lines[k].text;
+        std::string text = printable(lines[k].text);
         // About 270 bytes a character (stb_easy_font.h); four vertices per quad.
         quads.resize(text.size() * 300 / sizeof(FontVertex) + 4);
         const int count =

@@ -61,6 +61,10 @@ std::optional<int> buttonCode(std::string_view name) {
     return std::nullopt;
 }
 
+// The largest frame number and the most events a script may hold (a drag adds one a frame).
+constexpr unsigned long long kMaxFrame = 1'000'000'000ull;
+constexpr std::size_t kMaxSteps = 1'000'000;
+
 constexpr const char* kCommands = "key, keydown, keyup, move, press, release, drag, wheel, resize, minimize, "
                                   "restore, drop, screenshot, settle, quit";
 
@@ -106,6 +110,7 @@ Result<Script> Script::parse(std::istream& in, const std::string& name) {
         const unsigned long long frame = std::strtoull(w[0].c_str(), &end, 10);
         if (*end != '\0' || !std::isdigit(static_cast<unsigned char>(w[0][0])))
             return fail(fmt::format("'{}' is not a frame number (lines read FRAME COMMAND ...)", w[0]));
+        if (frame > kMaxFrame) return fail(fmt::format("frame {} is past the last, {}", w[0], kMaxFrame));
         if (lastLine > 0 && frame < lastFrame)
             return fail(fmt::format("frame {} comes after frame {} of line {}: frames must not decrease",
                                     frame, lastFrame, lastLine));
@@ -177,6 +182,8 @@ Result<Script> Script::parse(std::istream& in, const std::string& name) {
             if (v[4] < 1.0 || v[4] != std::floor(v[4]) || v[4] > 1e6)
                 return fail("drag: FRAMES must be a whole number of at least 1");
             const auto frames = static_cast<std::uint64_t>(v[4]);
+            if (script.steps_.size() + frames > kMaxSteps)
+                return fail(fmt::format("drag: the script would hold more than {} events", kMaxSteps));
             const glm::dvec2 from{v[0], v[1]}, to{v[2], v[3]};
             add(frame, Event{Event::Kind::Move, 0, false, from, {}});
             add(frame, Event{Event::Kind::Button, *button, true, {}, {}});

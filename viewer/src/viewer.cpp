@@ -93,6 +93,7 @@ class Session {
     static void onScroll(GLFWwindow* window, double x, double y);
     static void onDrop(GLFWwindow* window, int count, const char** paths);
     static void onIconify(GLFWwindow* window, int iconified);
+    static void onRefresh(GLFWwindow* window);
     glm::vec2 windowSize() const;
 
     // The engine.
@@ -125,6 +126,7 @@ class Session {
     engine::EngineSettings settings_;                            // what the next engine is made with
     engine::RenderPath splatPath_ = engine::RenderPath::Compute; // the path the raw points view returns to
     CameraControl control_;
+    engine::Camera lastValidCamera_; // the camera of the last frame drawn
     std::optional<Script> script_;
 
     std::vector<Event> events_; // from the window, not yet handled
@@ -137,7 +139,12 @@ class Session {
     std::uint64_t scriptFrame_ = 0;
     bool settling_ = false;
     Clock::time_point settleStart_{};
-    std::vector<std::string> screenshots_; // for the next frame drawn
+    // For the next frame drawn; a script's that cannot be written end the session, P's show an error.
+    struct Screenshot {
+        std::string path;
+        bool fromScript = false;
+    };
+    std::vector<Screenshot> screenshots_;
     std::size_t framesDrawn_ = 0;
     std::uint64_t calls_ = 0; // frames asked of the presenter, for its slots
     Clock::time_point firstFrame_{}, lastTick_{};
@@ -172,7 +179,7 @@ Session* sessionOf(GLFWwindow* window) {
 Session::Session(engine::Context& context, Model model, const ViewerOptions& options,
                  const ModelLoader& loader, const FrameSink& sink)
     : context_(context), model_(std::move(model)), options_(options), loader_(loader), sink_(sink),
-      settings_(options.engine), control_(model_.camera, model_.bounds) {
+      settings_(options.engine), control_(model_.camera, model_.bounds), lastValidCamera_(model_.camera) {
     if (settings_.render.path == engine::RenderPath::PlainPoints)
         settings_.render.path = engine::RenderPath::Compute;
     splatPath_ = settings_.render.path;
@@ -219,6 +226,9 @@ void Session::onDrop(GLFWwindow* window, int count, const char** paths) {
     Session& session = *sessionOf(window);
     if (count > 1) session.message(fmt::format("{} files dropped: opening the first", count));
     if (count > 0) session.events_.push_back({Event::Kind::Drop, 0, false, {}, paths[0]});
+}
+void Session::onRefresh(GLFWwindow* window) {
+    sessionOf(window)->changed(); // uncovered: draw again
 }
 void Session::onIconify(GLFWwindow* window, int iconified) {
     Session& session = *sessionOf(window);
@@ -292,7 +302,7 @@ void Session::handle(const Event& event) {
         loading_ = std::async(std::launch::async, loader_, event.text, size.x / size.y);
         break;
     case Event::Kind::Screenshot:
-        screenshots_.push_back(event.text);
+        screenshots_.push_back({event.text, true});
         break;
     case Event::Kind::Settle:
         settling_ = true;
@@ -366,7 +376,7 @@ void Session::keyPressed(int key) {
         setRender(render, render.heatMapPx > 0.0f ? "heat map of splat size" : "heat map off");
         break;
     case GLFW_KEY_P:
-        screenshots_.push_back(nextScreenshotName());
+        screenshots_.push_back({nextScreenshotName(), false});
         break;
     case GLFW_KEY_H:
         help_ = !help_;
@@ -383,7 +393,8 @@ std::string Session::nextScreenshotName() const {
     for (int k = 1;; ++k) {
         std::string name = fmt::format("pnsplat-{:03}.png", k);
         if (!std::filesystem::exists(name) &&
-            std::find(screenshots_.begin(), screenshots_.end(), name) == screenshots_.end())
+            std::none_of(screenshots_.begin(), screenshots_.end(),
+                         [&](const Screenshot& shot) { return shot.path == name; }))
             return name;
     }
 }
@@ -638,6 +649,7 @@ Result<ViewerSummary> Session::run() {
     glfwSetScrollCallback(window_.get(), onScroll);
     glfwSetDropCallback(window_.get(), onDrop);
     glfwSetWindowIconifyCallback(window_.get(), onIconify);
+    glfwSetWindowRefreshCallback(window_.get(), onRefresh);
     if (!options_.script.empty()) {
         auto loaded = Script::load(options_.script);
         if (!loaded) return loaded.error();
@@ -668,7 +680,10 @@ Result<ViewerSummary> Session::run() {
             for (const Event& event : std::exchange(events_, {})) handle(event);
             if (script_ && !settling_)
                 for (const Event& event : script_->take(scriptFrame_)) handle(event);
-            if (message_ && now >= message_->until) message_.reset();
+            if (message_ && now >= message_->until) {
+                message_.reset();
+                changed();
+            }
             checkLoad();
             if (quit_) break;
             if (settling_ && secondsBetween(settleStart_, now) > kSettleSeconds) {
@@ -683,7 +698,14 @@ Result<ViewerSummary> Session::run() {
                 if (script_ && !settling_) ++scriptFrame_;
                 continue;
             }
+            if (!busy()) continue; // a still, settled view: nothing to draw until something changes
             fly(tick);
+            // Input can take the camera where it is no longer one (a zoom to the float spacing far
+            // from the origin, an overflowing drag): it stays where it was.
+            if (control_.camera().valid())
+                lastValidCamera_ = control_.camera();
+            else
+                control_.reset(lastValidCamera_);
 
             const bool finalShot = !options_.screenshot.empty() && framesDrawn_ + 1 >= screenshotAfter;
             if (finalShot && finalSince == Clock::time_point{}) finalSince = now;
@@ -712,9 +734,14 @@ Result<ViewerSummary> Session::run() {
             ++framesDrawn_;
             if (!presenter_->present()) rebuild_ = true;
 
-            for (const std::string& path : std::exchange(screenshots_, {})) {
-                if (auto written = writeScreenshot(path, report, shown); !written) return written.error();
-                message(fmt::format("screenshot: {} (camera: --camera {})", path,
+            for (const Screenshot& shot : std::exchange(screenshots_, {})) {
+                if (auto written = writeScreenshot(shot.path, report, shown); !written) {
+                    if (shot.fromScript) return written.error();
+                    fmt::print(stderr, "pnsplat: {}\n", written.error().message);
+                    message(written.error().message, kErrorColour);
+                    continue;
+                }
+                message(fmt::format("screenshot: {} (camera: --camera {})", shot.path,
                                     engine::cameraText(control_.camera())));
             }
             const bool idle =

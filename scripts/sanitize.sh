@@ -23,6 +23,8 @@ if [ "$kind" = address ] && [ -e "$lavapipe" ]; then
   export LD_PRELOAD=$lavapipe
   export ASAN_OPTIONS=$ASAN_OPTIONS:verify_asan_link_order=0
 fi
+# Blocks lavapipe itself never frees (scripts/lsan.supp says which and why).
+export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp
 ctest --test-dir "build-$kind" --output-on-failure -j "$(nproc)"

@@ -571,6 +571,22 @@ TEST(ViewerProgram, ScriptedSessionChangesThePictureOnlyWhereItMovesTheCamera) {
     EXPECT_EQ(image("resized-back.png").width, 160u);
 }
 
+// A window larger than the device can draw (the compute path's sums of 4000 x 3000 pixels pass
+// lavapipe's largest storage buffer): the session goes on at the last size, scaled, saying so.
+TEST(ViewerProgram, ASizeTheDeviceCannotDrawKeepsThePictureSize) {
+    PNSPLAT_REQUIRE_DISPLAY();
+    const TempDir dir;
+    writeText(dir / "big.txt", "0 resize 4000 3000\n3 screenshot " + (dir / "big.png").string() +
+                                   "\n4 resize 200 150\n6 quit\n");
+    const RunResult r = view("--width 160 --height 120 --threshold 8 --script " + quote(dir / "big.txt"));
+    EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.err.find("4000x3000: "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("drawing at 160x120, scaled"), std::string::npos) << r.err;
+    const engine::RgbaImage big = readImage(dir / "big.png");
+    EXPECT_EQ(big.width, 160u);
+    EXPECT_EQ(big.height, 120u);
+}
+
 // --stats writes bench view's lines: one JSON object per frame with its fields, then the summary.
 TEST(ViewerProgram, StatsAreBenchViewsLines) {
     PNSPLAT_REQUIRE_DISPLAY();

@@ -299,8 +299,10 @@ bool Presenter::present() {
     info.pSwapchains = &swapchain;
     info.pImageIndices = &image_;
     const VkResult result = vkQueuePresentKHR(context_.queue(), &info);
-    if (result == VK_ERROR_OUT_OF_DATE_KHR || result == VK_SUBOPTIMAL_KHR) return false;
-    PNSPLAT_VK_CHECK(result);
+    // Suboptimal still presents; a new size is seen by the viewer's resize check, so rebuilding here
+    // would only make the swapchain anew every frame where a platform keeps saying so.
+    if (result == VK_ERROR_OUT_OF_DATE_KHR) return false;
+    if (result != VK_SUBOPTIMAL_KHR) PNSPLAT_VK_CHECK(result);
     return true;
 }
 

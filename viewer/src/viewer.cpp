@@ -186,7 +186,12 @@ Session::Session(engine::Context& context, Model model, const ViewerOptions& opt
 }
 
 Session::~Session() {
-    if (loading_.valid()) loading_.wait();
+    if (loading_.valid() && loading_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+        // The loader cannot be stopped midway: the window goes now, the process when it ends.
+        if (window_) glfwHideWindow(window_.get());
+        fmt::print(stderr, "pnsplat: waiting for {} to finish loading\n", loadingPath_);
+        loading_.wait();
+    }
     if (engine_) engine_->finish();
     engine_.reset();
     presenter_.reset();
@@ -511,8 +516,16 @@ bool Session::resizeIfNeeded() {
         render.width = size.width;
         render.height = size.height;
         const auto set = engine_->setRenderSettings(render);
-        if (!set) throw std::runtime_error(set.error().message);
-        settings_.render = render;
+        if (set) {
+            settings_.render = render;
+        } else {
+            // The device cannot draw this size (its largest buffer or image): the picture keeps its
+            // size and the blit scales it to the window.
+            render = engine_->settings().render;
+            message(fmt::format("{}x{}: {}; drawing at {}x{}, scaled", size.width, size.height,
+                                set.error().message, render.width, render.height),
+                    kErrorColour);
+        }
     }
     presenter_->setCanvas({render.width, render.height});
     return true;

@@ -110,6 +110,11 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
          2.4f,
          {0.0f, -0.15f, 0.0f}},
     };
+    if (kSanitized) { // the far view only, smaller: the offline refinement under TSan took 8 minutes
+        views.resize(1);
+        views[0].width = 160;
+        views[0].height = 120;
+    }
     for (const View& v : views) {
         SCOPED_TRACE(v.name);
         PNSPLAT_REQUIRE_DATA(v.file);

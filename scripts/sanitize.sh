@@ -14,20 +14,16 @@ fi
 BUILD_DIR="build-$kind" BUILD_TYPE=Debug bash scripts/build.sh -DPNSPLAT_SANITIZE="$kind" -DPNSPLAT_WERROR=ON \
   -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
-# The Vulkan loader unloads lavapipe and the validation layer when an instance is destroyed;
-# memory they still reference from their own globals then looks leaked to LeakSanitizer, from an
-# unknown module (112 bytes after a graphics pipeline; blocks of the layer after a context with
-# synchronization validation). Preloading both keeps them mapped until exit, so their blocks are
-# named. ASan must otherwise come first among the loaded libraries, hence verify_asan_link_order=0.
-libdir=/usr/lib/$(gcc -print-multiarch)
-if [ "$kind" = address ] && [ -e "$libdir/libvulkan_lvp.so" ]; then
-  export LD_PRELOAD=$libdir/libvulkan_lvp.so
-  if [ -e "$libdir/libVkLayer_khronos_validation.so" ]; then
-    export LD_PRELOAD=$LD_PRELOAD:$libdir/libVkLayer_khronos_validation.so
-  fi
+# The Vulkan loader unloads lavapipe when an instance is destroyed; memory lavapipe still
+# references from its own globals then looks leaked to LeakSanitizer (112 bytes after a graphics
+# pipeline). Preloading the driver keeps it mapped until exit, which leaves no leak to report.
+# ASan must otherwise come first among the loaded libraries, hence verify_asan_link_order=0.
+lavapipe=/usr/lib/$(gcc -print-multiarch)/libvulkan_lvp.so
+if [ "$kind" = address ] && [ -e "$lavapipe" ]; then
+  export LD_PRELOAD=$lavapipe
   export ASAN_OPTIONS=$ASAN_OPTIONS:verify_asan_link_order=0
 fi
-# Blocks lavapipe and the validation layer themselves never free (scripts/lsan.supp says which and why).
+# Blocks lavapipe itself never frees (scripts/lsan.supp says which and why).
 export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp

@@ -37,6 +37,16 @@ constexpr bool kSanitized = true;
 #else
 constexpr bool kSanitized = false;
 #endif
+// The validation layer, unloaded after an instance with synchronization validation is destroyed,
+// leaves blocks that LeakSanitizer reports from an unknown module (102 in EngineStress, now and
+// then); preloading the layer to name them hides Vulkan from GLFW. The address suite therefore runs
+// the stress test with the plain validation layer; the release and thread suites keep
+// synchronization validation.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kLeakChecked = true;
+#else
+constexpr bool kLeakChecked = false;
+#endif
 
 PointSet load(const std::string& file) {
     auto data = readPly(test::dataDir() / file);
@@ -310,7 +320,8 @@ TEST_F(EngineTest, StagedUploadsAndTheGraphicsPathDrawTheSame) {
 TEST(EngineStress, CacheOfAnEighthOfTheModelOnALongWalk) {
     PNSPLAT_REQUIRE_DATA("igea-600-uniform.ply");
     engine::ContextOptions options;
-    options.validation = options.synchronizationValidation = true;
+    options.validation = true;
+    options.synchronizationValidation = !kLeakChecked;
     auto context = engine::Context::create(options);
     ASSERT_TRUE(context.ok()) << context.error().message;
     const PointSet input = load("igea-600-uniform.ply");

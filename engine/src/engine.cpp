@@ -86,7 +86,7 @@ struct Engine::Impl {
     bool haveLastFrame = false;
     std::vector<NodeId> drawnNodes;
     std::deque<FrameReport> submitted; // frames in flight, oldest first
-    std::vector<FrameReport> finished;
+    std::deque<FrameReport> finished;  // the latest kKeptReports at most
     // Test check: the ranges each frame in flight draws, to see that no write overlaps them.
     std::array<std::vector<DrawRange>, kFramesInFlight> slotDraws;
     std::array<std::uint64_t, kFramesInFlight> slotFrame{};
@@ -490,7 +490,7 @@ void Engine::Impl::collectFinished() {
         submitted.pop_front();
         report.gpu = renderer->passTimes(report.frame);
         // A caller that never asks for them keeps only the latest.
-        if (finished.size() == kKeptReports) finished.erase(finished.begin());
+        if (finished.size() == kKeptReports) finished.pop_front();
         finished.push_back(report);
     }
 }
@@ -642,7 +642,9 @@ Result<void> Engine::setThreshold(float px) {
 
 std::vector<FrameReport> Engine::reports() {
     impl_->collectFinished();
-    return std::exchange(impl_->finished, {});
+    std::vector<FrameReport> reports(impl_->finished.begin(), impl_->finished.end());
+    impl_->finished.clear();
+    return reports;
 }
 
 void Engine::finish() {

@@ -11,13 +11,17 @@ void main() {
     ViewSplat v = toView(splats[index]);
     ivec2 lo, hi;
     if (!frontFacing(v) || !footprint(v, lo, hi)) return;
-    for (int y = lo.y; y <= hi.y; ++y)
-        for (int x = lo.x; x <= hi.x; ++x) {
-            float t, rho2;
-            vec3 ray;
-            if (!intersect(v, ivec2(x, y), t, rho2, ray)) continue;
+    SplatConic k = conicOf(v);
+    for (int y = lo.y; y <= hi.y; ++y) {
+        int x0 = lo.x, x1 = hi.x;
+        ConicRow row;
+        if (!conicRow(k, y, x0, x1, row)) continue;
+        for (int x = x0; x <= x1; ++x) {
+            float t, rho2, invRayLength;
+            if (!conicHit(k, row, x, t, rho2, invRayLength)) continue;
             uint i = pixelIndex(ivec2(x, y));
-            uint depth = floatBitsToUint(pushedDepth(t, ray, v.radius));
+            uint depth = floatBitsToUint(t + k.offset * invRayLength);
             if (depth < depthBits[i]) atomicMin(depthBits[i], depth);
         }
+    }
 }

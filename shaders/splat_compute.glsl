@@ -40,15 +40,91 @@ bool footprint(ViewSplat v, out ivec2 lo, out ivec2 hi) {
     return lo.x <= hi.x && lo.y <= hi.y;
 }
 
-// Ray–disk intersection at a pixel: linear depth t, squared normalized distance rho2 from the
-// centre, and the pixel's ray. False when the ray misses the disk.
-bool intersect(ViewSplat v, ivec2 pixel, out float t, out float rho2, out vec3 ray) {
-    ray = pixelRay(vec2(pixel) + 0.5);
-    float dn = dot(v.normal, ray);
+// The disk seen through the pixels (ALGORITHM.md §11.5), set up once per splat so that each pixel
+// costs a few multiply-adds, one division and one inverse square root. With c' = c / -c.z (the
+// centre scaled onto the plane z = -1), K' = n·c' and pixel offsets (u, v) from the projected centre,
+// the ray through a pixel is c' + (hx·u, -hy·v, 0), and n·ray = dn(u, v) = K' + n.x·hx·u - n.y·hy·v
+// is linear. The hit point's distance from the centre, times dn, is |K'·ray - dn·c'|, which is
+// linear in (u, v) and zero at the centre, so
+//     rho² · r'² · dn² = F(u, v) = a·u² + 2b·u·v + c·v²      (r' = r / -c.z),
+// a quadratic form; the hit's depth is t = -c.z · K' / dn. Each row's pixels inside the disk
+// (F <= r'² dn²) are the roots of a quadratic in u: only those are visited, not the whole box.
+// Everything is scale-free (a model in kilometres or microns gives the same numbers).
+struct SplatConic {
+    vec2 centre;   // the projected centre, pixels
+    vec3 form;     // a, b, c of F
+    vec3 plane;    // K', n.x·hx, -n.y·hy: dn = plane.x + plane.y·u + plane.z·v
+    float r2;      // r'²
+    float depth;   // -c.z
+    vec2 ray;      // c'.xy
+    vec2 step;     // hx, hy: the ray's change per pixel
+    float offset;  // ε·r: the visibility pass's push along the ray, over |ray|
+};
+
+SplatConic conicOf(ViewSplat v) {
+    SplatConic k;
+    k.depth = -v.centre.z;
+    vec3 c = v.centre / k.depth;
+    k.ray = c.xy;
+    k.step = 2.0 * frame.rayScale.xy * frame.viewport.zw;
+    k.centre = vec2((c.x / frame.rayScale.x + 1.0) * 0.5 * frame.viewport.x,
+                    (1.0 - c.y / frame.rayScale.y) * 0.5 * frame.viewport.y);
+    float kk = dot(v.normal, c);
+    vec3 pu = k.step.x * (vec3(kk, 0.0, 0.0) - v.normal.x * c);
+    vec3 pv = -k.step.y * (vec3(0.0, kk, 0.0) - v.normal.y * c);
+    k.form = vec3(dot(pu, pu), dot(pu, pv), dot(pv, pv));
+    k.plane = vec3(kk, v.normal.x * k.step.x, -v.normal.y * k.step.y);
+    float r = v.radius / k.depth;
+    k.r2 = r * r;
+    k.offset = frame.splat.y * v.radius;
+    return k;
+}
+
+// One row y of the box [x0, x1]: narrows [x0, x1] to the pixels whose centres may lie in the disk
+// (false when none do). The roots are widened by a hundredth of a pixel; each pixel is still
+// tested by conicHit, so rounding at the rim decides as the per-pixel test does.
+struct ConicRow {
+    float v;   // the row's offset from the centre
+    float dn0; // dn at u = 0
+    float fv;  // 2b·v, F's linear term in u
+    float fc;  // c·v², F's constant term
+    float ry2; // the ray's y² + z² (z = -1)
+};
+
+bool conicRow(SplatConic k, int y, inout int x0, inout int x1, out ConicRow row) {
+    row.v = float(y) + 0.5 - k.centre.y;
+    row.dn0 = k.plane.x + k.plane.z * row.v;
+    row.fv = 2.0 * k.form.y * row.v;
+    row.fc = k.form.z * row.v * row.v;
+    float ry = k.ray.y - k.step.y * row.v;
+    row.ry2 = ry * ry + 1.0;
+    // F - r'² dn² <= 0 as A u² + 2 B u + C <= 0.
+    float du = k.plane.y;
+    float a = k.form.x - k.r2 * du * du;
+    float b = 0.5 * row.fv - k.r2 * du * row.dn0;
+    float c = row.fc - k.r2 * row.dn0 * row.dn0;
+    if (!(a > 0.0)) return true; // not an ellipse in u (rounding, or nearly edge-on): test the box row
+    float disc = b * b - a * c;
+    if (disc < 0.0) return false;
+    float s = sqrt(disc);
+    float u0 = (-b - s) / a, u1 = (-b + s) / a;
+    x0 = max(x0, int(ceil(k.centre.x + u0 - 0.51)));
+    x1 = min(x1, int(floor(k.centre.x + u1 - 0.49)));
+    return x0 <= x1;
+}
+
+// The pixel x of a row: the hit's linear depth t, its squared normalized distance rho2 from the
+// centre and 1 / |ray|; false when the ray misses the disk.
+bool conicHit(SplatConic k, ConicRow row, int x, out float t, out float rho2, out float invRayLength) {
+    float u = float(x) + 0.5 - k.centre.x;
+    float dn = row.dn0 + k.plane.y * u;
     if (dn >= 0.0) return false;
-    t = dot(v.normal, v.centre) / dn;
-    vec3 q = t * ray - v.centre;
-    rho2 = dot(q, q) / (v.radius * v.radius);
+    float inv = 1.0 / dn;
+    rho2 = (k.form.x * u + row.fv) * u + row.fc;
+    rho2 *= inv * inv / k.r2;
+    float rx = k.ray.x + k.step.x * u;
+    invRayLength = inversesqrt(rx * rx + row.ry2);
+    t = k.depth * k.plane.x * inv;
     return rho2 <= 1.0;
 }
 

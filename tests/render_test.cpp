@@ -19,6 +19,7 @@
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
 #include "test_data.h"
+#include "test_random.h"
 
 namespace pnsplat {
 namespace {
@@ -224,6 +225,64 @@ TEST_F(RenderTest, ComputeAndGraphicsPathsAgree) {
     EXPECT_LT(d.rmse, 1.0);
     EXPECT_LT(d.differingShare, 0.002);
     EXPECT_GT(d.ssim, 0.999);
+}
+
+// Disks tilted up to 80 degrees, at several depths, over a wide view (70 degrees, so that
+// perspective bends their outlines): the compute path visits only the pixels of each row that a
+// quadratic says the disk covers (splat_compute.glsl, conicRow), the graphics path tests every
+// pixel of a bounding square. Both must cover the same pixels: a row span cut short or shifted by a
+// pixel leaves out a seventh of these disks' pixels.
+TEST_F(RenderTest, ComputeRowSpansCoverWhatTheGraphicsPathCovers) {
+    std::mt19937_64 rng(7);
+    PointSet disks;
+    const glm::vec3 eye{0.0f, 0.0f, 4.0f};
+    for (int i = 0; i < 7; ++i)
+        for (int j = 0; j < 7; ++j) {
+            const glm::vec3 centre{-2.4f + 0.8f * float(i), -2.4f + 0.8f * float(j),
+                                   test::uniform(rng, -1.0, 1.0)};
+            // A normal within 80 degrees of the direction to the eye.
+            const glm::vec3 toEye = glm::normalize(eye - centre);
+            glm::vec3 n;
+            do {
+                n = test::randomUnit(rng);
+            } while (glm::dot(n, toEye) < std::cos(radians(80.0f)));
+            disks.position.push_back(centre);
+            disks.normal.push_back(n);
+            disks.radius.push_back(test::uniform(rng, 0.12, 0.3));
+            disks.colour.push_back({255, 255, 255});
+        }
+    Camera camera = lookingDownZ(4.0f, 70.0f);
+    const RgbaImage a = render(disks, small(RenderPath::Compute, 320, 240), camera);
+    const RgbaImage b = render(disks, small(RenderPath::Graphics, 320, 240), camera);
+    ASSERT_EQ(a.pixels.size(), b.pixels.size());
+    std::size_t covered = 0, mismatched = 0;
+    for (std::uint32_t y = 0; y < 240; ++y)
+        for (std::uint32_t x = 0; x < 320; ++x) {
+            const bool inA = a.at(x, y) != glm::u8vec4(0, 0, 0, 255);
+            const bool inB = b.at(x, y) != glm::u8vec4(0, 0, 0, 255);
+            covered += inB ? 1 : 0;
+            mismatched += inA != inB ? 1 : 0;
+        }
+    std::cout << "[oblique disks: " << covered << " pixels covered, " << mismatched
+              << " covered by one path only]\n";
+    EXPECT_GT(covered, 8000u);
+    EXPECT_LT(mismatched, covered / 200);
+}
+
+// A model without colours is drawn in one colour (engine.h, kDefaultColour), which the compute path
+// accumulates as two sums a pixel instead of four: the same picture as the same points given that
+// colour each.
+TEST_F(RenderTest, OneColourSumsGiveThePictureOfColouredSplats) {
+    PointSet plain = withRadii(sampleSphereUniform(20000, 1.0f));
+    PointSet coloured = plain;
+    coloured.colour.assign(coloured.size(), glm::u8vec3(0xC8));
+    const Camera camera = lookingDownZ(3.0f);
+    const RgbaImage a = render(plain, small(RenderPath::Compute, 256, 192), camera);
+    const RgbaImage b = render(coloured, small(RenderPath::Compute, 256, 192), camera);
+    const engine::ImageDifference d = difference(a, b);
+    EXPECT_LT(d.rmse, 0.3);
+    EXPECT_EQ(d.differingShare, 0.0);
+    EXPECT_GT(a.at(128, 96).x, 150); // lit grey, not background or black
 }
 
 TEST_F(RenderTest, CullingSkipsNodesAndChangesNothing) {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <deque>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
@@ -77,6 +78,7 @@ struct Engine::Impl {
     std::vector<NodeState> state;
 
     Sphere modelBounds;
+    bool hasColour = false; // else every splat is kDefaultColour
     float rootMaxRadius = 0.0f;
     // The threshold in force, and the frame time it is adapted to (EngineSettings::targetFrameMs):
     // an exponential mean of the time from one frame's start to the next's.
@@ -156,12 +158,14 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
             fmt::format("a cache of {:.0f} MiB exceeds the device's storage buffer range of {:.0f} MiB",
                         mib(double(settings.cacheBytes)), mib(double(deviceSplats * splatBytes)))};
 
+    const bool hasColour = points.hasColour();
     auto tree = NodeTree::create(std::move(points), settings.nodes, settings.adaptive);
     if (!tree) return tree.error();
     auto renderer = SplatRenderer::create(context, settings.render);
     if (!renderer) return renderer.error();
     auto impl = std::make_unique<Impl>(context, settings, std::move(tree).value());
     impl->threshold = settings.threshold;
+    impl->hasColour = hasColour;
     impl->renderer = std::move(renderer).value();
     try {
         impl->cache = std::make_unique<ChunkCache>(context, static_cast<std::uint32_t>(capacity),
@@ -596,7 +600,9 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         output.readBack = options.readBack;
         m.slotDraws[m.frames->slot()] = ranges;
         m.slotFrame[m.frames->slot()] = report.frame;
-        m.renderer->submit(*m.frames, m.cache->buffer(), ranges, camera, range, output);
+        // A model without colours is drawn in kDefaultColour throughout.
+        const auto oneColour = m.hasColour ? std::nullopt : std::optional{kDefaultColour};
+        m.renderer->submit(*m.frames, m.cache->buffer(), oneColour, ranges, camera, range, output);
 
         report.cacheBytesUsed = std::size_t{m.cache->used()} * sizeof(gpu::Splat);
         report.thresholdPx = m.threshold;

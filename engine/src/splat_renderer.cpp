@@ -129,6 +129,7 @@ struct SplatRenderer::Impl {
         Unique<VkQueryPool> timestamps;
         VkDescriptorSet set = VK_NULL_HANDLE;
         std::uint32_t workItems = 0; // of its frame (compute path)
+        bool oneColour = false;      // its splats have one colour (compute path: 2 sums a pixel)
         std::uint64_t frame = ~std::uint64_t{0};
         bool readBack = false;
     };
@@ -141,6 +142,7 @@ struct SplatRenderer::Impl {
     // that failed part-way.
     bool buffersCleared = false;
     std::array<Unique<VkPipeline>, 3> pipelines; // visibility, accumulation, normalization
+    Unique<VkPipeline> oneColourAccumulation;    // compute path: splats of one colour
     // Compute path.
     Buffer depthBits, accum, output;
     // Graphics path.
@@ -161,14 +163,15 @@ struct SplatRenderer::Impl {
     void createCompute();
     void createGraphics();
     void createPlainPoints();
-    Unique<VkPipeline> computePipeline(VkShaderModule module);
+    Unique<VkPipeline> computePipeline(VkShaderModule module, bool oneColour = false);
     Unique<VkPipeline> graphicsPipeline(const GraphicsPipelineDesc& desc);
     void ensureRangeCapacity(Slot& slot, std::size_t items);
     void writeDescriptors(const Slot& slot, const Buffer& splats);
     void recordCompute(VkCommandBuffer cmd, const Slot& slot, int pass, bool cleared);
     void recordGraphics(VkCommandBuffer cmd, const Slot& slot, int pass, std::span<const DrawRange> draws);
-    void submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,
-                const Camera& camera, DepthRange depth, const FrameOutput& output);
+    void submit(FrameRing& frames, const Buffer& splats, std::optional<std::uint32_t> oneColour,
+                std::span<const DrawRange> ranges, const Camera& camera, DepthRange depth,
+                const FrameOutput& output);
 };
 
 void SplatRenderer::Impl::createCommon() {
@@ -228,12 +231,17 @@ void SplatRenderer::Impl::createCommon() {
     for (Slot& slot : slots) PNSPLAT_VK_CHECK(vkAllocateDescriptorSets(device, &alloc, &slot.set));
 }
 
-Unique<VkPipeline> SplatRenderer::Impl::computePipeline(VkShaderModule module) {
+// `oneColour` sets the shader's specialization constant 0 (compute_accumulate.comp's kOneColour).
+Unique<VkPipeline> SplatRenderer::Impl::computePipeline(VkShaderModule module, bool oneColour) {
+    const VkBool32 value = oneColour ? VK_TRUE : VK_FALSE;
+    const VkSpecializationMapEntry entry{0, 0, sizeof(value)};
+    const VkSpecializationInfo specialization{1, &entry, sizeof(value), &value};
     VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
     info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     info.stage.module = module;
     info.stage.pName = "main";
+    info.stage.pSpecializationInfo = oneColour ? &specialization : nullptr;
     info.layout = pipelineLayout.get();
     VkPipeline pipeline = VK_NULL_HANDLE;
     PNSPLAT_VK_CHECK(vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
@@ -252,6 +260,7 @@ void SplatRenderer::Impl::createCompute() {
     const auto normalize = shaderModule(device, k_compute_normalize_comp);
     pipelines = {computePipeline(visibility.get()), computePipeline(accumulate.get()),
                  computePipeline(normalize.get())};
+    oneColourAccumulation = computePipeline(accumulate.get(), true);
 }
 
 Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineDesc& desc) {
@@ -505,7 +514,9 @@ void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, const Slot& slot, i
     } else {
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
     }
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines[pass].get());
+    const VkPipeline pipeline =
+        pass == 1 && slot.oneColour ? oneColourAccumulation.get() : pipelines[pass].get();
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout.get(), 0, 1, &slot.set, 0,
                             nullptr);
     if (pass < 2) {
@@ -552,11 +563,14 @@ void SplatRenderer::Impl::recordGraphics(VkCommandBuffer cmd, const Slot& slot, 
     vkCmdEndRenderPass(cmd);
 }
 
-void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,
+void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
+                                 std::optional<std::uint32_t> oneColour, std::span<const DrawRange> ranges,
                                  const Camera& camera, DepthRange range, const FrameOutput& out) {
     Slot& slot = slots[frames.slot()];
     slot.frame = frames.index();
     slot.readBack = out.readBack;
+    // The heat map gives each splat a colour of its own.
+    slot.oneColour = oneColour.has_value() && !(settings.heatMapPx > 0.0f);
     const float aspect = float(settings.width) / float(settings.height);
     const float tanY = std::tan(camera.fovY * 0.5f);
 
@@ -589,7 +603,8 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats, std::s
                       1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
     frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, settings.heatMapPx};
-    frame.flags = {settings.normalize ? 1u : 0u, slot.workItems, 0u, 0u};
+    frame.flags = {settings.normalize ? 1u : 0u, slot.workItems, slot.oneColour ? 1u : 0u,
+                   slot.oneColour ? *oneColour : 0u};
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
     writeDescriptors(slot, splats);
 
@@ -708,10 +723,11 @@ bool SplatRenderer::adjust(const RenderSettings& settings) {
     return true;
 }
 
-void SplatRenderer::submit(FrameRing& frames, const Buffer& splats, std::span<const DrawRange> ranges,
-                           const Camera& camera, DepthRange depth, const FrameOutput& output) {
+void SplatRenderer::submit(FrameRing& frames, const Buffer& splats, std::optional<std::uint32_t> oneColour,
+                           std::span<const DrawRange> ranges, const Camera& camera, DepthRange depth,
+                           const FrameOutput& output) {
     assert(camera.valid());
-    impl_->submit(frames, splats, ranges, camera, depth, output);
+    impl_->submit(frames, splats, oneColour, ranges, camera, depth, output);
 }
 
 PassTimes SplatRenderer::passTimes(std::uint64_t frame) const {

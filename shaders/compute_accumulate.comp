@@ -4,8 +4,8 @@
 #extension GL_EXT_shader_atomic_int64 : require
 // Pass 2, compute path: every splat not behind the visible surface adds its Gaussian-weighted
 // colour, normal and weight to the pixel, in fixed point with four 64-bit atomicAdds (see
-// kAccumStride in gpu_types.h), or two when every splat has one colour (kOneColour: the renderer
-// makes a pipeline of each, chosen per frame with the uniforms' flags.z).
+// kAccumStride in gpu_types.h), or one when every splat has one colour (kOneColour: the renderer
+// makes a pipeline of each, and of the normalization, chosen per frame).
 #include "splat_compute.glsl"
 
 layout(constant_id = 0) const bool kOneColour = false;
@@ -17,6 +17,22 @@ uint64_t pack(float low, float high) {
     return uint64_t(uint(low * kFixedScale + 0.5)) | (uint64_t(uint(high * kFixedScale + 0.5)) << 32);
 }
 
+// With one colour, the weight and the normal across the pixel's ray as one word (kOneColourBits a
+// field; see gpu_types.h): the normal n in an orthonormal frame (e1, e2, -ray/|ray|) of the ray
+// (rx, ry, -1), e1 = (1, 0, rx) / sqrt(1 + rx²) and e2 = ray × e1 / |ray × e1|, its two components
+// across the ray stored as (a + 1) / 2 and (b + 1) / 2, times w. The shading needs only the
+// interpolated normal's cosine to the eye (splat_common.glsl, shade), sqrt(1 - a² - b²) of the
+// averaged a and b.
+uint64_t packAcrossRay(float w, vec3 n, float rx, float ry, float invRayLength) {
+    float s1 = inversesqrt(1.0 + rx * rx);
+    float a = (n.x + rx * n.z) * s1;
+    float b = (n.x * rx * ry - n.y * (1.0 + rx * rx) - n.z * ry) * s1 * invRayLength;
+    uint fw = uint(w * kOneColourScale + 0.5);
+    uint fa = uint(w * (0.5 * a + 0.5) * kOneColourScale + 0.5);
+    uint fb = uint(w * (0.5 * b + 0.5) * kOneColourScale + 0.5);
+    return uint64_t(fw) | (uint64_t(fa) << kOneColourBits) | (uint64_t(fb) << (2 * kOneColourBits));
+}
+
 void main() {
     uint index;
     if (!invocationSplat(index)) return;
@@ -25,21 +41,20 @@ void main() {
     ivec2 lo, hi;
     if (!frontFacing(v) || !footprint(v, lo, hi)) return;
     vec3 colour = kOneColour ? vec3(0.0) : linearColour(s, v);
-    vec3 n = v.normal * 0.5 + 0.5;
+    vec3 n = kOneColour ? v.normal : v.normal * 0.5 + 0.5;
     SplatConic k = conicOf(v);
     for (int y = lo.y; y <= hi.y; ++y) {
         int x0 = lo.x, x1 = hi.x;
         ConicRow row;
         if (!conicRow(k, y, x0, x1, row)) continue;
         for (int x = x0; x <= x1; ++x) {
-            float t, rho2, invRayLength;
+            float t, rho2, rx, invRayLength;
             uint i = pixelIndex(ivec2(x, y));
-            if (!conicHit(k, row, x, t, rho2, invRayLength) || t > uintBitsToFloat(depthBits[i])) continue;
+            if (!conicHit(k, row, x, t, rho2, rx, invRayLength) || t > uintBitsToFloat(depthBits[i]))
+                continue;
             float w = splatWeight(rho2);
             if (kOneColour) {
-                uint base = i * kOneColourStride;
-                atomicAdd(accum[base + 0], pack(w * n.x, w * n.y));
-                atomicAdd(accum[base + 1], pack(w * n.z, w));
+                atomicAdd(accum[i], packAcrossRay(w, n, rx, row.ry, invRayLength));
             } else {
                 uint base = i * kAccumStride;
                 atomicAdd(accum[base + 0], pack(w * colour.r, w * colour.g));

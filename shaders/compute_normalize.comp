@@ -9,6 +9,9 @@
 
 layout(local_size_x = 32, local_size_y = 32) in;
 
+// Every splat has the colour frame.colour (compute_accumulate.comp).
+layout(constant_id = 0) const bool kOneColour = false;
+
 layout(set = 0, binding = 3, std430) writeonly buffer DepthBlock { uint depthBits[]; };
 layout(set = 0, binding = 4, std430) buffer AccumBlock { uint64_t accum[]; };
 layout(set = 0, binding = 5, std430) writeonly buffer OutputBlock { uint pixels[]; }; // RGBA8
@@ -21,34 +24,40 @@ void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
     uint i = uint(pixel.y) * uint(frame.viewport.x) + uint(pixel.x);
-    bool oneColour = frame.flags.z != 0u;
-    uint stride = oneColour ? kOneColourStride : kAccumStride;
-    uint base = i * stride;
     // The visibility pass may have set the depth of a pixel whose rounded weight is still zero.
     depthBits[i] = kDepthCleared;
-    // Every value a splat adds is at most its weight, so a zero second word ((w·b, w), or (w·n'z, w)
-    // with one colour) means all the pixel's words are zero: a background pixel, already cleared.
-    uint64_t weightWord = accum[base + 1];
-    if (weightWord == 0ul) {
-        pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
-        return;
-    }
-    float w;
-    vec3 sumColour, sumNormal; // Σ w·rgb; Σ w·n' (n' = (n + 1) / 2)
-    if (oneColour) {
-        vec2 nxy = unpack(accum[base + 0]), nzw = unpack(weightWord);
-        w = nzw.y;
-        sumColour = w * srgbToLinear(unpackUnorm4x8(frame.flags.w).rgb);
-        sumNormal = vec3(nxy, nzw.x);
+    vec3 rgb;
+    if (kOneColour) {
+        // One colour: one word of three fields (w, w·a', w·b'), a' and b' the normal's components
+        // across the ray as (a + 1) / 2 (compute_accumulate.comp, packAcrossRay).
+        uint64_t word = accum[i];
+        const uint64_t mask = (1ul << kOneColourBits) - 1ul;
+        float w = float(uint(word & mask));
+        if (w == 0.0) {
+            pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
+            return;
+        }
+        accum[i] = 0ul;
+        vec2 across = 2.0 * vec2(float(uint((word >> kOneColourBits) & mask)),
+                                 float(uint(word >> (2 * kOneColourBits)))) / w - 1.0;
+        rgb = frame.flags.x == 0u ? linearToSrgb(w / kOneColourScale * frame.colour.rgb)
+                                  : shade(frame.colour.rgb, sqrt(max(1.0 - dot(across, across), 0.0)));
     } else {
-        vec2 rg = unpack(accum[base + 0]), bw = unpack(weightWord);
+        uint base = i * kAccumStride;
+        // Every value a splat adds is at most its weight, so a zero (w·b, w) word means all four
+        // words are zero: a background pixel, already cleared.
+        uint64_t blueWeight = accum[base + 1];
+        if (blueWeight == 0ul) {
+            pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
+            return;
+        }
+        vec2 rg = unpack(accum[base + 0]), bw = unpack(blueWeight);
         vec2 nxy = unpack(accum[base + 2]), nz = unpack(accum[base + 3]);
-        w = bw.y;
-        sumColour = vec3(rg, bw.x);
-        sumNormal = vec3(nxy, nz.x);
+        for (uint k = 0; k < kAccumStride; ++k) accum[base + k] = 0ul;
+        float w = bw.y;
+        // Σ w·n = 2 Σ w·n' − Σ w.
+        vec3 normal = 2.0 * vec3(nxy, nz.x) - w;
+        rgb = shadePixel(vec3(rg, bw.x), normal, w, pixelRay(vec2(pixel) + 0.5));
     }
-    for (uint k = 0; k < stride; ++k) accum[base + k] = 0ul;
-    // Σ w·n = 2 Σ w·n' − Σ w.
-    vec3 rgb = shadePixel(sumColour, 2.0 * sumNormal - w, w, pixelRay(vec2(pixel) + 0.5));
     pixels[i] = packUnorm4x8(vec4(rgb, 1.0));
 }

@@ -17,8 +17,8 @@ void main() {
         ConicRow row;
         if (!conicRow(k, y, x0, x1, row)) continue;
         for (int x = x0; x <= x1; ++x) {
-            float t, rho2, invRayLength;
-            if (!conicHit(k, row, x, t, rho2, invRayLength)) continue;
+            float t, rho2, rx, invRayLength;
+            if (!conicHit(k, row, x, t, rho2, rx, invRayLength)) continue;
             uint i = pixelIndex(ivec2(x, y));
             uint depth = floatBitsToUint(t + k.offset * invRayLength);
             if (depth < depthBits[i]) atomicMin(depthBits[i], depth);

@@ -88,7 +88,8 @@ struct ConicRow {
     float dn0; // dn at u = 0
     float fv;  // 2b·v, F's linear term in u
     float fc;  // c·v², F's constant term
-    float ry2; // the ray's y² + z² (z = -1)
+    float ry;  // the ray's y (its z is -1)
+    float ry2; // the ray's y² + z²
 };
 
 bool conicRow(SplatConic k, int y, inout int x0, inout int x1, out ConicRow row) {
@@ -96,8 +97,8 @@ bool conicRow(SplatConic k, int y, inout int x0, inout int x1, out ConicRow row)
     row.dn0 = k.plane.x + k.plane.z * row.v;
     row.fv = 2.0 * k.form.y * row.v;
     row.fc = k.form.z * row.v * row.v;
-    float ry = k.ray.y - k.step.y * row.v;
-    row.ry2 = ry * ry + 1.0;
+    row.ry = k.ray.y - k.step.y * row.v;
+    row.ry2 = row.ry * row.ry + 1.0;
     // F - r'² dn² <= 0 as A u² + 2 B u + C <= 0.
     float du = k.plane.y;
     float a = k.form.x - k.r2 * du * du;
@@ -114,15 +115,17 @@ bool conicRow(SplatConic k, int y, inout int x0, inout int x1, out ConicRow row)
 }
 
 // The pixel x of a row: the hit's linear depth t, its squared normalized distance rho2 from the
-// centre and 1 / |ray|; false when the ray misses the disk.
-bool conicHit(SplatConic k, ConicRow row, int x, out float t, out float rho2, out float invRayLength) {
+// centre, the ray's x (the ray is (rx, row.ry, -1)) and 1 / |ray|; false when the ray misses the
+// disk.
+bool conicHit(SplatConic k, ConicRow row, int x, out float t, out float rho2, out float rx,
+              out float invRayLength) {
     float u = float(x) + 0.5 - k.centre.x;
     float dn = row.dn0 + k.plane.y * u;
     if (dn >= 0.0) return false;
     float inv = 1.0 / dn;
     rho2 = (k.form.x * u + row.fv) * u + row.fc;
     rho2 *= inv * inv / k.r2;
-    float rx = k.ray.x + k.step.x * u;
+    rx = k.ray.x + k.step.x * u;
     invRayLength = inversesqrt(rx * rx + row.ry2);
     t = k.depth * k.plane.x * inv;
     return rho2 <= 1.0;

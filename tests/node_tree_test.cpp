@@ -2,10 +2,12 @@
 // make a node's children a function of P(l) alone (balance, context, regions).
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <random>
 #include <set>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -13,6 +15,7 @@
 #include "oracles.h"
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/node_tree.h"
+#include "pnsplat/refine/node_workers.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/shapes.h"
 #include "test_data.h"
@@ -108,6 +111,37 @@ TEST(NodeSplit, PartsPartitionTheRegionByCount) {
             EXPECT_LT(parts[0].region.hi.x, 4.0f);
         }
     }
+}
+
+// The workers run jobs as NodeTree::run does on the calling thread, and count as busy only the time a
+// job was waiting or running: nothing while idle, and never more than the time that passed.
+TEST(NodeWorkers, ResultsAreRunsAndBusyTimeIsTheQueuesTime) {
+    auto tree = NodeTree::create(withRadii(sampleSphereRandom(3000, 1.0f, 11)), smallNodes());
+    ASSERT_TRUE(tree) << tree.error().message;
+    NodeWorkers workers(2, tree->settings());
+    EXPECT_EQ(workers.busySeconds(), 0.0);
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<NodeJob> jobs;
+    for (const NodeId root : tree->roots()) jobs.push_back(tree->makeJob(root));
+    workers.submit(jobs);
+    workers.waitIdle();
+    const double busy = workers.busySeconds();
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_GT(busy, 0.0);
+    EXPECT_LE(busy, elapsed);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(workers.busySeconds(), busy); // idle: results waiting do not count
+
+    std::vector<NodeJobResult> results = workers.takeResults();
+    ASSERT_EQ(results.size(), jobs.size());
+    std::ranges::sort(results, {}, &NodeJobResult::node);
+    for (const NodeJobResult& result : results) {
+        const NodeJobResult alone = NodeTree::run(tree->makeJob(result.node), tree->settings());
+        ASSERT_EQ(result.children.size(), alone.children.size());
+        for (std::size_t c = 0; c < alone.children.size(); ++c)
+            EXPECT_EQ(result.children[c].points.position, alone.children[c].points.position);
+    }
+    EXPECT_EQ(workers.outstanding(), 0u);
 }
 
 TEST(NodeTree, RootsPartitionTheInput) {

@@ -270,8 +270,9 @@ TEST_F(RenderTest, ComputeRowSpansCoverWhatTheGraphicsPathCovers) {
 }
 
 // A model without colours is drawn in one colour (engine.h, kDefaultColour), which the compute path
-// accumulates as two sums a pixel instead of four: the same picture as the same points given that
-// colour each.
+// accumulates as one word a pixel (the weight and the normal across the ray, gpu_types.h) instead
+// of four: the picture of the same points given that colour each, but for rounding (the normal's
+// two components are kept to 1/4096 of the weight, not 1/65536).
 TEST_F(RenderTest, OneColourSumsGiveThePictureOfColouredSplats) {
     PointSet plain = withRadii(sampleSphereUniform(20000, 1.0f));
     PointSet coloured = plain;
@@ -280,8 +281,10 @@ TEST_F(RenderTest, OneColourSumsGiveThePictureOfColouredSplats) {
     const RgbaImage a = render(plain, small(RenderPath::Compute, 256, 192), camera);
     const RgbaImage b = render(coloured, small(RenderPath::Compute, 256, 192), camera);
     const engine::ImageDifference d = difference(a, b);
+    std::cout << "[one colour against four sums: RMSE " << d.rmse << ", " << d.differingShare
+              << " of pixels differ]\n";
     EXPECT_LT(d.rmse, 0.3);
-    EXPECT_EQ(d.differingShare, 0.0);
+    EXPECT_LT(d.differingShare, 0.001);
     EXPECT_GT(a.at(128, 96).x, 150); // lit grey, not background or black
 }
 

@@ -38,13 +38,13 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
         R"("refine_wait_ms": {:.2f}, "gpu_wait_ms": {:.2f}, "refine_ms": {:.2f}, "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, "normalization_ms": {:.2f}, )"
         R"("splats_drawn": {}, "nodes_visible": {}, "nodes_refined": {}, "points_generated": {}, )"
         R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
-        R"("tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, )"
+        R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, )"
         R"("settled": {}}})",
         r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs,
         r.gpu.visibilityMs, r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.nodesVisible,
         r.nodesRefined, r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed, r.evictions,
-        r.queueLength, r.treeNodes, r.treePoints, r.thresholdPx, r.maxSplatPx, r.overThreshold,
-        r.settled ? "true" : "false");
+        r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx, r.maxSplatPx,
+        r.overThreshold, r.settled ? "true" : "false");
 }
 
 void FrameSeries::add(const engine::FrameReport& report, double frameMs) {
@@ -54,7 +54,7 @@ void FrameSeries::add(const engine::FrameReport& report, double frameMs) {
 std::string FrameSeries::summaryJson(double seconds, const engine::EngineSettings& settings,
                                      const std::string& device, const std::string& driver) const {
     std::vector<double> ms, selection, upload, visibility, accumulation, normalization, splats;
-    std::size_t generated = 0, uploads = 0, uploadBytes = 0, evictions = 0, busyGenerated = 0;
+    std::size_t generated = 0, uploads = 0, uploadBytes = 0, evictions = 0;
     double busyMs = 0.0, worstOver = 0.0;
     float largest = 0.0f;
     for (std::size_t k = 0; k < frames_.size(); ++k) {
@@ -72,12 +72,9 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         evictions += r.evictions;
         largest = std::max(largest, r.maxSplatPx);
         worstOver = std::max(worstOver, r.overThreshold);
-        // Refinement was queued during this frame: what joins the tree at the next frame's start was
-        // made in this frame's time.
-        if (r.queueLength > 0 && k + 1 < frames_.size()) {
-            busyMs += frames_[k].ms;
-            busyGenerated += frames_[k + 1].report.pointsGenerated;
-        }
+        // The time during which refinement jobs were waiting or running; what they made joins the
+        // tree a frame later (the jobs still running after the last frame add time but no points).
+        busyMs += r.refineBusyMs;
     }
     return fmt::format(
         R"({{"summary": true, "frames": {}, "seconds": {:.3f}, "frame_ms_median": {:.2f}, "frame_ms_p95": {:.2f}, )"
@@ -90,7 +87,7 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         R"("height": {}, "path": "{}", "device": "{}", "driver": "{}", "cpu": "{}"}})",
         frames_.size(), seconds, median(ms), quantile(ms, 0.95), median(ms) > 0 ? 1000.0 / median(ms) : 0.0,
         generated, seconds > 0 ? double(generated) / seconds : 0.0,
-        busyMs > 0 ? double(busyGenerated) / (busyMs * 1e-3) : 0.0, busyMs * 1e-3,
+        busyMs > 0 ? double(generated) / (busyMs * 1e-3) : 0.0, busyMs * 1e-3,
         seconds > 0 ? double(uploads) / seconds : 0.0,
         seconds > 0 ? double(uploadBytes) / double(1 << 20) / seconds : 0.0, evictions, median(splats),
         median(selection), median(upload), median(visibility), median(accumulation), median(normalization),

@@ -78,7 +78,8 @@ struct Engine::Impl {
     std::vector<NodeState> state;
 
     Sphere modelBounds;
-    bool hasColour = false; // else every splat is kDefaultColour
+    bool hasColour = false;          // else every splat is kDefaultColour
+    double workersBusySeconds = 0.0; // NodeWorkers::busySeconds at the last frame's report
     float rootMaxRadius = 0.0f;
     // The threshold in force, and the frame time it is adapted to (EngineSettings::targetFrameMs):
     // an exponential mean of the time from one frame's start to the next's.
@@ -607,6 +608,11 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         report.cacheBytesUsed = std::size_t{m.cache->used()} * sizeof(gpu::Splat);
         report.thresholdPx = m.threshold;
         report.queueLength = m.workers ? m.workers->outstanding() : 0;
+        if (m.workers) {
+            const double busy = m.workers->busySeconds();
+            report.refineBusyMs = (busy - m.workersBusySeconds) * 1e3;
+            m.workersBusySeconds = busy;
+        }
         report.treeNodes = m.tree.nodeCount();
         report.treePoints = m.tree.pointCount();
         report.cpuMs = millisecondsSince(start);

@@ -56,6 +56,16 @@ Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageU
     return result;
 }
 
+// The linear RGB of a colour packed as gpu::Splat::colour (sRGB), as the shaders' srgbToLinear.
+glm::vec3 linearColour(std::uint32_t packed) {
+    glm::vec3 linear;
+    for (int k = 0; k < 3; ++k) {
+        const float c = float((packed >> (8 * k)) & 0xFFu) / 255.0f;
+        linear[k] = c > 0.04045f ? std::pow((c + 0.055f) / 1.055f, 2.4f) : c / 12.92f;
+    }
+    return linear;
+}
+
 void bufferBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,
                    VkPipelineStageFlags dstStage, VkAccessFlags dstAccess) {
     VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
@@ -129,7 +139,7 @@ struct SplatRenderer::Impl {
         Unique<VkQueryPool> timestamps;
         VkDescriptorSet set = VK_NULL_HANDLE;
         std::uint32_t workItems = 0; // of its frame (compute path)
-        bool oneColour = false;      // its splats have one colour (compute path: 2 sums a pixel)
+        bool oneColour = false;      // its splats have one colour (compute path: one word a pixel)
         std::uint64_t frame = ~std::uint64_t{0};
         bool readBack = false;
     };
@@ -142,7 +152,8 @@ struct SplatRenderer::Impl {
     // that failed part-way.
     bool buffersCleared = false;
     std::array<Unique<VkPipeline>, 3> pipelines; // visibility, accumulation, normalization
-    Unique<VkPipeline> oneColourAccumulation;    // compute path: splats of one colour
+    // Compute path, splats of one colour: accumulation and normalization.
+    std::array<Unique<VkPipeline>, 2> oneColourPipelines;
     // Compute path.
     Buffer depthBits, accum, output;
     // Graphics path.
@@ -231,7 +242,8 @@ void SplatRenderer::Impl::createCommon() {
     for (Slot& slot : slots) PNSPLAT_VK_CHECK(vkAllocateDescriptorSets(device, &alloc, &slot.set));
 }
 
-// `oneColour` sets the shader's specialization constant 0 (compute_accumulate.comp's kOneColour).
+// `oneColour` sets the shader's specialization constant 0 (kOneColour of compute_accumulate.comp and
+// compute_normalize.comp).
 Unique<VkPipeline> SplatRenderer::Impl::computePipeline(VkShaderModule module, bool oneColour) {
     const VkBool32 value = oneColour ? VK_TRUE : VK_FALSE;
     const VkSpecializationMapEntry entry{0, 0, sizeof(value)};
@@ -260,7 +272,7 @@ void SplatRenderer::Impl::createCompute() {
     const auto normalize = shaderModule(device, k_compute_normalize_comp);
     pipelines = {computePipeline(visibility.get()), computePipeline(accumulate.get()),
                  computePipeline(normalize.get())};
-    oneColourAccumulation = computePipeline(accumulate.get(), true);
+    oneColourPipelines = {computePipeline(accumulate.get(), true), computePipeline(normalize.get(), true)};
 }
 
 Unique<VkPipeline> SplatRenderer::Impl::graphicsPipeline(const GraphicsPipelineDesc& desc) {
@@ -515,7 +527,7 @@ void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, const Slot& slot, i
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
     }
     const VkPipeline pipeline =
-        pass == 1 && slot.oneColour ? oneColourAccumulation.get() : pipelines[pass].get();
+        pass > 0 && slot.oneColour ? oneColourPipelines[pass - 1].get() : pipelines[pass].get();
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout.get(), 0, 1, &slot.set, 0,
                             nullptr);
@@ -603,8 +615,8 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
                       1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
     frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, settings.heatMapPx};
-    frame.flags = {settings.normalize ? 1u : 0u, slot.workItems, slot.oneColour ? 1u : 0u,
-                   slot.oneColour ? *oneColour : 0u};
+    frame.flags = {settings.normalize ? 1u : 0u, slot.workItems, 0u, 0u};
+    if (slot.oneColour) frame.colour = glm::vec4(linearColour(*oneColour), 1.0f);
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
     writeDescriptors(slot, splats);
 

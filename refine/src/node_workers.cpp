@@ -51,6 +51,7 @@ void NodeWorkers::loop(int nice) {
             std::lock_guard lock(mutex_);
             results_.push_back(std::move(result));
             --running_;
+            if (running_ == 0 && queue_.empty()) busy_ += std::chrono::steady_clock::now() - busySince_;
         }
         done_.notify_all();
     }
@@ -61,6 +62,7 @@ void NodeWorkers::submit(std::vector<NodeJob> jobs) {
     outstanding_ += jobs.size();
     {
         std::lock_guard lock(mutex_);
+        if (running_ == 0 && queue_.empty()) busySince_ = std::chrono::steady_clock::now();
         for (NodeJob& job : jobs) queue_.push_back(std::move(job));
     }
     wake_.notify_all();
@@ -74,6 +76,13 @@ std::vector<NodeJobResult> NodeWorkers::takeResults() {
     }
     outstanding_ -= taken.size();
     return taken;
+}
+
+double NodeWorkers::busySeconds() {
+    std::lock_guard lock(mutex_);
+    auto busy = busy_;
+    if (running_ > 0 || !queue_.empty()) busy += std::chrono::steady_clock::now() - busySince_;
+    return std::chrono::duration<double>(busy).count();
 }
 
 void NodeWorkers::waitIdle() {

@@ -88,9 +88,13 @@ struct FrameReport {
     std::size_t nodesRefined = 0, pointsGenerated = 0; // refinements that joined the tree this frame
     std::size_t nodesUploaded = 0, bytesUploaded = 0, evictions = 0;
     std::size_t cacheBytesUsed = 0, queueLength = 0; // after the frame; jobs waiting or running
-    std::size_t treeNodes = 0, treePoints = 0;       // on the CPU
-    bool settled = false;     // nothing was wanted for this camera: no refinement, no upload
-    float thresholdPx = 0.0f; // the threshold in force (EngineSettings::targetFrameMs)
+    // Time since the last frame's report during which a refinement job was waiting or running (the
+    // queue was not empty; NodeWorkers::busySeconds): points generated over it is the refinement's
+    // rate while it has work.
+    double refineBusyMs = 0.0;
+    std::size_t treeNodes = 0, treePoints = 0; // on the CPU
+    bool settled = false;                      // nothing was wanted for this camera: no refinement, no upload
+    float thresholdPx = 0.0f;                  // the threshold in force (EngineSettings::targetFrameMs)
     // With measureSplats: the largest projected splat diameter drawn (pixels) and the share of the
     // splats drawn (in front of the camera) above the threshold.
     float maxSplatPx = 0.0f;

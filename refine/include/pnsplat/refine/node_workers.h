@@ -10,6 +10,7 @@
 // render thread).
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
@@ -37,6 +38,10 @@ class NodeWorkers {
     std::size_t outstanding() const { return outstanding_; }
     // Waits until every submitted job has finished.
     void waitIdle();
+    // Seconds, since the pool was made, during which a job was waiting or running: the time the
+    // refinement queue was not empty, measured when jobs are handed over and when the last one
+    // finishes (a result waiting for takeResults does not count).
+    double busySeconds();
 
   private:
     void loop(int nice);
@@ -48,6 +53,9 @@ class NodeWorkers {
     std::deque<NodeJob> queue_;
     std::vector<NodeJobResult> results_;
     std::size_t running_ = 0;
+    // Busy time (busySeconds): the intervals closed so far, and the start of the open one.
+    std::chrono::steady_clock::duration busy_{};
+    std::chrono::steady_clock::time_point busySince_{};
     std::size_t outstanding_ = 0; // render thread only
     bool stopping_ = false;
 };

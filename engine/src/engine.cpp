@@ -2,6 +2,7 @@
 #include "pnsplat/engine/engine.h"
 
 #include <algorithm>
+#include <bit>
 #include <cassert>
 #include <chrono>
 #include <cmath>
@@ -41,15 +42,26 @@ constexpr std::size_t kKeptReports = 256;
 constexpr float kMaxThresholdRise = 8.0f;
 
 // The splats of a node's points (normals, radii, optional colours), 32 bytes each (gpu::Splat): a
-// chunk's contents, for its upload and its check.
+// chunk's contents, for its upload and its check. In order of radius (then of index): the compute
+// path gives each splat one invocation, and invocations run in lockstep in groups (8 lanes of a
+// SIMD batch on lavapipe, a subgroup on a GPU), each group as long as its largest footprint; splats
+// of like radii side by side waste fewer lanes (the bunny close-up at 640x480 on lavapipe:
+// visibility 25.5 -> 22.1 ms). The sums are integers and the depth a minimum, so the picture does
+// not depend on the order.
 void packSplats(const PointSet& points, gpu::Splat* splats) {
-    for (std::size_t i = 0; i < points.size(); ++i) {
+    // Radii are positive: their bits order as the floats do.
+    std::vector<std::uint64_t> order(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i)
+        order[i] = std::uint64_t{std::bit_cast<std::uint32_t>(points.radius[i])} << 32 | i;
+    std::sort(order.begin(), order.end());
+    for (std::size_t k = 0; k < points.size(); ++k) {
+        const std::size_t i = order[k] & 0xFFFFFFFFu;
         std::uint32_t colour = kDefaultColour;
         if (points.hasColour()) {
             const glm::u8vec3 c = points.colour[i];
             colour = std::uint32_t{c.x} | std::uint32_t{c.y} << 8 | std::uint32_t{c.z} << 16;
         }
-        splats[i] = gpu::Splat{points.position[i], points.radius[i], points.normal[i], colour};
+        splats[k] = gpu::Splat{points.position[i], points.radius[i], points.normal[i], colour};
     }
 }
 

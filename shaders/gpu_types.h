@@ -39,8 +39,9 @@ PNSPLAT_CONST uint kAccumStride = 4;
 PNSPLAT_CONST float kFixedScale = 65536.0f;
 PNSPLAT_CONST uint kOneColourBits = 21;
 PNSPLAT_CONST float kOneColourScale = 4096.0f;
-// The compute path's cleared depth: +infinity as float bits. The normalization pass leaves the
-// depth and sum buffers cleared for the next frame, touching the sums only where a splat landed.
+// The compute path's cleared depth: +infinity as float bits, filled at each frame's start. The
+// normalization pass leaves the sum buffer cleared for the next frame, touching it only where a
+// splat landed.
 PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 
 // One splat: an oriented disk. colour is sRGB, packed as R | G << 8 | B << 16 (alpha unused).

@@ -147,9 +147,9 @@ struct SplatRenderer::Impl {
     Unique<VkDescriptorSetLayout> setLayout;
     Unique<VkPipelineLayout> pipelineLayout;
     Unique<VkDescriptorPool> descriptorPool;
-    // The compute path's depth and sum buffers are cleared (by the last frame's normalization pass,
-    // which runs before the next frame's passes on the one queue); false at first and after a frame
-    // that failed part-way.
+    // The compute path's sum buffer is cleared (by the last frame's normalization pass, which runs
+    // before the next frame's passes on the one queue); false at first and after a frame that failed
+    // part-way. (The depth buffer is filled at every frame's start.)
     bool buffersCleared = false;
     std::array<Unique<VkPipeline>, 3> pipelines; // visibility, accumulation, normalization
     // Compute path, splats of one colour: accumulation and normalization.
@@ -510,14 +510,15 @@ void SplatRenderer::Impl::writeDescriptors(const Slot& slot, const Buffer& splat
 }
 
 void SplatRenderer::Impl::recordCompute(VkCommandBuffer cmd, const Slot& slot, int pass, bool cleared) {
+    // `cleared`: the sums are zero already (buffersCleared).
     constexpr VkPipelineStageFlags kCompute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-    if (pass == 0 && !cleared) {
+    if (pass == 0) {
         bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT,
-                      VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
         vkCmdFillBuffer(cmd, depthBits.buffer.get(), 0, VK_WHOLE_SIZE, gpu::kDepthCleared);
-        vkCmdFillBuffer(cmd, accum.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
+        if (!cleared) vkCmdFillBuffer(cmd, accum.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else if (pass == 2) {
         // The output buffer was last read by the previous frame's copies.

@@ -452,9 +452,10 @@ void Engine::Impl::adaptThreshold(Clock::time_point start, bool lockstep) {
         return;
     }
     const double target = settings.targetFrameMs;
-    if (meanFrameMs > 0.9 * target)
-        threshold = std::min(threshold * 1.08f, kMaxThresholdRise * settings.threshold);
-    else if (meanFrameMs < 0.7 * target)
+    if (meanFrameMs > 0.9 * target) {
+        const auto rise = static_cast<float>(std::clamp(std::sqrt(meanFrameMs / (0.8 * target)), 1.08, 1.25));
+        threshold = std::min(threshold * rise, kMaxThresholdRise * settings.threshold);
+    } else if (meanFrameMs < 0.7 * target)
         threshold = std::max(settings.threshold, threshold / 1.04f);
 }
 

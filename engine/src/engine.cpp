@@ -37,8 +37,9 @@ constexpr double kOverShare = 0.008;
 // Reports of finished frames kept until reports() takes them.
 constexpr std::size_t kKeptReports = 256;
 // The threshold in force stays at most this many times the one asked for (adaptThreshold). On
-// lavapipe at 640×480 a frame of the bunny settled at 2, 4, 8, 16 and 32 px took 149, 81, 65, 44
-// and 42 ms: past 16 px the splats' footprints cost what their number saves (docs/REALTIME.md).
+// lavapipe at 640×480 the passes of a frame of the bunny settled at 2, 4, 8, 16 and 32 px took 99,
+// 46, 31, 19 and 16 ms (a close-up at 16 and 32 px: 58 and 64 ms): past 16 px the pixels the
+// footprints cover cost what the smaller number of splats saves (docs/REALTIME.md).
 constexpr float kMaxThresholdRise = 8.0f;
 
 // The splats of a node's points (normals, radii, optional colours), 32 bytes each (gpu::Splat): a
@@ -435,11 +436,14 @@ std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockste
 }
 
 // The threshold in force (EngineSettings::targetFrameMs): a frame time above 90 % of the target
-// raises it by 8 %, one below 70 % lowers it by 4 % towards the threshold asked for. The rises are
-// larger so that an overload passes within a few frames; between the two bounds it stays put, so
-// a steady view does not flip between levels. It rises to kMaxThresholdRise times the threshold
-// asked for at most: a frame of few large splats costs its pixels (each splat's footprint walked by
-// one invocation), which refining divides among smaller ones, so past that, coarser is slower.
+// raises it by sqrt(mean / (0.8 target)), 8 % to 25 % (the splats drawn fall with the threshold's
+// square, so this aims at 80 % of the target), one below 70 % lowers it by 4 % towards the
+// threshold asked for. The rises are larger so that an overload passes within a few frames (a
+// fixed 8 % held the bunny zoom's first frames over the target for 15 frames); between the two
+// bounds it stays put, so a steady view does not flip between levels. It rises to
+// kMaxThresholdRise times the threshold asked for at most: a frame of few large splats costs its
+// pixels (each splat's footprint walked by one invocation), which refining divides among smaller
+// ones, so past that, coarser is slower.
 void Engine::Impl::adaptThreshold(Clock::time_point start, bool lockstep) {
     if (haveLastFrame) {
         const double ms = std::chrono::duration<double, std::milli>(start - lastFrameStart).count();

@@ -1139,7 +1139,7 @@ TEST(CliRender, CameraInsideOrLookingAwayRenders) {
 TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
     const TempDir dir;
     const RunResult r =
-        run("bench view --frames 4 --width 48 --height 36 --lockstep --validation --capture " +
+        run("bench view --frames 4 --width 48 --height 36 --lockstep --validation --threads 1 --capture " +
             quote(dir / "frames"));
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
@@ -1148,7 +1148,7 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
         for (const char* field :
              {"\"frame_ms\"", "\"visibility_ms\"", "\"splats_drawn\"", "\"nodes_visible\"",
               "\"nodes_refined\"", "\"points_generated\"", "\"cache_bytes_used\"", "\"evictions\"",
-              "\"queue_length\"", "\"max_splat_px\""})
+              "\"queue_length\"", "\"refine_busy_ms\"", "\"max_splat_px\""})
             EXPECT_NE(out[k].find(field), std::string::npos) << field << " in " << out[k];
         EXPECT_NE(out[k].find("\"settled\": true"), std::string::npos) << out[k]; // lockstep
         EXPECT_TRUE(fs::exists(dir / "frames" / fmt::format("frame-{:05}.png", k)));
@@ -1156,6 +1156,8 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
     EXPECT_NE(out[4].find("\"summary\": true"), std::string::npos);
     EXPECT_NE(out[4].find("\"frame_ms_p95\""), std::string::npos);
     EXPECT_NE(out[4].find("\"uploads_per_second\""), std::string::npos);
+    EXPECT_NE(out[4].find("\"points_per_second_while_queued\""), std::string::npos);
+    EXPECT_NE(out[4].find("\"workers\": 1,"), std::string::npos) << out[4]; // --threads is --workers
 }
 
 TEST(CliBadInput, RealTimeEngineRefusesBadInputInOneLine) {

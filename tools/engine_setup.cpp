@@ -58,7 +58,10 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     cmd.add_option("--cache-mb", args.cacheMb, with + "the GPU cache of points, MiB (32 bytes a point)")
         ->check(CLI::Range(0.001, 1048576.0))
         ->capture_default_str();
-    cmd.add_option("--workers", args.workers, with + "refinement worker threads")
+    // bench view and view also take --threads, the name (render's --threads would be
+    // ambiguous beside --refine-levels, whose refinement uses every core).
+    cmd.add_option(requiresFlag ? "--workers" : "--workers,--threads", args.workers,
+                   with + "refinement worker threads")
         ->check(CLI::Range(1u, 64u))
         ->capture_default_str();
     cmd.add_option("--worker-nice", args.workerNice,

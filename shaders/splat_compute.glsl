@@ -109,8 +109,10 @@ bool conicRow(SplatConic k, int y, inout int x0, inout int x1, out ConicRow row)
     if (disc < 0.0) return false;
     float s = sqrt(disc);
     float u0 = (-b - s) / a, u1 = (-b + s) / a;
-    x0 = max(x0, int(ceil(k.centre.x + u0 - 0.51)));
-    x1 = min(x1, int(floor(k.centre.x + u1 - 0.49)));
+    // Clamped as floats: a nearly degenerate quadratic has roots far beyond the box, which would
+    // not convert to int.
+    x0 = int(max(float(x0), ceil(k.centre.x + u0 - 0.51)));
+    x1 = int(min(float(x1), floor(k.centre.x + u1 - 0.49)));
     return x0 <= x1;
 }
 

@@ -28,8 +28,9 @@ uint64_t packAcrossRay(float w, vec3 n, float rx, float ry, float invRayLength) 
     float a = (n.x + rx * n.z) * s1;
     float b = (n.x * rx * ry - n.y * (1.0 + rx * rx) - n.z * ry) * s1 * invRayLength;
     uint fw = uint(w * kOneColourScale + 0.5);
-    uint fa = uint(w * (0.5 * a + 0.5) * kOneColourScale + 0.5);
-    uint fb = uint(w * (0.5 * b + 0.5) * kOneColourScale + 0.5);
+    // Clamped: a normal a rounding longer than 1 must not make a field exceed its weight's.
+    uint fa = uint(w * clamp(0.5 * a + 0.5, 0.0, 1.0) * kOneColourScale + 0.5);
+    uint fb = uint(w * clamp(0.5 * b + 0.5, 0.0, 1.0) * kOneColourScale + 0.5);
     return uint64_t(fw) | (uint64_t(fa) << kOneColourBits) | (uint64_t(fb) << (2 * kOneColourBits));
 }
 

@@ -29,13 +29,17 @@ void main() {
         // One colour: one word of three fields (w, w·a', w·b'), a' and b' the normal's components
         // across the ray as (a + 1) / 2 (compute_accumulate.comp, packAcrossRay).
         uint64_t word = accum[i];
-        const uint64_t mask = (1ul << kOneColourBits) - 1ul;
-        float w = float(uint(word & mask));
-        if (w == 0.0) {
+        if (word == 0ul) {
             pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
             return;
         }
         accum[i] = 0ul;
+        const uint64_t mask = (1ul << kOneColourBits) - 1ul;
+        float w = float(uint(word & mask));
+        if (w == 0.0) { // every field is at most the weight's, so all are zero but past a carry
+            pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
+            return;
+        }
         vec2 across = 2.0 * vec2(float(uint((word >> kOneColourBits) & mask)),
                                  float(uint(word >> (2 * kOneColourBits)))) / w - 1.0;
         rgb = frame.flags.x == 0u ? linearToSrgb(w / kOneColourScale * frame.colour.rgb)

@@ -31,10 +31,12 @@ PNSPLAT_CONST uint kChunkSize = 1024;
 // with n' = (n + 1) / 2. A low half cannot carry into its high half while the weights of a pixel
 // sum to less than 2^32 / kFixedScale = 65536 (each w ≤ 1); each value is rounded to 1/65536.
 // When every splat drawn has one colour (FrameUniforms::colour), one word a pixel: three
-// fields of kOneColourBits, w and w times the normal's two components across the pixel's ray
-// (compute_accumulate.comp, packAcrossRay), each scaled by kOneColourScale: a field cannot carry
-// into the next while the weights sum to less than 2^21 / 4096 = 512, and each value is rounded to
-// 1/4096 (an error of 0.3 % in the weight over 10 splats, too small for the 8-bit output).
+// fields of kOneColourBits, w, w·(a + 1) / 2 and w·(b + 1) / 2 with a, b the normal's two
+// components across the pixel's ray (compute_accumulate.comp, packAcrossRay), each scaled by
+// kOneColourScale: a field cannot carry into the next while the weights sum to less than
+// 2^21 / 4096 = 512, and each value is rounded to 1/4096 (about 0.1 % of a typical pixel's weight).
+// The renderer uses it only for the default look or near it (splat_renderer.cpp,
+// kOneWordMaxScale).
 PNSPLAT_CONST uint kAccumStride = 4;
 PNSPLAT_CONST float kFixedScale = 65536.0f;
 PNSPLAT_CONST uint kOneColourBits = 21;

@@ -40,19 +40,21 @@ bool footprint(ViewSplat v, out ivec2 lo, out ivec2 hi) {
     return lo.x <= hi.x && lo.y <= hi.y;
 }
 
-// The disk seen through the pixels (ALGORITHM.md §11.5), set up once per splat so that each pixel
+// The disk seen through the pixels (ALGORITHM.md §11.2), set up once per splat so that each pixel
 // costs a few multiply-adds, one division and one inverse square root. With c' = c / -c.z (the
 // centre scaled onto the plane z = -1), K' = n·c' and pixel offsets (u, v) from the projected centre,
 // the ray through a pixel is c' + (hx·u, -hy·v, 0), and n·ray = dn(u, v) = K' + n.x·hx·u - n.y·hy·v
-// is linear. The hit point's distance from the centre, times dn, is |K'·ray - dn·c'|, which is
-// linear in (u, v) and zero at the centre, so
-//     rho² · r'² · dn² = F(u, v) = a·u² + 2b·u·v + c·v²      (r' = r / -c.z),
-// a quadratic form; the hit's depth is t = -c.z · K' / dn. Each row's pixels inside the disk
-// (F <= r'² dn²) are the roots of a quadratic in u: only those are visited, not the whole box.
-// Everything is scale-free (a model in kilometres or microns gives the same numbers).
+// is linear. The hit point's offset from the centre, times dn, is P = K'·ray - dn·c', also linear
+// in (u, v) and zero at the centre: P = u·Pu + v·Pv, so
+//     rho² · r'² · dn² = |P|²      (r' = r / -c.z),
+// and the hit's depth is t = -c.z · K' / dn. Each row's pixels inside the disk (|P|² <= r'² dn²)
+// are the roots of a quadratic in u: only those are visited, not the whole box. |P|² is taken as
+// the square of the vector, not as the quadratic form a·u² + 2b·u·v + c·v², whose terms cancel to
+// within 2 % of its value for a disk seen nearly edge-on. Everything is scale-free (a model in
+// kilometres or microns gives the same numbers).
 struct SplatConic {
     vec2 centre;   // the projected centre, pixels
-    vec3 form;     // a, b, c of F
+    vec3 pu, pv;   // Pu, Pv
     vec3 plane;    // K', n.x·hx, -n.y·hy: dn = plane.x + plane.y·u + plane.z·v
     float r2;      // r'²
     float depth;   // -c.z
@@ -70,9 +72,8 @@ SplatConic conicOf(ViewSplat v) {
     k.centre = vec2((c.x / frame.rayScale.x + 1.0) * 0.5 * frame.viewport.x,
                     (1.0 - c.y / frame.rayScale.y) * 0.5 * frame.viewport.y);
     float kk = dot(v.normal, c);
-    vec3 pu = k.step.x * (vec3(kk, 0.0, 0.0) - v.normal.x * c);
-    vec3 pv = -k.step.y * (vec3(0.0, kk, 0.0) - v.normal.y * c);
-    k.form = vec3(dot(pu, pu), dot(pu, pv), dot(pv, pv));
+    k.pu = k.step.x * (vec3(kk, 0.0, 0.0) - v.normal.x * c);
+    k.pv = -k.step.y * (vec3(0.0, kk, 0.0) - v.normal.y * c);
     k.plane = vec3(kk, v.normal.x * k.step.x, -v.normal.y * k.step.y);
     float r = v.radius / k.depth;
     k.r2 = r * r;
@@ -81,13 +82,17 @@ SplatConic conicOf(ViewSplat v) {
 }
 
 // One row y of the box [x0, x1]: narrows [x0, x1] to the pixels whose centres may lie in the disk
-// (false when none do). The roots are widened by a hundredth of a pixel; each pixel is still
-// tested by conicHit, so rounding at the rim decides as the per-pixel test does.
+// (false when none do). The quadratic A u² + 2 B u + C <= 0 (|P|² - r'² dn² <= 0) has
+//     B² - A·C = r'² |dn0·Pu - du·v·Pv|² - v² |Pu × Pv|²
+// (dn0 = dn at u = 0, du = n.x·hx; Lagrange's identity), a difference of two squared norms, each
+// exact to a few roundings; near the ellipse's tips the two cancel, so the span is widened by what
+// their rounding may hide (a millionth of their sum) and by a hundredth of a pixel, and a row is
+// dropped only when the difference is clearly negative. Each pixel of the span is still tested by
+// conicHit, which decides at the rim.
 struct ConicRow {
     float v;   // the row's offset from the centre
     float dn0; // dn at u = 0
-    float fv;  // 2b·v, F's linear term in u
-    float fc;  // c·v², F's constant term
+    vec3 pv;   // v·Pv
     float ry;  // the ray's y (its z is -1)
     float ry2; // the ray's y² + z²
 };
@@ -95,24 +100,25 @@ struct ConicRow {
 bool conicRow(SplatConic k, int y, inout int x0, inout int x1, out ConicRow row) {
     row.v = float(y) + 0.5 - k.centre.y;
     row.dn0 = k.plane.x + k.plane.z * row.v;
-    row.fv = 2.0 * k.form.y * row.v;
-    row.fc = k.form.z * row.v * row.v;
+    row.pv = row.v * k.pv;
     row.ry = k.ray.y - k.step.y * row.v;
     row.ry2 = row.ry * row.ry + 1.0;
-    // F - r'² dn² <= 0 as A u² + 2 B u + C <= 0.
     float du = k.plane.y;
-    float a = k.form.x - k.r2 * du * du;
-    float b = 0.5 * row.fv - k.r2 * du * row.dn0;
-    float c = row.fc - k.r2 * row.dn0 * row.dn0;
+    float a = dot(k.pu, k.pu) - k.r2 * du * du;
     if (!(a > 0.0)) return true; // not an ellipse in u (rounding, or nearly edge-on): test the box row
-    float disc = b * b - a * c;
-    if (disc < 0.0) return false;
-    float s = sqrt(disc);
-    float u0 = (-b - s) / a, u1 = (-b + s) / a;
+    float b = dot(k.pu, row.pv) - k.r2 * du * row.dn0;
+    vec3 across = row.dn0 * k.pu - du * row.pv;
+    vec3 normal = cross(k.pu, row.pv);
+    float inside = k.r2 * dot(across, across), outside = dot(normal, normal);
+    float tolerance = 1e-6 * (inside + outside);
+    float disc = inside - outside;
+    if (disc < -tolerance) return false;
+    float s = sqrt(max(disc, 0.0) + tolerance) / a + 0.01;
+    float mid = -b / a;
     // Clamped as floats: a nearly degenerate quadratic has roots far beyond the box, which would
     // not convert to int.
-    x0 = int(max(float(x0), ceil(k.centre.x + u0 - 0.51)));
-    x1 = int(min(float(x1), floor(k.centre.x + u1 - 0.49)));
+    x0 = int(max(float(x0), ceil(k.centre.x + mid - s - 0.5)));
+    x1 = int(min(float(x1), floor(k.centre.x + mid + s - 0.5)));
     return x0 <= x1;
 }
 
@@ -125,8 +131,8 @@ bool conicHit(SplatConic k, ConicRow row, int x, out float t, out float rho2, ou
     float dn = row.dn0 + k.plane.y * u;
     if (dn >= 0.0) return false;
     float inv = 1.0 / dn;
-    rho2 = (k.form.x * u + row.fv) * u + row.fc;
-    rho2 *= inv * inv / k.r2;
+    vec3 p = row.pv + u * k.pu;
+    rho2 = dot(p, p) * (inv * inv / k.r2);
     rx = k.ray.x + k.step.x * u;
     invRayLength = inversesqrt(rx * rx + row.ry2);
     t = k.depth * k.plane.x * inv;

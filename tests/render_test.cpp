@@ -8,6 +8,7 @@
 #include <numbers>
 #include <string>
 
+#include <fmt/format.h>
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 
@@ -267,6 +268,88 @@ TEST_F(RenderTest, ComputeRowSpansCoverWhatTheGraphicsPathCovers) {
               << " covered by one path only]\n";
     EXPECT_GT(covered, 8000u);
     EXPECT_LT(mismatched, covered / 200);
+}
+
+// Nearly edge-on disks close to the eye, checked pixel by pixel against the exact ray-disk test
+// in double precision: every pixel whose centre lies clearly inside a disk (rho² < 0.999) is
+// covered and every pixel clearly outside all of them (rho² > 1.001) is background, on both
+// accumulation layouts (coloured: four sums; without colours: one word). The first disk, 0.025
+// degrees from edge-on, was found by emulating the shader's float arithmetic: with rho² taken as the
+// quadratic form a·u² + 2b·u·v + c·v², whose terms cancel, and the rows' roots from b² - a·c, it lost
+// 3 pixels here (rho² 0.993 to 0.998), and in a view of it alone everything past 457 of the 571
+// columns it reaches.
+TEST_F(RenderTest, ComputeRowSpansKeepEveryPixelTheDiskCovers) {
+    std::mt19937_64 rng(11);
+    PointSet disks;
+    const auto add = [&](glm::vec3 c, glm::vec3 n, float r) {
+        disks.position.push_back(c);
+        disks.normal.push_back(glm::normalize(n));
+        disks.radius.push_back(r);
+    };
+    add({-0.466f, 0.646f, -0.990f}, {-0.247f, -0.861f, -0.445f}, 1.09f);
+    for (int k = 0; k < 40; ++k) {
+        const glm::vec3 c{test::uniform(rng, -2.0, 2.0), test::uniform(rng, -1.5, 1.5),
+                          test::uniform(rng, -5.0, -2.5)};
+        glm::vec3 n; // 70 to 89.9 degrees from the direction to the eye
+        float cosine = 0.0f;
+        do {
+            n = test::randomUnit(rng);
+            cosine = glm::dot(n, -glm::normalize(c));
+        } while (!(cosine > 0.002f && cosine < 0.34f));
+        add(c, n, test::uniform(rng, 0.2, 0.9));
+    }
+    Camera camera;
+    camera.eye = {0.0f, 0.0f, 0.0f};
+    camera.target = {0.0f, 0.0f, -1.0f};
+    camera.fovY = radians(70.0f);
+    const std::uint32_t w = 640, h = 480;
+    const double ry = std::tan(radians(35.0)), rx = ry * double(w) / double(h);
+    // rho² of the nearest hit in front of the eye among the disks, at pixel (x, y); > 1 for none.
+    const auto rho2At = [&](std::uint32_t x, std::uint32_t y) {
+        const glm::dvec3 ray{(2.0 * (x + 0.5) / w - 1.0) * rx, -(2.0 * (y + 0.5) / h - 1.0) * ry, -1.0};
+        double best = 2.0;
+        for (std::size_t i = 0; i < disks.size(); ++i) {
+            const glm::dvec3 c(disks.position[i]), n(disks.normal[i]);
+            const double dn = glm::dot(n, ray);
+            if (dn >= 0.0) continue;
+            const double t = glm::dot(n, c) / dn;
+            const glm::dvec3 q = t * ray - c;
+            if (t > 0.0)
+                best = std::min(best, glm::dot(q, q) / (double(disks.radius[i]) * double(disks.radius[i])));
+        }
+        return best;
+    };
+    std::vector<double> rho2(std::size_t{w} * h);
+    for (std::uint32_t y = 0; y < h; ++y)
+        for (std::uint32_t x = 0; x < w; ++x) rho2[std::size_t{y} * w + x] = rho2At(x, y);
+    for (const bool coloured : {true, false}) {
+        disks.colour.assign(coloured ? disks.size() : 0, glm::u8vec3(255));
+        const RgbaImage image = render(disks, small(RenderPath::Compute, w, h), camera);
+        ASSERT_EQ(image.width, w);
+        std::size_t inside = 0, missed = 0, spilled = 0;
+        std::string first; // the first pixel missed or spilled, with its rho²
+        for (std::uint32_t y = 0; y < h; ++y)
+            for (std::uint32_t x = 0; x < w; ++x) {
+                const double r2 = rho2[std::size_t{y} * w + x];
+                const bool covered = image.at(x, y) != glm::u8vec4(0, 0, 0, 255);
+                if (r2 < 0.999) {
+                    ++inside;
+                    if (!covered) ++missed;
+                } else if (r2 > 1.001 && covered) {
+                    ++spilled;
+                } else {
+                    continue;
+                }
+                if (first.empty() && (covered != (r2 < 0.999)))
+                    first = fmt::format(" (first: pixel {},{} at rho² {:.4f})", x, y, r2);
+            }
+        std::cout << "[edge-on disks, " << (coloured ? "four sums" : "one word") << ": " << inside
+                  << " pixels inside, " << missed << " missed, " << spilled << " outside covered" << first
+                  << "]\n";
+        EXPECT_GT(inside, 5000u);
+        EXPECT_EQ(missed, 0u);
+        EXPECT_EQ(spilled, 0u);
+    }
 }
 
 // A model without colours is drawn in one colour (engine.h, kDefaultColour), which the compute path

@@ -47,8 +47,8 @@ constexpr float kMaxThresholdRise = 8.0f;
 // path gives each splat one invocation, and invocations run in lockstep in groups (8 lanes of a
 // SIMD batch on lavapipe, a subgroup on a GPU), each group as long as its largest footprint; splats
 // of like radii side by side waste fewer lanes (the bunny close-up at 640x480 on lavapipe:
-// visibility 25.5 -> 22.1 ms). The sums are integers and the depth a minimum, so the picture does
-// not depend on the order.
+// visibility 25.5 -> 21.6 ms). The compute path's sums are integers and its depth a minimum, so its
+// picture does not depend on the order (the graphics path's float blending does, in the last bits).
 void packSplats(const PointSet& points, gpu::Splat* splats) {
     // Radii are positive: their bits order as the floats do.
     std::vector<std::uint64_t> order(points.size());

@@ -56,6 +56,10 @@ Image createImage(Context& context, VkExtent2D extent, VkFormat format, VkImageU
     return result;
 }
 
+// The largest radius scale, depth offset and Gaussian sharpness with which splats of one colour are
+// summed in one word a pixel (Impl::submit).
+constexpr float kOneWordMaxScale = 4.0f;
+
 // The linear RGB of a colour packed as gpu::Splat::colour (sRGB), as the shaders' srgbToLinear.
 glm::vec3 linearColour(std::uint32_t packed) {
     glm::vec3 linear;
@@ -582,8 +586,14 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
     Slot& slot = slots[frames.slot()];
     slot.frame = frames.index();
     slot.readBack = out.readBack;
-    // The heat map gives each splat a colour of its own.
-    slot.oneColour = oneColour.has_value() && !(settings.heatMapPx > 0.0f);
+    // The heat map gives each splat a colour of its own. The one-word sums (gpu_types.h) carry past a
+    // weight of 512 at a pixel and keep weights to 1/4096: about 9 splats cover a pixel at the
+    // default look (a weight of about 4), 16 times as many at 4 times the radius, and a wider depth
+    // band or a sharper Gaussian lets more in or keeps less of the rim, so past those bounds the
+    // four sums are used.
+    slot.oneColour = oneColour.has_value() && !(settings.heatMapPx > 0.0f) &&
+                     settings.radiusScale <= kOneWordMaxScale && settings.depthOffset <= kOneWordMaxScale &&
+                     settings.sharpness <= kOneWordMaxScale;
     const float aspect = float(settings.width) / float(settings.height);
     const float tanY = std::tan(camera.fovY * 0.5f);
 

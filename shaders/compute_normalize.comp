@@ -28,15 +28,13 @@ void main() {
     if (kOneColour) {
         // One colour: one word of three fields (w, w·a', w·b'), a' and b' the normal's components
         // across the ray as (a + 1) / 2 (compute_accumulate.comp, packAcrossRay).
+        // A zero weight is a background pixel: every field is at most the weight's, so the word is
+        // zero but past a carry, and it is cleared whenever it is not.
         uint64_t word = accum[i];
-        if (word == 0ul) {
-            pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
-            return;
-        }
-        accum[i] = 0ul;
+        if (word != 0ul) accum[i] = 0ul;
         const uint64_t mask = (1ul << kOneColourBits) - 1ul;
         float w = float(uint(word & mask));
-        if (w == 0.0) { // every field is at most the weight's, so all are zero but past a carry
+        if (w == 0.0) {
             pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
             return;
         }

@@ -20,7 +20,7 @@ void main() {
             float t, rho2, rx, invRayLength;
             if (!conicHit(k, row, x, t, rho2, rx, invRayLength)) continue;
             uint i = pixelIndex(ivec2(x, y));
-            uint depth = floatBitsToUint(t + k.offset * invRayLength);
+            uint depth = floatBitsToUint(pushedDepthOver(t, invRayLength, v.radius));
             if (depth < depthBits[i]) atomicMin(depthBits[i], depth);
         }
     }

@@ -76,6 +76,11 @@ float pushedDepth(float t, vec3 ray, float radius) {
     return t + frame.splat.y * radius / length(ray);
 }
 
+// The same push where 1 / |d| is known (the compute path's conicHit gives it).
+float pushedDepthOver(float t, float invRayLength, float radius) {
+    return t + frame.splat.y * radius * invRayLength;
+}
+
 // Gaussian weight at squared normalized distance rho2 from the centre (rho2 <= 1 inside the disk).
 float splatWeight(float rho2) {
     return exp(-frame.splat.z * rho2);

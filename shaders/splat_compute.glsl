@@ -60,7 +60,6 @@ struct SplatConic {
     float depth;   // -c.z
     vec2 ray;      // c'.xy
     vec2 step;     // hx, hy: the ray's change per pixel
-    float offset;  // ε·r: the visibility pass's push along the ray, over |ray|
 };
 
 SplatConic conicOf(ViewSplat v) {
@@ -77,7 +76,6 @@ SplatConic conicOf(ViewSplat v) {
     k.plane = vec3(kk, v.normal.x * k.step.x, -v.normal.y * k.step.y);
     float r = v.radius / k.depth;
     k.r2 = r * r;
-    k.offset = frame.splat.y * v.radius;
     return k;
 }
 
@@ -90,7 +88,6 @@ SplatConic conicOf(ViewSplat v) {
 // dropped only when the difference is clearly negative. Each pixel of the span is still tested by
 // conicHit, which decides at the rim.
 struct ConicRow {
-    float v;   // the row's offset from the centre
     float dn0; // dn at u = 0
     vec3 pv;   // v·Pv
     float ry;  // the ray's y (its z is -1)
@@ -98,10 +95,10 @@ struct ConicRow {
 };
 
 bool conicRow(SplatConic k, int y, inout int x0, inout int x1, out ConicRow row) {
-    row.v = float(y) + 0.5 - k.centre.y;
-    row.dn0 = k.plane.x + k.plane.z * row.v;
-    row.pv = row.v * k.pv;
-    row.ry = k.ray.y - k.step.y * row.v;
+    float v = float(y) + 0.5 - k.centre.y; // the row's offset from the centre
+    row.dn0 = k.plane.x + k.plane.z * v;
+    row.pv = v * k.pv;
+    row.ry = k.ray.y - k.step.y * v;
     row.ry2 = row.ry * row.ry + 1.0;
     float du = k.plane.y;
     float a = dot(k.pu, k.pu) - k.r2 * du * du;

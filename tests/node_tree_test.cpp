@@ -273,5 +273,36 @@ TEST(NodeTree, LevelsStaySeparatedAcrossNodesOfDifferentLevels) {
     EXPECT_GT(checked, 10000u);
 }
 
+// bendOf (the engine's measure of the silhouette, engine.cpp): per point the largest angle between
+// its normal and those of its kBendNeighbours nearest points, against a brute-force search on a
+// random sphere (whose bends are then about the angle the 6th neighbour subtends) and a plane.
+TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
+    const PointSet sphere = sampleSphereRandom(1500, 2.0f, 7);
+    const std::vector<float> bend = bendOf(sphere);
+    ASSERT_EQ(bend.size(), sphere.size());
+    std::vector<std::pair<float, std::size_t>> byDistance;
+    for (std::size_t i = 0; i < sphere.size(); ++i) {
+        byDistance.clear();
+        for (std::size_t j = 0; j < sphere.size(); ++j)
+            if (j != i) byDistance.push_back({glm::distance(sphere.position[i], sphere.position[j]), j});
+        std::partial_sort(byDistance.begin(), byDistance.begin() + kBendNeighbours, byDistance.end());
+        float lowest = 1.0f;
+        for (std::size_t k = 0; k < kBendNeighbours; ++k)
+            lowest = std::min(lowest, glm::dot(sphere.normal[i], sphere.normal[byDistance[k].second]));
+        ASSERT_NEAR(bend[i], std::acos(std::clamp(lowest, -1.0f, 1.0f)), 1e-4f) << "point " << i;
+        // On a sphere of radius 2 the normals turn by the angle the farthest neighbour subtends.
+        const float subtended = 2.0f * std::asin(byDistance[kBendNeighbours - 1].first / 4.0f);
+        ASSERT_NEAR(bend[i], subtended, 2e-3f) << "point " << i;
+    }
+    PointSet plane;
+    for (int y = 0; y < 20; ++y)
+        for (int x = 0; x < 20; ++x) {
+            plane.position.push_back({0.1f * float(x), 0.1f * float(y), 0.0f});
+            plane.normal.push_back({0.0f, 0.0f, 1.0f});
+        }
+    for (const float b : bendOf(plane)) EXPECT_EQ(b, 0.0f);
+    EXPECT_TRUE(bendOf(PointSet{}).empty());
+}
+
 } // namespace
 } // namespace pnsplat

@@ -561,7 +561,11 @@ TEST(ViewerProgram, ScriptedSessionChangesThePictureOnlyWhereItMovesTheCamera) {
     same("pan.png", "heat-off.png");
     same("look.png", "panels.png");
     same("look.png", "pnsplat-001.png");
-    same("look.png", "restarted.png");
+    // A refinement restarted at the same camera decides every node afresh, while the session's
+    // nodes refined on the way there (closer) stay refined down to 0.8 of the threshold
+    // (hysteresis): the nodes between the two are a level apart, finer in look.png (37.9 dB; the
+    // offline levels of a model differ by 34 to 40 dB).
+    EXPECT_GE(psnr(image("look.png"), image("restarted.png")), 35.0);
     same("resized.png", "restored.png");
     same("resized-back.png", "bad-drop.png");
     // The paths agree; the resizes give the sizes asked for.

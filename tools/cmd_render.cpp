@@ -112,14 +112,17 @@ void runRender(const RenderArgs& args) {
     checkValidation(*context);
     const char* path = settings.render.path == RenderPath::Compute ? "compute" : "graphics";
     const std::size_t splats = engine.tree().pointCount();
+    const std::size_t covered =
+        engine::coveredPixels(image, engine::backgroundPixel(settings.render.background));
+    const double perCovered = covered > 0 ? double(drawn.splatsDrawn) / double(covered) : 0.0;
     if (args.json) {
         fmt::print(
             summary,
             R"({{"input": {}, "output": {}, "input_points": {}, "levels": {}, "splats": {}, "splats_in_view": {}, )"
             R"("width": {}, "height": {}, "device": {}, "path": "{}", "visibility_ms": {:.3f}, "accumulation_ms": {:.3f}, )"
             R"("normalization_ms": {:.3f}, "camera": "{}", "fov_degrees": {}, "frame": {}, "up": {}, "eye_side": {}, )"
-            R"("adaptive": {}, "threshold_px": {}, "nodes": {}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, )"
-            R"("refine_ms": {:.1f}}})"
+            R"("adaptive": {}, "threshold_px": {}, "nodes": {}, "median_splat_px": {:.3f}, "max_splat_px": {:.3f}, )"
+            R"("over_threshold": {:.5f}, "covered_px": {}, "splats_per_covered_px": {:.3f}, "refine_ms": {:.1f}}})"
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
             inputCount, levels, splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
@@ -128,21 +131,25 @@ void runRender(const RenderArgs& args) {
             args.frame.empty() ? "null" : jsonString(args.frame),
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
-            drawn.maxSplatPx, drawn.overThreshold, drawn.refineWaitMs);
+            drawn.medianSplatPx, drawn.maxSplatPx, drawn.overThreshold, covered, perCovered,
+            drawn.refineWaitMs);
         return;
     }
     fmt::print(
         summary,
         "{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
-        "normalization {:.1f} ms -> {}\n",
+        "normalization {:.1f} ms; {} pixels covered, {:.2f} splats each -> {}\n",
         name, splats, drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(), path,
-        gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, outputName(args.output));
+        gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, covered, perCovered,
+        outputName(args.output));
     if (args.adaptive)
-        fmt::print(summary,
-                   "{}: refined for this camera until its splats are at most {} px wide ({:.2f} % above; the "
-                   "largest {:.2f} px): {} nodes, {} points from {} in {:.0f} ms\n",
-                   name, args.engine.threshold, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
-                   engine.tree().nodeCount(), splats, pointsIn, drawn.refineWaitMs);
+        fmt::print(
+            summary,
+            "{}: refined for this camera until its median splat is at most {} px wide and its "
+            "silhouettes are smooth (median {:.2f} px, {:.1f} % above, the largest {:.2f} px): {} nodes, "
+            "{} points from {} in {:.0f} ms\n",
+            name, args.engine.threshold, drawn.medianSplatPx, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
+            engine.tree().nodeCount(), splats, pointsIn, drawn.refineWaitMs);
     if (view)
         fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
                    viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);

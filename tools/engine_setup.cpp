@@ -52,7 +52,9 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
         ->capture_default_str();
     if (!adaptive) return;
     const std::string with = requiresFlag ? "with --adaptive: " : "";
-    cmd.add_option("--threshold", args.threshold, with + "largest splat diameter wanted on screen, pixels")
+    cmd.add_option("--threshold", args.threshold,
+                   with + "splat diameter wanted on screen, pixels: the median splat drawn (silhouettes are "
+                          "refined finer)")
         ->check(CLI::Range(0.01, 1000.0))
         ->capture_default_str();
     cmd.add_option("--cache-mb", args.cacheMb, with + "the GPU cache of points, MiB (32 bytes a point)")

@@ -30,7 +30,7 @@ struct EngineArgs {
     std::string path = "auto";
     std::string device;
     bool validation = false;
-    float threshold = 2.0f;
+    float threshold = 3.0f;
     float radiusScale = 1.0f; // splat radius = point radius × this
     double cacheMb = 96.0;
     unsigned workers = 2;

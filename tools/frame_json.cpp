@@ -38,13 +38,14 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
         R"("refine_wait_ms": {:.2f}, "gpu_wait_ms": {:.2f}, "refine_ms": {:.2f}, "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, "normalization_ms": {:.2f}, )"
         R"("splats_drawn": {}, "nodes_visible": {}, "nodes_refined": {}, "points_generated": {}, )"
         R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
-        R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, )"
+        R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "median_splat_px": {:.3f}, "max_splat_px": {:.3f}, )"
+        R"("over_threshold": {:.5f}, )"
         R"("settled": {}}})",
         r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs,
         r.gpu.visibilityMs, r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.nodesVisible,
         r.nodesRefined, r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed, r.evictions,
-        r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx, r.maxSplatPx,
-        r.overThreshold, r.settled ? "true" : "false");
+        r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx, r.medianSplatPx,
+        r.maxSplatPx, r.overThreshold, r.settled ? "true" : "false");
 }
 
 void FrameSeries::add(const engine::FrameReport& report, double frameMs) {

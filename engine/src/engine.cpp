@@ -2,6 +2,7 @@
 #include "pnsplat/engine/engine.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cassert>
 #include <chrono>
@@ -30,10 +31,27 @@ double millisecondsSince(Clock::time_point t) {
 
 constexpr std::uint64_t kNever = 0; // frame stamps are frame index + 1
 constexpr float kHalfPi = 1.57079632679f;
-// A node is refined while more than this share of its splats drawn are wider than the threshold,
-// so that a frame holds at most that share too: below the 1 % acceptance 2 of the real-time issue
-// allows, with room for the splats of nodes not yet refined.
-constexpr double kOverShare = 0.008;
+// The level of detail (docs/REALTIME.md, "The level of detail"). A node is drawn through its
+// children while more than kOverShare of its splats drawn are wider than the threshold: its median
+// splat. The 99th percentile (a share of 0.008, before) let the sparsest patches of a node decide for
+// all of it: the refinement's radii spread (the 99th percentile is about 1.9 times the median), so
+// at 2 px the median splat drawn was 0.8 px and a covered pixel held 28 splats (the bunny at
+// 640x480), while away from the silhouettes a picture changes little from one level to the next.
+constexpr double kOverShare = 0.5;
+// At the silhouettes it does: there a coarser level covers more pixels than the next (a splat's
+// disk stands out of a curved surface by about r · bend / 2, node_tree.h, bendOf, which the next
+// level's smaller splats shrink), and a pixel of surface against background costs far more than a
+// shade. A splat seen within acos(kRimCosine) of edge-on (its normal's cosine to the ray below
+// kRimCosine) is at the silhouette; a node is also drawn through its children while more than
+// kRimShare of those (at least kRimPoints) stand out by more than kRimBulgePx pixels and are wider
+// than kRimMinPx. The contour of a view moves out by about that on average: at 0.25 px the far
+// Igea of EngineTest (320x240) covered 49 pixels the offline picture does not (PSNR 36.9 dB), at
+// 0.1 px 39.7 dB, at 0.05 px 42.6 dB with 1.5 times the splats (docs/REALTIME.md).
+constexpr float kRimCosine = 0.3f;
+constexpr float kRimBulgePx = 0.1f;
+constexpr float kRimMinPx = 1.0f;
+constexpr double kRimShare = 0.1;
+constexpr std::size_t kRimPoints = 4;
 // Reports of finished frames kept until reports() takes them.
 constexpr std::size_t kKeptReports = 256;
 // The threshold in force stays at most this many times the one asked for (adaptThreshold). On
@@ -42,21 +60,44 @@ constexpr std::size_t kKeptReports = 256;
 // footprints cover cost what the smaller number of splats saves (docs/REALTIME.md).
 constexpr float kMaxThresholdRise = 8.0f;
 
+// Facing classes: a normal's class is the axis direction nearest it (+x, +y, +z, -x, -y, -z). A
+// chunk holds its splats class after class, so that a frame can leave out the classes of a node none
+// of whose splats faces the eye (Engine::Impl::select, facingMask) before the passes: beside the
+// silhouette a node's normals spread over half a sphere and more, and about a third of the splats
+// of the nodes drawn faced away (the bunny at 640x480).
+constexpr std::uint32_t kFacingClasses = 6;
+using ClassStarts = std::array<std::uint32_t, kFacingClasses + 1>; // offsets in the chunk
+std::uint32_t facingClass(glm::vec3 n) {
+    const glm::vec3 a = glm::abs(n);
+    const std::uint32_t axis = a.x >= a.y && a.x >= a.z ? 0u : a.y >= a.z ? 1u : 2u;
+    return n[static_cast<int>(axis)] < 0.0f ? axis + 3u : axis;
+}
+
 // The splats of a node's points (normals, radii, optional colours), 32 bytes each (gpu::Splat): a
-// chunk's contents, for its upload and its check. In order of radius (then of index): the compute
+// chunk's contents, for its upload and its check. By facing class, then in order of radius (then of
+// index), and the classes' starts: the compute
 // path gives each splat one invocation, and invocations run in lockstep in groups (8 lanes of a
 // SIMD batch on lavapipe, a subgroup on a GPU), each group as long as its largest footprint; splats
 // of like radii side by side waste fewer lanes (the bunny close-up at 640x480 on lavapipe:
 // visibility 25.5 -> 21.6 ms). The compute path's sums are integers and its depth a minimum, so its
 // picture does not depend on the order (the graphics path's float blending does, in the last bits).
-void packSplats(const PointSet& points, gpu::Splat* splats) {
+ClassStarts packSplats(const PointSet& points, gpu::Splat* splats) {
     // Radii are positive: their bits order as the floats do.
-    std::vector<std::uint64_t> order(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i)
-        order[i] = std::uint64_t{std::bit_cast<std::uint32_t>(points.radius[i])} << 32 | i;
+    struct Key {
+        std::uint32_t facing, radius, index;
+        auto operator<=>(const Key&) const = default;
+    };
+    std::vector<Key> order(points.size());
+    ClassStarts starts{};
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const std::uint32_t facing = facingClass(points.normal[i]);
+        order[i] = {facing, std::bit_cast<std::uint32_t>(points.radius[i]), static_cast<std::uint32_t>(i)};
+        ++starts[facing + 1];
+    }
+    for (std::uint32_t c = 0; c < kFacingClasses; ++c) starts[c + 1] += starts[c];
     std::sort(order.begin(), order.end());
     for (std::size_t k = 0; k < points.size(); ++k) {
-        const std::size_t i = order[k] & 0xFFFFFFFFu;
+        const std::size_t i = order[k].index;
         std::uint32_t colour = kDefaultColour;
         if (points.hasColour()) {
             const glm::u8vec3 c = points.colour[i];
@@ -64,6 +105,7 @@ void packSplats(const PointSet& points, gpu::Splat* splats) {
         }
         splats[k] = gpu::Splat{points.position[i], points.radius[i], points.normal[i], colour};
     }
+    return starts;
 }
 
 } // namespace
@@ -82,6 +124,7 @@ struct Engine::Impl {
     // Per node slot of the tree.
     struct NodeState {
         Chunk chunk;
+        ClassStarts classes{}; // where each facing class starts in the chunk
         bool resident = false;
         bool descended = false;             // drawn through its children last time it was visited
         bool jobInFlight = false;           // a refinement of it is with the workers
@@ -101,8 +144,9 @@ struct Engine::Impl {
     Clock::time_point lastFrameStart{};
     bool haveLastFrame = false;
     std::vector<NodeId> drawnNodes;
-    std::deque<FrameReport> submitted; // frames in flight, oldest first
-    std::deque<FrameReport> finished;  // the latest kKeptReports at most
+    std::vector<std::uint8_t> drawnFacing; // Selection::facing of drawnNodes
+    std::deque<FrameReport> submitted;     // frames in flight, oldest first
+    std::deque<FrameReport> finished;      // the latest kKeptReports at most
     // Test check: the ranges each frame in flight draws, to see that no write overlaps them.
     std::array<std::vector<DrawRange>, kFramesInFlight> slotDraws;
     std::array<std::uint64_t, kFramesInFlight> slotFrame{};
@@ -125,6 +169,7 @@ struct Engine::Impl {
     };
     struct Selection {
         std::vector<NodeId> draw;
+        std::vector<std::uint8_t> facing; // per node drawn: the facing classes drawn (bit c: class c)
         std::vector<Wanted> refine, upload;
     };
     Selection select(const Camera& camera);
@@ -202,10 +247,11 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
             const auto chunk = impl->cache->allocatePermanent(static_cast<std::uint32_t>(node.points.size()));
             assert(chunk);
             splats.resize(node.points.size());
-            packSplats(node.points, splats.data());
+            const ClassStarts classes = packSplats(node.points, splats.data());
             impl->cache->write(*chunk, splats, *impl->frames, uploads);
             Impl::NodeState& s = impl->stateOf(root);
             s.chunk = *chunk;
+            s.classes = classes;
             s.resident = true;
         }
         if (uploads != VK_NULL_HANDLE) {
@@ -273,27 +319,62 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
         }
         return 2.0f * radius * scale * focal / std::max(nearest, range.near);
     };
-    // Whether more than kOverShare of a node's splats drawn (in view, facing the eye) would be wider
-    // than `limit` pixels. The box bound settles most nodes at once; the others are measured splat
-    // by splat (no division: r · k > depth), which is exact where a box seen at a grazing angle or
-    // reaching out of the view would refine a node for its nearest corner alone.
+    // Whether the node's splats drawn (in view, facing the eye) are too coarse for the threshold in
+    // force times `factor` (the hysteresis, or 1): more than kOverShare of them wider than it (its
+    // median splat), or more than kRimShare of those at the silhouette standing out by more than
+    // kRimBulgePx times the same ratio (the frame-time target and the hysteresis coarsen both
+    // alike). The box bound settles most nodes at once (no splat reaches kRimMinPx or the limit);
+    // the others are measured splat by splat (no division: r · k > depth), which is exact where a
+    // box seen at a grazing angle or reaching out of the view would refine a node for its nearest
+    // corner alone.
     const glm::vec3 right = glm::vec3(view[0][0], view[1][0], view[2][0]);
     const glm::vec3 upward = glm::vec3(view[0][1], view[1][1], view[2][1]);
-    const auto exceeds = [&](const Node& node, float limit) {
-        if (bound(node, node.maxRadius) <= limit) return false;
-        const float k = 2.0f * scale * focal / limit;
+    const float rise = threshold / settings.threshold;
+    const auto exceeds = [&](const Node& node, float factor) {
+        const float limit = threshold * factor;
+        if (bound(node, node.maxRadius) <= std::min(limit, kRimMinPx)) return false;
+        const float k = 2.0f * scale * focal / limit; // the diameter over the limit, times depth
+        // The bulge r · bend / 2 over its limit, times depth.
+        const float bulge = scale * focal * 0.5f / (kRimBulgePx * rise * factor);
+        const float rimK = 2.0f * scale * focal / kRimMinPx;
         const PointSet& points = node.points;
-        std::size_t drawn = 0, over = 0;
+        std::size_t drawn = 0, over = 0, rim = 0, rimOver = 0;
         for (std::size_t i = 0; i < points.size(); ++i) {
             const glm::vec3 d = points.position[i] - camera.eye;
             const float depth = glm::dot(d, forward);
-            const bool seen = depth > range.near && glm::dot(points.normal[i], d) < 0.0f &&
-                              std::abs(glm::dot(d, right)) <= frustum.tanX * depth &&
-                              std::abs(glm::dot(d, upward)) <= frustum.tanY * depth;
-            drawn += seen;
-            over += seen && points.radius[i] * k > depth;
+            const float facing = -glm::dot(points.normal[i], d); // |d| times the cosine to the ray
+            if (!(depth > range.near && facing > 0.0f &&
+                  std::abs(glm::dot(d, right)) <= frustum.tanX * depth &&
+                  std::abs(glm::dot(d, upward)) <= frustum.tanY * depth))
+                continue;
+            const float r = points.radius[i];
+            ++drawn;
+            over += r * k > depth;
+            if (facing < kRimCosine * glm::length(d)) {
+                ++rim;
+                rimOver += r * node.bend[i] * bulge > depth && r * rimK > depth;
+            }
         }
-        return double(over) > kOverShare * double(drawn);
+        return double(over) > kOverShare * double(drawn) ||
+               (rim >= kRimPoints && double(rimOver) > kRimShare * double(rim));
+    };
+    // The facing classes of a node that hold a splat facing the eye (the passes skip a splat seen
+    // from behind: the test of frontFacing in splat_common.glsl); the others draw nothing and are
+    // left out before the passes, and so is a node with none. The normal cone of `visible` settles
+    // most nodes that face away; these are beside the silhouette. The loop ends once every class
+    // of the node is found facing the eye.
+    const auto draw = [&](NodeId id, const Node& node) {
+        const ClassStarts& classes = stateOf(id).classes;
+        std::uint32_t present = 0, facing = 0;
+        for (std::uint32_t c = 0; c < kFacingClasses; ++c) present |= (classes[c + 1] > classes[c]) << c;
+        if (!settings.render.cullNodes) facing = present; // a test switch: everything drawn
+        const PointSet& points = node.points;
+        for (std::size_t i = 0; i < points.size() && facing != present; ++i)
+            if (glm::dot(points.normal[i], points.position[i] - camera.eye) < 0.0f)
+                facing |= 1u << facingClass(points.normal[i]);
+        if (facing == 0 && present != 0) return;
+        out.draw.push_back(id);
+        out.facing.push_back(static_cast<std::uint8_t>(facing));
     };
     const auto visit = [&](const auto& self, NodeId id) -> void {
         const Node& node = tree.node(id);
@@ -306,7 +387,7 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
         s.lastVisited = stamp;
         // Order of refinement and upload: the node's 99th percentile splat at its nearest depth.
         const float size = bound(node, node.drawnRadius);
-        if (!node.isLeaf() && exceeds(node, threshold * (descended ? settings.hysteresis : 1.0f))) {
+        if (!node.isLeaf() && exceeds(node, descended ? settings.hysteresis : 1.0f)) {
             bool ready = true;
             for (const NodeId c : node.childIds()) {
                 if (stateOf(c).resident || !visible(tree.node(c))) continue;
@@ -318,14 +399,14 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
                 for (const NodeId c : node.childIds()) self(self, c);
                 return;
             }
-            out.draw.push_back(id);
+            draw(id, node);
             return;
         } else if (node.isLeaf() && settings.adaptive && node.level < tree.settings().maxLevel &&
-                   exceeds(node, threshold)) {
+                   exceeds(node, 1.0f)) {
             out.refine.push_back({id, node.level, size});
         }
         s.descended = false;
-        out.draw.push_back(id);
+        draw(id, node);
     };
     for (const NodeId root : tree.roots()) visit(visit, root);
     // Breadth-first: coarsest level first, then largest on screen; ties by id (deterministic).
@@ -423,7 +504,7 @@ std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockste
                 if (d.first < chunk->first + chunk->count && chunk->first < d.first + d.count) ++overwrites;
         }
         splats.resize(node.points.size());
-        packSplats(node.points, splats.data());
+        s.classes = packSplats(node.points, splats.data());
         cache->write(*chunk, splats, *frames, uploads);
         s.chunk = *chunk;
         s.resident = true;
@@ -528,8 +609,8 @@ void Engine::Impl::measureSplats(const Camera& camera, FrameReport& report) cons
         depthRange(camera, {modelBounds.centre,
                             modelBounds.radius * 1.05f + 2.0f * rootMaxRadius * settings.render.radiusScale});
     const float scale = 2.0f * settings.render.radiusScale * focal;
-    std::size_t drawn = 0, over = 0;
-    float largest = 0.0f;
+    std::size_t over = 0;
+    std::vector<float> sizes;
     for (const NodeId id : drawnNodes) {
         const PointSet& points = tree.node(id).points;
         for (std::size_t i = 0; i < points.size(); ++i) {
@@ -539,13 +620,16 @@ void Engine::Impl::measureSplats(const Camera& camera, FrameReport& report) cons
                 glm::dot(points.normal[i], points.position[i] - camera.eye) >= 0.0f)
                 continue;
             const float size = scale * points.radius[i] / depth;
-            ++drawn;
+            sizes.push_back(size);
             over += size > settings.threshold;
-            largest = std::max(largest, size);
         }
     }
-    report.maxSplatPx = largest;
-    report.overThreshold = drawn > 0 ? double(over) / double(drawn) : 0.0;
+    if (sizes.empty()) return;
+    const auto middle = sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2);
+    std::nth_element(sizes.begin(), middle, sizes.end());
+    report.medianSplatPx = *middle;
+    report.maxSplatPx = *std::max_element(middle, sizes.end());
+    report.overThreshold = double(over) / double(sizes.size());
 }
 
 Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& options) {
@@ -594,16 +678,25 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
             }
         }
         m.drawnNodes = std::move(selection.draw);
+        m.drawnFacing = std::move(selection.facing);
         const Clock::time_point releasing = Clock::now();
         m.releaseUnused();
         report.refineMs += millisecondsSince(releasing);
 
         std::vector<DrawRange> ranges;
         ranges.reserve(m.drawnNodes.size());
-        for (const NodeId id : m.drawnNodes) {
-            const Chunk chunk = m.state[id].chunk;
-            ranges.push_back({chunk.first, chunk.count});
-            report.splatsDrawn += chunk.count;
+        for (std::size_t k = 0; k < m.drawnNodes.size(); ++k) {
+            const Impl::NodeState& s = m.state[m.drawnNodes[k]];
+            for (std::uint32_t c = 0; c < kFacingClasses; ++c) {
+                const std::uint32_t count = s.classes[c + 1] - s.classes[c];
+                if (!(m.drawnFacing[k] >> c & 1u) || count == 0) continue;
+                if (!ranges.empty() &&
+                    ranges.back().first + ranges.back().count == s.chunk.first + s.classes[c])
+                    ranges.back().count += count; // the next class of the same chunk
+                else
+                    ranges.push_back({s.chunk.first + s.classes[c], count});
+                report.splatsDrawn += count;
+            }
         }
         // Draw runs in cache order (adjacent chunks merge into one draw).
         std::sort(ranges.begin(), ranges.end(),

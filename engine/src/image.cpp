@@ -154,6 +154,14 @@ glm::u8vec3 backgroundPixel(glm::vec3 background) {
     return {channel(background.x), channel(background.y), channel(background.z)};
 }
 
+std::size_t coveredPixels(const RgbaImage& image, glm::u8vec3 background) {
+    std::size_t covered = 0;
+    for (std::size_t i = 0; i + 3 < image.pixels.size(); i += 4)
+        covered += image.pixels[i] != background.x || image.pixels[i + 1] != background.y ||
+                   image.pixels[i + 2] != background.z;
+    return covered;
+}
+
 namespace {
 
 constexpr std::uint32_t kOutside = UINT32_MAX; // not enclosed background (or reached from the border)

@@ -7,6 +7,8 @@
 #include <numeric>
 #include <string>
 
+#include "kd_tree.h"
+
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -89,6 +91,25 @@ float drawnRadiusOf(std::span<const float> radii) {
     return *at;
 }
 
+std::vector<float> bendOf(const PointSet& points) {
+    std::vector<float> bend(points.size(), 0.0f);
+    if (points.size() < 2) return bend;
+    const KdCloud cloud{points.position};
+    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    tree.buildIndex();
+    std::array<std::uint32_t, kBendNeighbours + 1> index{}; // the point itself, then its neighbours
+    std::array<float, kBendNeighbours + 1> distance2{};
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const std::size_t found =
+            tree.knnSearch(&points.position[i].x, index.size(), index.data(), distance2.data());
+        float lowest = 1.0f;
+        for (std::size_t k = 0; k < found; ++k)
+            lowest = std::min(lowest, glm::dot(points.normal[i], points.normal[index[k]]));
+        bend[i] = std::acos(std::clamp(lowest, -1.0f, 1.0f));
+    }
+    return bend;
+}
+
 void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& angle) {
     glm::vec3 sum(0.0f);
     for (const glm::vec3 n : normals) sum += n;
@@ -165,12 +186,16 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         pending.push_back(std::move(halves[1]));
         pending.push_back(std::move(halves[0]));
     }
+    const std::vector<float> bend = bendOf(input);
     for (SplitPart& part : roots) {
         const NodeId id = tree.allocate();
         Node& node = tree.nodes_[id];
         node.region = part.region;
         node.points.reserve(part.indices.size());
-        for (const std::uint32_t i : part.indices) node.points.appendFrom(input, i);
+        for (const std::uint32_t i : part.indices) {
+            node.points.appendFrom(input, i);
+            node.bend.push_back(bend[i]);
+        }
         for (const SegmentEnds& segment : segments)
             if (part.region.contains(segment.a)) node.segments.push_back(segment);
         const Box box = boxOf(input.position, part.indices);
@@ -267,11 +292,16 @@ NodeJobResult NodeTree::run(NodeJob job, const NodeSettings& settings) {
     RegionResult refined = refineRegion(std::move(job.input), settings.refine);
     out.stats = refined.stats;
     out.parents = std::move(refined.parents);
+    const std::vector<float> bend = bendOf(refined.points);
     for (SplitPart& part : splitNode(refined.points.position, region, settings.maxNodePoints)) {
         NodeChild& child = out.children.emplace_back();
         child.region = part.region;
         child.points.reserve(part.indices.size());
-        for (const std::uint32_t i : part.indices) child.points.appendFrom(refined.points, i);
+        child.bend.reserve(part.indices.size());
+        for (const std::uint32_t i : part.indices) {
+            child.points.appendFrom(refined.points, i);
+            child.bend.push_back(bend[i]);
+        }
         for (const SegmentEnds& segment : refined.segments)
             if (part.region.contains(segment.a)) child.segments.push_back(segment);
     }
@@ -291,6 +321,7 @@ bool NodeTree::attach(NodeJobResult&& result) {
         child.level = nodes_[result.node].level + 1;
         child.parent = result.node;
         child.points = std::move(made.points);
+        child.bend = std::move(made.bend);
         child.segments = std::move(made.segments);
         std::vector<std::uint32_t> all(child.points.size());
         std::iota(all.begin(), all.end(), 0u);
@@ -316,6 +347,7 @@ void NodeTree::release(NodeId id) {
         assert(child.isLeaf());
         pointCount_ -= child.points.size();
         child.points = PointSet{};
+        child.bend = {};
         child.segments = {};
         live_[c] = 0;
         --liveCount_;

@@ -39,9 +39,10 @@ inline constexpr std::uint32_t kDefaultColour = 0xC8C8C8u;
 struct EngineSettings {
     RenderSettings render;
     bool adaptive = true;
-    // Largest splat diameter wanted on screen, in pixels (> 0): nodes whose splats may be larger are
-    // refined.
-    float threshold = 2.0f;
+    // The splat diameter wanted on screen, in pixels (> 0): a node whose median splat drawn is wider is
+    // refined, and so is one whose splats at the silhouette stand out of the surface (engine.cpp;
+    // docs/REALTIME.md, "The level of detail"). At 3 px the points drawn lie about a pixel apart.
+    float threshold = 3.0f;
     // A node drawn refined (its children) goes back to being drawn itself once its own splats are
     // below threshold × hysteresis, in (0, 1]: a still camera never flips between two levels.
     float hysteresis = 0.8f;
@@ -68,10 +69,11 @@ struct EngineSettings {
 };
 
 struct FrameOptions {
-    bool lockstep = false;      // refine and upload until settled before drawing (see above)
-    bool readBack = false;      // keep the image: image() after the frame has finished
-    bool measureSplats = false; // FrameReport::maxSplatPx and overThreshold (a pass over the splats drawn)
-    FrameOutput output;         // where else the image goes (a swapchain); readBack is taken from above
+    bool lockstep = false; // refine and upload until settled before drawing (see above)
+    bool readBack = false; // keep the image: image() after the frame has finished
+    bool measureSplats =
+        false; // FrameReport::medianSplatPx, maxSplatPx and overThreshold (a pass over the splats drawn)
+    FrameOutput output; // where else the image goes (a swapchain); readBack is taken from above
 };
 
 // What one frame did. The CPU parts are known when frame() returns; the GPU pass times when the
@@ -95,8 +97,10 @@ struct FrameReport {
     std::size_t treeNodes = 0, treePoints = 0; // on the CPU
     bool settled = false;                      // nothing was wanted for this camera: no refinement, no upload
     float thresholdPx = 0.0f;                  // the threshold in force (EngineSettings::targetFrameMs)
-    // With measureSplats: the largest projected splat diameter drawn (pixels) and the share of the
-    // splats drawn (in front of the camera) above the threshold.
+    // With measureSplats: the median and the largest projected splat diameter drawn (pixels), and the
+    // share of the splats drawn (in view, facing the eye) above the threshold (about half of a
+    // node's splats may be: its median is what the level of detail holds to).
+    float medianSplatPx = 0.0f;
     float maxSplatPx = 0.0f;
     double overThreshold = 0.0;
 };

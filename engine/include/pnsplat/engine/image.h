@@ -45,6 +45,9 @@ Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, in
 // each channel round(c · 255), as the shaders' packUnorm4x8.
 glm::u8vec3 backgroundPixel(glm::vec3 background);
 
+// The pixels of `image` whose colour (R, G, B) is not `background`: those a splat covers.
+std::size_t coveredPixels(const RgbaImage& image, glm::u8vec3 background);
+
 // A 4-connected set of pixels: its size and its bounding box (inclusive).
 struct ImageRegion {
     std::size_t pixels = 0;

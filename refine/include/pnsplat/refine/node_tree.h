@@ -40,6 +40,13 @@ inline constexpr float kDrawnRadiusQuantile = 0.99f;
 
 // The kDrawnRadiusQuantile quantile of `radii` (0 when empty).
 float drawnRadiusOf(std::span<const float> radii);
+// Per point, how far the surface turns within one spacing: the largest angle (radians) between its
+// normal and those of its kBendNeighbours nearest points in `points`. A splat at the silhouette
+// stands out of the surface by about r · bend / 2 (the sagitta of a circle turning by bend over r),
+// which the next level's smaller splats halve; the engine refines the nodes whose silhouette splats
+// stand out visibly (engine.cpp, the level of detail).
+inline constexpr std::size_t kBendNeighbours = 6;
+std::vector<float> bendOf(const PointSet& points);
 // The cone of `normals` (unit): axis their normalised sum, half-angle the largest angle to it (π
 // when the sum is too short to be an axis).
 void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& angle);
@@ -72,6 +79,7 @@ struct Node {
     std::uint32_t childCount = 0;      // 0: a leaf (not refined, or its children released)
     std::uint32_t generation = 0;      // counts the uses of this slot: jobs check it
     PointSet points;                   // its points (normals, radii, colours, creases as P0's)
+    std::vector<float> bend;           // per point: bendOf over its level's points of its parent's region
     std::vector<SegmentEnds> segments; // boundary and crease segments whose first point is its own
 
     bool isLeaf() const { return childCount == 0; }
@@ -89,6 +97,7 @@ struct NodeJob {
 struct NodeChild {
     Region region;
     PointSet points;
+    std::vector<float> bend;
     std::vector<SegmentEnds> segments;
 };
 struct NodeJobResult {

@@ -753,6 +753,76 @@ TEST(ImageTest, PngRoundTrip) {
     EXPECT_EQ(b->pixels, a.pixels);
 }
 
+// Draws `art` (one character a pixel: '.' background, '#' surface) into an image.
+RgbaImage imageOf(const std::vector<std::string>& art, glm::u8vec3 background) {
+    RgbaImage image(static_cast<std::uint32_t>(art[0].size()), static_cast<std::uint32_t>(art.size()));
+    for (std::uint32_t y = 0; y < image.height; ++y)
+        for (std::uint32_t x = 0; x < image.width; ++x) {
+            const glm::u8vec4 colour =
+                art[y][x] == '.' ? glm::u8vec4(background, 255) : glm::u8vec4(200, 200, 200, 255);
+            std::copy(&colour[0], &colour[0] + 4, &image.pixels[(std::size_t{y} * image.width + x) * 4]);
+        }
+    return image;
+}
+
+TEST(ImageTest, EnclosedBackgroundIsWhatTheBorderDoesNotReach) {
+    const glm::u8vec3 white = engine::backgroundPixel({1.0f, 1.0f, 1.0f});
+    EXPECT_EQ(white, glm::u8vec3(255));
+    EXPECT_EQ(engine::backgroundPixel({0.0f, 0.5f, 2.0f}), glm::u8vec3(0, 128, 255));
+    // A ring with a hole of 4 pixels, a one-pixel hole beside it, a bay open to the border (not
+    // enclosed) and background touching only diagonally (4-connected: enclosed).
+    const std::vector<std::string> art = {
+        "..........", //
+        ".######...", //
+        ".#..#.#...", //
+        ".#..###.#.", //
+        ".####..##.", //
+        "...#.#.#..", //
+        "...##.#...", //
+        "..........", //
+    };
+    const RgbaImage image = imageOf(art, white);
+    const std::vector<engine::ImageRegion> regions = engine::enclosedBackground(image, white);
+    ASSERT_EQ(regions.size(), 4u);
+    EXPECT_EQ(regions[0].pixels, 4u); // the square hole
+    EXPECT_EQ(regions[0].x0, 2u);
+    EXPECT_EQ(regions[0].y0, 2u);
+    EXPECT_EQ(regions[0].x1, 3u);
+    EXPECT_EQ(regions[0].y1, 3u);
+    EXPECT_EQ(regions[1].pixels, 1u); // the one-pixel hole at (5, 2)
+    EXPECT_EQ(regions[1].x0, 5u);
+    EXPECT_EQ(regions[1].y1, 2u);
+    EXPECT_EQ(regions[2].pixels, 3u); // (5, 4), (6, 4) and (6, 5)
+    EXPECT_EQ(regions[2].x1, 6u);
+    EXPECT_EQ(regions[2].y1, 5u);
+    EXPECT_EQ(regions[3].pixels, 1u); // (4, 5), which touches the last only diagonally
+    EXPECT_EQ(regions[3].x0, 4u);
+    EXPECT_EQ(regions[3].y0, 5u);
+    // Another background colour: the white pixels are surface then, and nothing is enclosed.
+    EXPECT_TRUE(engine::enclosedBackground(image, glm::u8vec3(0)).empty());
+    EXPECT_TRUE(engine::enclosedBackground(RgbaImage(), white).empty());
+    EXPECT_TRUE(engine::enclosedBackground(RgbaImage(1, 1), white).empty());
+
+    // Against a reference without enclosed background, all of them; against one that shows a
+    // pixel of the square hole enclosed, the other three.
+    RgbaImage reference = imageOf(std::vector<std::string>(8, ".........."), white);
+    auto absent = engine::enclosedBackgroundAbsentIn(image, reference, white);
+    ASSERT_TRUE(absent.ok());
+    EXPECT_EQ(absent->size(), 4u);
+    reference = imageOf(std::vector<std::string>(8, "##########"), white);
+    std::copy(&image.pixels[(3 * 10 + 3) * 4], &image.pixels[(3 * 10 + 3) * 4] + 4,
+              &reference.pixels[(3 * 10 + 3) * 4]);
+    absent = engine::enclosedBackgroundAbsentIn(image, reference, white);
+    ASSERT_TRUE(absent.ok());
+    ASSERT_EQ(absent->size(), 3u);
+    EXPECT_EQ((*absent)[0].x0, 5u);
+    reference = image;
+    absent = engine::enclosedBackgroundAbsentIn(image, reference, white);
+    ASSERT_TRUE(absent.ok());
+    EXPECT_TRUE(absent->empty());
+    EXPECT_FALSE(engine::enclosedBackgroundAbsentIn(image, RgbaImage(10, 7), white).ok());
+}
+
 TEST(CameraTest, FrustumAgreesWithSamplingOnTheSphere) {
     // A sphere intersects the frustum iff some point of it lies inside: sample the sphere densely
     // and compare with the analytic test, allowing disagreement only within 1% of the radius.

@@ -147,4 +147,99 @@ Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, in
     return result;
 }
 
+glm::u8vec3 backgroundPixel(glm::vec3 background) {
+    const auto channel = [](float c) {
+        return static_cast<std::uint8_t>(std::lround(std::clamp(c, 0.0f, 1.0f) * 255.0f));
+    };
+    return {channel(background.x), channel(background.y), channel(background.z)};
+}
+
+namespace {
+
+constexpr std::uint32_t kOutside = UINT32_MAX; // not enclosed background (or reached from the border)
+
+// Per pixel: the index of the enclosed background region it belongs to, else kOutside; `regions`
+// receives the regions.
+std::vector<std::uint32_t> labelEnclosedBackground(const RgbaImage& image, glm::u8vec3 background,
+                                                   std::vector<ImageRegion>& regions) {
+    const std::uint32_t w = image.width, h = image.height;
+    const std::size_t count = std::size_t{w} * h;
+    constexpr std::uint32_t kUnvisited = UINT32_MAX - 1;
+    std::vector<std::uint32_t> label(count, kOutside);
+    if (count == 0) return label;
+    for (std::size_t i = 0; i < count; ++i)
+        if (image.pixels[4 * i] == background.x && image.pixels[4 * i + 1] == background.y &&
+            image.pixels[4 * i + 2] == background.z)
+            label[i] = kUnvisited;
+    std::vector<std::size_t> stack;
+    // Gives every unvisited background pixel 4-connected to `seed` the label `value`; returns the
+    // region it filled.
+    const auto fill = [&](std::size_t seed, std::uint32_t value) {
+        ImageRegion region{0, w, h, 0, 0};
+        label[seed] = value;
+        stack.push_back(seed);
+        while (!stack.empty()) {
+            const std::size_t i = stack.back();
+            stack.pop_back();
+            const auto x = static_cast<std::uint32_t>(i % w), y = static_cast<std::uint32_t>(i / w);
+            ++region.pixels;
+            region.x0 = std::min(region.x0, x);
+            region.y0 = std::min(region.y0, y);
+            region.x1 = std::max(region.x1, x);
+            region.y1 = std::max(region.y1, y);
+            const auto visit = [&](std::size_t j) {
+                if (label[j] == kUnvisited) {
+                    label[j] = value;
+                    stack.push_back(j);
+                }
+            };
+            if (x > 0) visit(i - 1);
+            if (x + 1 < w) visit(i + 1);
+            if (y > 0) visit(i - w);
+            if (y + 1 < h) visit(i + w);
+        }
+        return region;
+    };
+    // The background reached from the border is not enclosed.
+    const auto fromBorder = [&](std::uint32_t x, std::uint32_t y) {
+        const std::size_t i = std::size_t{y} * w + x;
+        if (label[i] == kUnvisited) fill(i, kOutside);
+    };
+    for (std::uint32_t x = 0; x < w; ++x) fromBorder(x, 0), fromBorder(x, h - 1);
+    for (std::uint32_t y = 0; y < h; ++y) fromBorder(0, y), fromBorder(w - 1, y);
+    for (std::size_t i = 0; i < count; ++i)
+        if (label[i] == kUnvisited) {
+            const auto index = static_cast<std::uint32_t>(regions.size());
+            regions.push_back(fill(i, index));
+        }
+    return label;
+}
+
+} // namespace
+
+std::vector<ImageRegion> enclosedBackground(const RgbaImage& image, glm::u8vec3 background) {
+    std::vector<ImageRegion> regions;
+    labelEnclosedBackground(image, background, regions);
+    return regions;
+}
+
+Result<std::vector<ImageRegion>>
+enclosedBackgroundAbsentIn(const RgbaImage& image, const RgbaImage& reference, glm::u8vec3 background) {
+    if (image.width != reference.width || image.height != reference.height)
+        return Error{"images differ in size: " + std::to_string(image.width) + "x" +
+                     std::to_string(image.height) + " and " + std::to_string(reference.width) + "x" +
+                     std::to_string(reference.height)};
+    std::vector<ImageRegion> regions, referenceRegions;
+    const std::vector<std::uint32_t> label = labelEnclosedBackground(image, background, regions);
+    const std::vector<std::uint32_t> referenceLabel =
+        labelEnclosedBackground(reference, background, referenceRegions);
+    std::vector<std::uint8_t> shared(regions.size(), 0);
+    for (std::size_t i = 0; i < label.size(); ++i)
+        if (label[i] != kOutside && referenceLabel[i] != kOutside) shared[label[i]] = 1;
+    std::vector<ImageRegion> absent;
+    for (std::size_t k = 0; k < regions.size(); ++k)
+        if (!shared[k]) absent.push_back(regions[k]);
+    return absent;
+}
+
 } // namespace pnsplat::engine

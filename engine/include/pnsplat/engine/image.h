@@ -41,4 +41,26 @@ struct ImageDifference {
 // Compares two images of the same size (else an error). Alpha is ignored.
 Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, int pixelThreshold = 2);
 
+// The pixel the renderer writes where no splat is (RenderSettings::background, sRGB in [0, 1]):
+// each channel round(c · 255), as the shaders' packUnorm4x8.
+glm::u8vec3 backgroundPixel(glm::vec3 background);
+
+// A 4-connected set of pixels: its size and its bounding box (inclusive).
+struct ImageRegion {
+    std::size_t pixels = 0;
+    std::uint32_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+
+// Enclosed background: the 4-connected regions of pixels of colour `background` (R, G, B exactly;
+// alpha ignored) that no path of background pixels joins to the image's border (a flood fill from
+// the border). Holes in a surface show as such regions, and so do openings the model itself
+// encloses. In the order of their first pixel (rows top to bottom); none in an empty image.
+std::vector<ImageRegion> enclosedBackground(const RgbaImage& image, glm::u8vec3 background);
+
+// The enclosed background regions of `image` that `reference` lacks: those with no pixel in an
+// enclosed background region of `reference` (images of the same size, else an error). A hole of
+// a rendering that the reference picture does not show.
+Result<std::vector<ImageRegion>>
+enclosedBackgroundAbsentIn(const RgbaImage& image, const RgbaImage& reference, glm::u8vec3 background);
+
 } // namespace pnsplat::engine

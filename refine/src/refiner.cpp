@@ -543,14 +543,15 @@ struct Refiner::State {
     std::vector<std::uint8_t>
         segmentInserted; // per segment: bit t set when its point at third t+1 was inserted
 
-    // refineRegion: its one level refines only the region's points (not the context points), inserts
-    // no point outside the region (scaled with the points during the level), and splits segments
-    // at the parity of the global level: levelOffset is the level of P0 here.
+    // refineRegion: its one level refines the region's points and the context points near it (not
+    // the frozen ones), inserts no point outside the region (scaled with the points during the
+    // level), and splits segments at the parity of the global level: levelOffset is the level of P0
+    // here.
     struct RegionRun {
         Region region;
         std::uint32_t levelOffset = 0;
         bool recordParents = false;
-        std::vector<std::uint8_t> context; // per point of P0: a context point, not refined
+        std::vector<std::uint8_t> frozen; // per point of P0: a context point far from the region, not refined
     };
     std::optional<RegionRun> regionRun;
     std::vector<std::array<std::uint32_t, 3>> newPointParents; // recordParents: per new point (ParentRecord)
@@ -1380,7 +1381,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             longestOwned[segment.a] = std::max(longestOwned[segment.a], segmentLength(segment));
     }
     const auto skipped = [&](std::uint32_t i) {
-        if (regionRun && regionRun->context[i]) return true;
+        if (regionRun && regionRun->frozen[i]) return true;
         return levelRadius[i] <= targetRadius && (longestOwned.empty() || longestOwned[i] <= targetRadius);
     };
     std::erase_if(keyed, [&](const auto& entry) {
@@ -1723,13 +1724,20 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
     Refiner::State& state = *refiner.state_;
     const auto count = static_cast<std::uint32_t>(state.points.size());
     Refiner::State::RegionRun run{input.region, input.level, input.recordParents, {}};
-    run.context.resize(count);
+    std::vector<std::uint8_t> context(count);
+    run.frozen.resize(count);
     std::vector<std::uint32_t> sortedIndexOf(owned);
     for (std::uint32_t i = 0; i < count; ++i) {
         const std::uint32_t k = state.inputOrder[i];
-        run.context[i] = k >= owned;
+        context[i] = k >= owned;
         if (k < owned) sortedIndexOf[k] = i;
         assert(k >= owned || input.region.contains(state.points.position[i]));
+        // Choice (refiner.h): a context point is refined too where it lies within kRetryReach · r of
+        // the region; its candidates lie within c_β,max · r of it (section 8.1), and so do its
+        // children that the region's points would see. Farther ones stay frozen.
+        const glm::vec3 x = state.points.position[i];
+        const float distance = glm::length(x - glm::clamp(x, input.region.lo, input.region.hi));
+        run.frozen[i] = context[i] && !(distance <= kRetryReach * state.points.radius[i]);
     }
     // The segments by index: a among the owned points, b anywhere in the set (others are dropped).
     std::vector<std::pair<PositionKey, std::uint32_t>> byPosition(count);
@@ -1743,7 +1751,7 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
     };
     for (const SegmentEnds& segment : input.segments) {
         const auto a = find(segment.a), b = find(segment.b);
-        if (a && b && !run.context[*a]) state.segments.push_back({*a, *b, segment.crease});
+        if (a && b && !context[*a]) state.segments.push_back({*a, *b, segment.crease});
     }
     state.regionRun = std::move(run);
     result.stats = state.refineLevel({});
@@ -1753,7 +1761,6 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
     result.points.reserve(owned + all.size() - firstNew);
     for (std::size_t k = 0; k < owned; ++k) result.points.appendFrom(all, sortedIndexOf[k]);
     for (std::size_t i = firstNew; i < all.size(); ++i) result.points.appendFrom(all, i);
-    const std::vector<std::uint8_t>& context = state.regionRun->context;
     for (const Refiner::State::Segment& segment : state.segments)
         if (segment.a >= firstNew || !context[segment.a])
             result.segments.push_back({all.position[segment.a], all.position[segment.b], segment.crease});

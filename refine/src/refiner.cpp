@@ -108,6 +108,10 @@ struct RingMember {
     float discardRadius = 0;   // Y_p: λ2 times its radius, which stays while p is refined
 };
 
+// The cell of a member of N'_p that is not stored: a candidate that refineRegion left to the
+// neighbouring region (its `local` counts such members of one point).
+constexpr std::uint32_t kPhantomCell = UINT32_MAX;
+
 // Storage order of new points: deterministic whatever the order in which they were found.
 inline bool storedBefore(const RingMember& a, const RingMember& b) {
     return a.cell != b.cell ? a.cell < b.cell : a.local < b.local;
@@ -543,15 +547,14 @@ struct Refiner::State {
     std::vector<std::uint8_t>
         segmentInserted; // per segment: bit t set when its point at third t+1 was inserted
 
-    // refineRegion: its one level refines the region's points and the context points near it (not
-    // the frozen ones), inserts no point outside the region (scaled with the points during the
-    // level), and splits segments at the parity of the global level: levelOffset is the level of P0
-    // here.
+    // refineRegion: its one level refines only the region's points (not the context points), inserts
+    // no point outside the region (scaled with the points during the level), and splits segments
+    // at the parity of the global level: levelOffset is the level of P0 here.
     struct RegionRun {
         Region region;
         std::uint32_t levelOffset = 0;
         bool recordParents = false;
-        std::vector<std::uint8_t> frozen; // per point of P0: a context point far from the region, not refined
+        std::vector<std::uint8_t> frozen; // per point of P0: a context point that is not refined
     };
     std::optional<RegionRun> regionRun;
     std::vector<std::array<std::uint32_t, 3>> newPointParents; // recordParents: per new point (ParentRecord)
@@ -1158,6 +1161,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     });
 
     std::vector<RingMember>& ring = s.ring;
+    std::uint32_t phantoms = 0;
     std::vector<Candidate>& candidates = s.candidates;
     const std::uint32_t firstChild = cellCount[cell];
     double interpolationSeconds = 0;
@@ -1281,9 +1285,14 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             if (profile) interpolationSeconds += secondsSince(ti);
             continue;
         }
-        // refineRegion: the neighbouring region inserts what lies in it (see refiner.h).
+        // refineRegion: the neighbouring region inserts what lies in it (see refiner.h). Choice: the
+        // candidate joins N'_p all the same, unstored, as the point the whole level would insert
+        // there: p's radius reaches it, and the members beside it grow to reach it rather than
+        // each other across the gap it leaves.
         if (outsideRegion(np.position)) {
             ++s.outsideRegion;
+            insertIntoRing(ring, RingMember{kPhantomCell, phantoms++, np.position, np.normal,
+                                            frame.angleOf(np.position - x)});
             continue;
         }
         const std::uint32_t local = store(cell, np, s);
@@ -1308,8 +1317,10 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             const float toP = glm::length(pj - x);
             newRadius = std::max(newRadius, toP);
             const float after = glm::length(pj - ring[nextIndex(j, m)].position);
-            float& rj = newPoint(ring[j]).radius;
-            rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
+            if (ring[j].cell != kPhantomCell) {
+                float& rj = newPoint(ring[j]).radius;
+                rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
+            }
             before = after;
         }
         points.radius[p] = kRadiusMargin * newRadius;

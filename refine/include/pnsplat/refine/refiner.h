@@ -254,7 +254,10 @@ std::vector<SegmentEnds> findSegments(const PointSet& points, const RefineOption
 //    LevelStats::outsideRegion), the context points' included: the neighbouring region inserts
 //    it when it refines its own points (and, near the border, ours), so a new point is inserted
 //    by the region that holds it; and every point of a region lies in it, which makes the context
-//    of a region exactly the points of the regions within reach of it.
+//    of a region exactly the points of the regions within reach of it. Such a candidate joins N'_p
+//    all the same, unstored: the radius of the point that made it reaches it, and the ring's
+//    members beside it grow to reach it, not each other across the gap it would leave (which made
+//    the radii near borders larger than the whole level's, and nodes refined deeper than needed).
 //  - Segments (section 6) are given, by position, with `a` among the region's points and `b`
 //    among `points` (others are dropped); they are split when level l+1 is odd, as in refineLevel.
 // The result depends only on the input (its order included), never on the thread or the history:

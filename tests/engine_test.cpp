@@ -195,6 +195,67 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
     }
 }
 
+// Acceptance 1 of issue 26 ("no seams"): where nodes of different levels meet, the settled adaptive
+// picture shows no hole that the offline refinement to the deepest level drawn lacks, i.e. no
+// enclosed background region (background not 4-connected to the border) that the offline picture
+// does not show too. At render's default framing. The bunny's random sampling leaves gaps in P0
+// across the first median plane of the roots; while a region froze its context points, such a gap
+// was filled by neither side at any level (two holes of 2 pixels here, of 44 and 77 at 640×480).
+TEST_F(EngineTest, SettledPictureHasNoHoleTheOfflineRefinementLacks) {
+    struct Case {
+        std::string file;
+        std::uint32_t width, height;
+    };
+    const std::vector<Case> cases = {{"bunny-3500-random.ply", 160, 120}};
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.file);
+        PNSPLAT_REQUIRE_DATA(c.file);
+        const PointSet input = load(c.file);
+        const EngineSettings settings = adaptive(c.width, c.height);
+        auto created = Engine::create(context(), input, settings);
+        ASSERT_TRUE(created.ok()) << created.error().message;
+        Engine& engine = **created;
+        const Camera camera =
+            engine::frameSphere(engine::boundingSphere(input.position), float(c.width) / float(c.height),
+                                40.0f * std::numbers::pi_v<float> / 180.0f, 0.0f,
+                                engine::chooseViewpoint(input.position, input.normal));
+        FrameReport report;
+        const RgbaImage adaptiveImage = frameOf(engine, camera, &report);
+        ASSERT_TRUE(report.settled);
+        std::uint32_t deepest = 0;
+        for (const NodeId id : engine.drawn()) deepest = std::max(deepest, engine.tree().node(id).level);
+        const glm::u8vec3 background = engine::backgroundPixel(settings.render.background);
+        const auto describe = [](const std::vector<engine::ImageRegion>& regions) {
+            std::string text;
+            char line[96];
+            for (const engine::ImageRegion& r : regions) {
+                std::snprintf(line, sizeof line, " %zu px at (%u, %u)-(%u, %u);", r.pixels, r.x0, r.y0, r.x1,
+                              r.y1);
+                text += line;
+            }
+            return text;
+        };
+        if (kSanitized) {
+            // The offline refinement to the deepest level drawn is too slow under the sanitizers;
+            // its pictures of these views show no enclosed background (measured), so none may show.
+            const auto regions = engine::enclosedBackground(adaptiveImage, background);
+            EXPECT_TRUE(regions.empty()) << "holes:" << describe(regions);
+            continue;
+        }
+        Refiner offline(input, RefineOptions{});
+        while (offline.levels() < deepest) offline.refineLevel();
+        const RgbaImage offlineImage = render(offline.points(), settings.render, camera);
+        const auto absent = engine::enclosedBackgroundAbsentIn(adaptiveImage, offlineImage, background);
+        ASSERT_TRUE(absent.ok()) << absent.error().message;
+        EXPECT_TRUE(absent->empty()) << "holes the offline refinement (level " << deepest
+                                     << ") lacks:" << describe(*absent);
+        const auto difference = engine::compareImages(adaptiveImage, offlineImage);
+        ASSERT_TRUE(difference.ok());
+        std::printf("[%s %ux%u] levels to %u; PSNR %.2f dB against the offline refinement\n", c.file.c_str(),
+                    c.width, c.height, deepest, difference->psnr);
+    }
+}
+
 // A smooth random walk around a model (fixed seed): the eye wanders over directions and distances
 // from `nearest` to `farthest` bounding radii, the target over the middle of the model.
 std::vector<Camera> randomWalk(const engine::Sphere& bounds, std::size_t frames, std::uint64_t seed,

@@ -108,6 +108,10 @@ struct RingMember {
     float discardRadius = 0;   // Y_p: λ2 times its radius, which stays while p is refined
 };
 
+// The cell of a member of N'_p that is not stored: a candidate that refineRegion left to the
+// neighbouring region (its `local` counts such members of one point).
+constexpr std::uint32_t kPhantomCell = UINT32_MAX;
+
 // Storage order of new points: deterministic whatever the order in which they were found.
 inline bool storedBefore(const RingMember& a, const RingMember& b) {
     return a.cell != b.cell ? a.cell < b.cell : a.local < b.local;
@@ -550,7 +554,7 @@ struct Refiner::State {
         Region region;
         std::uint32_t levelOffset = 0;
         bool recordParents = false;
-        std::vector<std::uint8_t> context; // per point of P0: a context point, not refined
+        std::vector<std::uint8_t> frozen; // per point of P0: a context point that is not refined
     };
     std::optional<RegionRun> regionRun;
     std::vector<std::array<std::uint32_t, 3>> newPointParents; // recordParents: per new point (ParentRecord)
@@ -1157,6 +1161,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     });
 
     std::vector<RingMember>& ring = s.ring;
+    std::uint32_t phantoms = 0;
     std::vector<Candidate>& candidates = s.candidates;
     const std::uint32_t firstChild = cellCount[cell];
     double interpolationSeconds = 0;
@@ -1280,9 +1285,14 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             if (profile) interpolationSeconds += secondsSince(ti);
             continue;
         }
-        // refineRegion: the neighbouring region inserts what lies in it (see refiner.h).
+        // refineRegion: the neighbouring region inserts what lies in it (see refiner.h). Choice: the
+        // candidate joins N'_p all the same, unstored, as the point the whole level would insert
+        // there: p's radius reaches it, and the members beside it grow to reach it rather than
+        // each other across the gap it leaves.
         if (outsideRegion(np.position)) {
             ++s.outsideRegion;
+            insertIntoRing(ring, RingMember{kPhantomCell, phantoms++, np.position, np.normal,
+                                            frame.angleOf(np.position - x)});
             continue;
         }
         const std::uint32_t local = store(cell, np, s);
@@ -1307,8 +1317,10 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
             const float toP = glm::length(pj - x);
             newRadius = std::max(newRadius, toP);
             const float after = glm::length(pj - ring[nextIndex(j, m)].position);
-            float& rj = newPoint(ring[j]).radius;
-            rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
+            if (ring[j].cell != kPhantomCell) {
+                float& rj = newPoint(ring[j]).radius;
+                rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
+            }
             before = after;
         }
         points.radius[p] = kRadiusMargin * newRadius;
@@ -1380,7 +1392,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             longestOwned[segment.a] = std::max(longestOwned[segment.a], segmentLength(segment));
     }
     const auto skipped = [&](std::uint32_t i) {
-        if (regionRun && regionRun->context[i]) return true;
+        if (regionRun && regionRun->frozen[i]) return true;
         return levelRadius[i] <= targetRadius && (longestOwned.empty() || longestOwned[i] <= targetRadius);
     };
     std::erase_if(keyed, [&](const auto& entry) {
@@ -1723,13 +1735,20 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
     Refiner::State& state = *refiner.state_;
     const auto count = static_cast<std::uint32_t>(state.points.size());
     Refiner::State::RegionRun run{input.region, input.level, input.recordParents, {}};
-    run.context.resize(count);
+    std::vector<std::uint8_t> context(count);
+    run.frozen.resize(count);
     std::vector<std::uint32_t> sortedIndexOf(owned);
     for (std::uint32_t i = 0; i < count; ++i) {
         const std::uint32_t k = state.inputOrder[i];
-        run.context[i] = k >= owned;
+        context[i] = k >= owned;
         if (k < owned) sortedIndexOf[k] = i;
         assert(k >= owned || input.region.contains(state.points.position[i]));
+        // Choice (refiner.h): a context point is refined too where it lies within kRetryReach · r of
+        // the region; its candidates lie within c_β,max · r of it (section 8.1), and so do its
+        // children that the region's points would see. Farther ones stay frozen.
+        const glm::vec3 x = state.points.position[i];
+        const float distance = glm::length(x - glm::clamp(x, input.region.lo, input.region.hi));
+        run.frozen[i] = context[i] && !(distance <= kRetryReach * state.points.radius[i]);
     }
     // The segments by index: a among the owned points, b anywhere in the set (others are dropped).
     std::vector<std::pair<PositionKey, std::uint32_t>> byPosition(count);
@@ -1743,7 +1762,7 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
     };
     for (const SegmentEnds& segment : input.segments) {
         const auto a = find(segment.a), b = find(segment.b);
-        if (a && b && !run.context[*a]) state.segments.push_back({*a, *b, segment.crease});
+        if (a && b && !context[*a]) state.segments.push_back({*a, *b, segment.crease});
     }
     state.regionRun = std::move(run);
     result.stats = state.refineLevel({});
@@ -1753,7 +1772,6 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
     result.points.reserve(owned + all.size() - firstNew);
     for (std::size_t k = 0; k < owned; ++k) result.points.appendFrom(all, sortedIndexOf[k]);
     for (std::size_t i = firstNew; i < all.size(); ++i) result.points.appendFrom(all, i);
-    const std::vector<std::uint8_t>& context = state.regionRun->context;
     for (const Refiner::State::Segment& segment : state.segments)
         if (segment.a >= firstNew || !context[segment.a])
             result.segments.push_back({all.position[segment.a], all.position[segment.b], segment.crease});

@@ -10,12 +10,13 @@
 //
 // Levels stay separated: a node of level l is refined from the points of P(l) only, its own and,
 // as context, those of the other regions of level l within reach of its points (the reach of a
-// point's neighbourhood search, 1.5 r). Rule (balance): a node of level l can be refined only
-// when every region of level l that its reach touches exists; otherwise the coarser leaves there
-// are refined first (ready() names them). Since no point is inserted outside its region, the
-// context is exactly the points of those regions near the node, so the children of a node are a
-// function of P(l) alone: the same whatever was refined, evicted or refined again before, and on
-// whichever thread (the tree's jobs run refineRegion on copies of their input).
+// point's neighbourhood search, 1.5 r); the context points near its region are refined with it,
+// and what they insert in its region is kept (refineRegion). Rule (balance): a node of level l
+// can be refined only when every region of level l that its reach touches exists; otherwise the
+// coarser leaves there are refined first (ready() names them). Since no point is inserted outside
+// its region, the context is exactly the points of those regions near the node, so the children
+// of a node are a function of P(l) alone: the same whatever was refined, evicted or refined again
+// before, and on whichever thread (the tree's jobs run refineRegion on copies of their input).
 //
 // Thread use: the tree is changed and read by one thread (the engine's); run() is a pure function
 // of its job and may run on any thread.

@@ -242,13 +242,22 @@ std::vector<SegmentEnds> findSegments(const PointSet& points, const RefineOption
 // One level of the refinement of one region of space (real-time refinement, paper section 7;
 // docs/ARCHITECTURE.md, "Real-time refinement"): the points of P(l) in `region` are refined once,
 // in the order refineLevel would refine `points`, seeing the other points of P(l) as context.
-//  - Context points are neighbours, fan corners and candidates' corners like any point of P(l),
-//    but they are not refined: they insert nothing and their children are not seen.
+//  - Context points are neighbours, fan corners and candidates' corners like any point of P(l).
+//    Choice: those within kRetryReach · r of `region` (r their own radius) are refined too, as the
+//    whole level would refine them; the rest are not (they insert nothing, their children are not
+//    seen). What the points beyond the border insert on this side is then inserted here, and the
+//    rings, hence the radii, of the region's points near the border see it. (With every context
+//    point frozen, a gap of P(l) across a border was filled by neither side: each side's
+//    candidates beyond the border were dropped and the other side's fans made others; the gap
+//    stayed empty at every level while the radii around it shrank: a hole, docs/ALGORITHM.md §8.2.)
 //  - Choice: no point is inserted outside `region` (a candidate or segment point there is dropped,
-//    LevelStats::outsideRegion). The neighbouring region inserts it when its own points are
-//    refined, so a gap at the border between two regions is filled once, by the region that holds
-//    its new point; and every point of a region lies in it, which makes the context of a region
-//    exactly the points of the regions within reach of it.
+//    LevelStats::outsideRegion), the context points' included: the neighbouring region inserts
+//    it when it refines its own points (and, near the border, ours), so a new point is inserted
+//    by the region that holds it; and every point of a region lies in it, which makes the context
+//    of a region exactly the points of the regions within reach of it. Such a candidate joins N'_p
+//    all the same, unstored: the radius of the point that made it reaches it, and the ring's
+//    members beside it grow to reach it, not each other across the gap it would leave (which made
+//    the radii near borders larger than the whole level's, and nodes refined deeper than needed).
 //  - Segments (section 6) are given, by position, with `a` among the region's points and `b`
 //    among `points` (others are dropped); they are split when level l+1 is odd, as in refineLevel.
 // The result depends only on the input (its order included), never on the thread or the history:

@@ -92,13 +92,13 @@ TEST(CliRefine, DefaultModelTwoLevels) {
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     EXPECT_EQ(r.err, "");
     std::cout << "[refine -l 2] " << r.out;
-    EXPECT_NE(r.out.find("2000 points in"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(std::to_string(kDefaultModelPoints) + " points in"), std::string::npos) << r.out;
     EXPECT_EQ(lines(r.out).size(), 1u) << r.out;
     const auto data = readPly(out);
     ASSERT_TRUE(data.ok()) << data.error().message;
     const PointSet& points = data->points;
-    // Two √3-like levels multiply the count by about 9 (measured 2,000 -> 18,066).
-    EXPECT_GT(points.size(), 2000u * 6);
+    // Two √3-like levels multiply the count by about 9.
+    EXPECT_GT(points.size(), kDefaultModelPoints * 6);
     EXPECT_TRUE(points.hasColour());
     EXPECT_TRUE(points.hasRadius());
     EXPECT_NE(r.out.find(std::to_string(points.size()) + " out"), std::string::npos) << r.out;
@@ -464,7 +464,7 @@ TEST(CliMemory, SixtyFourLevelsAreRefusedAtOnce) {
     const RunResult r = run("refine --levels 64 -o " + quote(out));
     std::cout << "[refine --levels 64] exit " << r.exitCode << ": " << r.err;
     EXPECT_TRUE(failsCleanly(r));
-    EXPECT_NE(r.err.find("64 level(s) would make about 6.9e+33 points"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("64 level(s) would make about 5.2e+33 points"), std::string::npos) << r.err;
     EXPECT_TRUE(dir.entries().empty());
     // A target: at most three times the target (the level before it had fewer points).
     const RunResult target = run("refine --target-points 100000 --max-points 200000 -o " + quote(out));
@@ -474,7 +474,7 @@ TEST(CliMemory, SixtyFourLevelsAreRefusedAtOnce) {
     EXPECT_NE(target.err.find("would make about 300000 points"), std::string::npos) << target.err;
     EXPECT_NE(target.err.find("more than --max-points 200000"), std::string::npos) << target.err;
     EXPECT_TRUE(dir.entries().empty());
-    // Within the bound it runs (2,000 points, 2 levels: about 18,000).
+    // Within the bound it runs (1,500 points, 2 levels: about 13,500).
     const RunResult within = run("refine --levels 2 --max-points 20000 -o " + quote(out));
     EXPECT_TRUE(within.exited && within.exitCode == 0) << within.err;
     EXPECT_TRUE(fs::exists(out));
@@ -1037,14 +1037,17 @@ TEST(CliExit, UsageErrorsExitWithTwoAndSuggestTheCommand) {
 TEST(CliRefine, TargetPointsNotAboveTheInputIsAUsageError) {
     const TempDir dir;
     const fs::path out = dir / "out.ply";
-    for (const char* target : {"2000", "500"}) {
-        const RunResult r = run("refine --target-points " + std::string(target) + " -o " + quote(out));
+    for (const std::string& target : {std::to_string(kDefaultModelPoints), std::string("500")}) {
+        const RunResult r = run("refine --target-points " + target + " -o " + quote(out));
         std::cout << "[refine --target-points " << target << "] exit " << r.exitCode << ": " << r.err;
         EXPECT_TRUE(failsCleanly(r, Exit::Usage));
-        EXPECT_NE(r.err.find("the default model has 2000 points"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find(fmt::format("the default model has {} points", kDefaultModelPoints)),
+                  std::string::npos)
+            << r.err;
         EXPECT_FALSE(fs::exists(out));
     }
-    const RunResult above = run("refine --target-points 2001 -o " + quote(out));
+    const RunResult above =
+        run(fmt::format("refine --target-points {} -o {}", kDefaultModelPoints + 1, quote(out)));
     EXPECT_TRUE(above.exited && above.exitCode == 0) << above.err;
 }
 
@@ -1061,7 +1064,7 @@ TEST(CliRefine, JsonSummaryIsOneLine) {
     const auto data = readPly(out);
     ASSERT_TRUE(data.ok());
     EXPECT_EQ(jsonField(r.out, "points_out"), std::to_string(data->points.size()));
-    EXPECT_EQ(jsonField(r.out, "points_in"), "2000");
+    EXPECT_EQ(jsonField(r.out, "points_in"), std::to_string(kDefaultModelPoints));
     EXPECT_EQ(jsonField(r.out, "levels"), "1");
     EXPECT_EQ(jsonField(r.out, "input"), "null");
     EXPECT_EQ(jsonField(r.out, "output"), out.string());

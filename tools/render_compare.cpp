@@ -127,8 +127,8 @@ engine::RgbaImage drawDots(const PointSet& points, const engine::Camera& camera,
 Comparison renderComparison(engine::Context& context, CompareJob job) {
     const std::uint32_t width = job.engine.width, height = job.engine.height;
     Comparison out;
-    // Panel 1: the input as dots of a fixed size (about 1.5 px in a 540-pixel-high panel).
-    const float dotRadius = std::max(1.0f, float(height) / 360.0f);
+    // Panel 1: the input as dots of a fixed size (2 px in radius in a 540-pixel-high panel).
+    const float dotRadius = std::max(1.0f, float(height) / 270.0f);
     out.panels[0] = drawDots(job.input, job.camera, width, height, job.background, dotRadius);
 
     engine::EngineSettings splatSettings = engineSettings(job.engine, context, false);

@@ -12,7 +12,7 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec4.hpp>
 
-#include "commands.h"
+#include "command_error.h"
 #include "pnsplat/viewer/overlay.h"
 
 namespace pnsplat::tools {

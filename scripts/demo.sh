@@ -10,7 +10,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
-BUILD_TARGET=pnsplat bash scripts/build.sh
+# The program alone, its files compiled as one (PNSPLAT_UNITY_TOOLS: CLI11 compiled once).
+BUILD_TARGET=pnsplat bash scripts/build.sh -DPNSPLAT_UNITY_TOOLS=ON
 pnsplat=${BUILD_DIR:-build}/tools/pnsplat
 mkdir -p out
 "$pnsplat" render --compare --width 640 --height 540 -o out/default.png

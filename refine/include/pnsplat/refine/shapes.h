@@ -60,7 +60,7 @@ PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H);
 // three colours (a blue-green body, an orange band whose ridge crests are lighter, red horns).
 // makeDefaultModel is its sparse, irregular sampling: kDefaultModelPoints points from a jittered
 // Fibonacci spiral of directions (fixed seed), analytic outward normals, colours; units: the
-// body's mean radius is about 1, the horns reach 1.8 from the origin.
+// body's mean radius is about 1, the horns reach about 1.85 from the origin.
 // sampleDefaultModel samples the same surface with n points (n >= 1) the same way, so that a dense
 // version (say 300,000 points) is the ground truth of pictures of the sparse one.
 inline constexpr std::size_t kDefaultModelPoints = 1500;

@@ -32,6 +32,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "pnsplat/engine/image.h"
 #include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
@@ -62,7 +63,8 @@ TEST(CliHelp, ProgramAndSubcommandsPrintTheirOptions) {
         {"--help", {"refine", "eval", "bench", "render", "diff"}},
         {"render --help",
          {"--output", "--width", "--height", "--camera", "--orbit", "--elevation", "--up", "--frame", "--fov",
-          "--refine-levels", "--fill-hole", "--path", "--device", "--json"}},
+          "--refine-levels", "--fill-hole", "--path", "--device", "--json", "--compare", "--reference",
+          "--reference-png"}},
         {"diff --help", {"--heatmap", "--max-rmse"}},
         {"bench render --help", {"--sizes", "--splat-pixels", "--repeat", "--output"}},
         {"refine --help",
@@ -90,13 +92,13 @@ TEST(CliRefine, DefaultModelTwoLevels) {
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     EXPECT_EQ(r.err, "");
     std::cout << "[refine -l 2] " << r.out;
-    EXPECT_NE(r.out.find("2000 points in"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(std::to_string(kDefaultModelPoints) + " points in"), std::string::npos) << r.out;
     EXPECT_EQ(lines(r.out).size(), 1u) << r.out;
     const auto data = readPly(out);
     ASSERT_TRUE(data.ok()) << data.error().message;
     const PointSet& points = data->points;
-    // Two √3-like levels multiply the count by about 9 (measured 2,000 -> 18,066).
-    EXPECT_GT(points.size(), 2000u * 6);
+    // Two √3-like levels multiply the count by about 9.
+    EXPECT_GT(points.size(), kDefaultModelPoints * 6);
     EXPECT_TRUE(points.hasColour());
     EXPECT_TRUE(points.hasRadius());
     EXPECT_NE(r.out.find(std::to_string(points.size()) + " out"), std::string::npos) << r.out;
@@ -462,7 +464,7 @@ TEST(CliMemory, SixtyFourLevelsAreRefusedAtOnce) {
     const RunResult r = run("refine --levels 64 -o " + quote(out));
     std::cout << "[refine --levels 64] exit " << r.exitCode << ": " << r.err;
     EXPECT_TRUE(failsCleanly(r));
-    EXPECT_NE(r.err.find("64 level(s) would make about 6.9e+33 points"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("64 level(s) would make about 5.2e+33 points"), std::string::npos) << r.err;
     EXPECT_TRUE(dir.entries().empty());
     // A target: at most three times the target (the level before it had fewer points).
     const RunResult target = run("refine --target-points 100000 --max-points 200000 -o " + quote(out));
@@ -472,7 +474,7 @@ TEST(CliMemory, SixtyFourLevelsAreRefusedAtOnce) {
     EXPECT_NE(target.err.find("would make about 300000 points"), std::string::npos) << target.err;
     EXPECT_NE(target.err.find("more than --max-points 200000"), std::string::npos) << target.err;
     EXPECT_TRUE(dir.entries().empty());
-    // Within the bound it runs (2,000 points, 2 levels: about 18,000).
+    // Within the bound it runs (1,500 points, 2 levels: about 13,500).
     const RunResult within = run("refine --levels 2 --max-points 20000 -o " + quote(out));
     EXPECT_TRUE(within.exited && within.exitCode == 0) << within.err;
     EXPECT_TRUE(fs::exists(out));
@@ -1035,14 +1037,17 @@ TEST(CliExit, UsageErrorsExitWithTwoAndSuggestTheCommand) {
 TEST(CliRefine, TargetPointsNotAboveTheInputIsAUsageError) {
     const TempDir dir;
     const fs::path out = dir / "out.ply";
-    for (const char* target : {"2000", "500"}) {
-        const RunResult r = run("refine --target-points " + std::string(target) + " -o " + quote(out));
+    for (const std::string& target : {std::to_string(kDefaultModelPoints), std::string("500")}) {
+        const RunResult r = run("refine --target-points " + target + " -o " + quote(out));
         std::cout << "[refine --target-points " << target << "] exit " << r.exitCode << ": " << r.err;
         EXPECT_TRUE(failsCleanly(r, Exit::Usage));
-        EXPECT_NE(r.err.find("the default model has 2000 points"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find(fmt::format("the default model has {} points", kDefaultModelPoints)),
+                  std::string::npos)
+            << r.err;
         EXPECT_FALSE(fs::exists(out));
     }
-    const RunResult above = run("refine --target-points 2001 -o " + quote(out));
+    const RunResult above =
+        run(fmt::format("refine --target-points {} -o {}", kDefaultModelPoints + 1, quote(out)));
     EXPECT_TRUE(above.exited && above.exitCode == 0) << above.err;
 }
 
@@ -1059,7 +1064,7 @@ TEST(CliRefine, JsonSummaryIsOneLine) {
     const auto data = readPly(out);
     ASSERT_TRUE(data.ok());
     EXPECT_EQ(jsonField(r.out, "points_out"), std::to_string(data->points.size()));
-    EXPECT_EQ(jsonField(r.out, "points_in"), "2000");
+    EXPECT_EQ(jsonField(r.out, "points_in"), std::to_string(kDefaultModelPoints));
     EXPECT_EQ(jsonField(r.out, "levels"), "1");
     EXPECT_EQ(jsonField(r.out, "input"), "null");
     EXPECT_EQ(jsonField(r.out, "output"), out.string());
@@ -1120,6 +1125,70 @@ TEST(CliRender, FrameGivesASparseFileAndItsRefinementTheSameCamera) {
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     ASSERT_EQ(lines(r.out).size(), 2u) << r.out;
     EXPECT_EQ(lines(r.out)[1].rfind("camera: --camera " + camera + " (up +y", 0), 0u) << r.out;
+}
+
+// render --compare (issue 26): one picture of three panels from one camera — the input as points,
+// as splats, and refined for that camera — over a caption strip; the panels differ, and the
+// refined one is at least 6 dB closer (PSNR) than the splats to the render of the default model's
+// dense version from the same camera, measured here on the panels and the reference written out.
+TEST(CliRender, CompareShowsThreePanelsAndTheRefinementIsCloserToTheDenseRender) {
+    const TempDir dir;
+    const fs::path picture = dir / "compare.png", reference = dir / "reference.png";
+    constexpr std::uint32_t kWidth = 320, kHeight = 270;
+    const RunResult r =
+        run(fmt::format("render --compare --width {} --height {} --json -o {} --reference-png {}", kWidth,
+                        kHeight, quote(picture), quote(reference)));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    ASSERT_EQ(lines(r.out).size(), 1u) << r.out;
+    std::cout << "[render --compare] " << r.out;
+    const auto image = engine::readPng(picture);
+    const auto truth = engine::readPng(reference);
+    ASSERT_TRUE(image.ok() && truth.ok());
+    // Three panels side by side over a strip of captions (18 px under panels this narrow).
+    EXPECT_EQ(image->width, 3 * kWidth);
+    EXPECT_EQ(image->height, kHeight + 18);
+    EXPECT_EQ(truth->width, kWidth);
+    EXPECT_EQ(truth->height, kHeight);
+    engine::RgbaImage panels[3];
+    for (std::uint32_t k = 0; k < 3; ++k) {
+        panels[k] = engine::RgbaImage(kWidth, kHeight);
+        for (std::uint32_t y = 0; y < kHeight; ++y)
+            std::copy_n(&image->pixels[(std::size_t{y} * image->width + k * kWidth) * 4], kWidth * 4,
+                        &panels[k].pixels[std::size_t{y} * kWidth * 4]);
+    }
+    const auto difference = [](const engine::RgbaImage& a, const engine::RgbaImage& b) {
+        auto d = engine::compareImages(a, b);
+        EXPECT_TRUE(d.ok());
+        return d ? *d : engine::ImageDifference{};
+    };
+    // Every panel shows something else: dots, the splats' blobs, the refined surface.
+    EXPECT_GT(difference(panels[0], panels[1]).differingShare, 0.05);
+    EXPECT_GT(difference(panels[1], panels[2]).differingShare, 0.05);
+    EXPECT_GT(difference(panels[0], panels[2]).differingShare, 0.05);
+    const engine::ImageDifference splats = difference(panels[1], *truth);
+    const engine::ImageDifference refined = difference(panels[2], *truth);
+    std::cout << "[render --compare] PSNR against the dense render: splats " << splats.psnr << " dB, refined "
+              << refined.psnr << " dB\n";
+    EXPECT_GT(refined.psnr, splats.psnr + 6.0);
+    EXPECT_GT(refined.ssim, splats.ssim);
+    // What the program prints is what the pictures say.
+    EXPECT_NEAR(std::stod(jsonField(r.out, "psnr_splats")), splats.psnr, 0.01) << r.out;
+    EXPECT_NEAR(std::stod(jsonField(r.out, "psnr_refined")), refined.psnr, 0.01) << r.out;
+    EXPECT_EQ(jsonField(r.out, "reference"), "default-model-dense");
+    EXPECT_EQ(jsonField(r.out, "panel_width"), std::to_string(kWidth));
+
+    // Without a reference (a file input): the panels, no PSNR; --compare with --adaptive is a usage error.
+    const fs::path sphere = dir / "sphere.ply", plain = dir / "plain.png";
+    ASSERT_TRUE(writePly(sphere, sampleSphereUniform(400, 1.0f)).ok());
+    const RunResult f =
+        run("render " + quote(sphere) + " --compare --width 96 --height 64 --json -o " + quote(plain));
+    ASSERT_TRUE(f.exited && f.exitCode == 0) << f.err;
+    EXPECT_EQ(jsonField(f.out, "psnr_splats"), "null") << f.out;
+    const auto plainImage = engine::readPng(plain);
+    ASSERT_TRUE(plainImage.ok());
+    EXPECT_EQ(plainImage->width, 3u * 96u);
+    EXPECT_TRUE(failsCleanly(run("render --compare --adaptive -o " + quote(dir / "no.png")), Exit::Usage));
+    EXPECT_FALSE(fs::exists(dir / "no.png"));
 }
 
 // A camera inside the model or looking away from it gives a picture (the background), not an error.

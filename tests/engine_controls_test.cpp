@@ -25,9 +25,10 @@ using engine::RgbaImage;
 
 class EngineControlsTest : public test::GpuTest {};
 
-// The embedded default model, completed (normals and radii), and a camera that frames it.
+// The bumpy sphere (the default model before issue 26), completed (normals and radii), and a camera
+// that frames it.
 PointSet defaultModel() {
-    PointSet points = makeDefaultModel();
+    PointSet points = makeBumpySphere();
     EXPECT_TRUE(completeInput(points, 1).ok());
     return points;
 }

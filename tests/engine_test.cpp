@@ -365,7 +365,7 @@ TEST_F(EngineTest, LockstepFramesAreTheSameForAnyWorkersAndCache) {
 // graphics path draws the refined nodes as the compute path does.
 TEST_F(EngineTest, StagedUploadsAndTheGraphicsPathDrawTheSame) {
     const PointSet model = [] {
-        PointSet s = makeDefaultModel();
+        PointSet s = makeBumpySphere();
         EXPECT_TRUE(completeInput(s, 2).ok());
         return s;
     }();

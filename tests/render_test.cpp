@@ -217,7 +217,7 @@ engine::ImageDifference difference(const RgbaImage& a, const RgbaImage& b) {
 }
 
 TEST_F(RenderTest, ComputeAndGraphicsPathsAgree) {
-    const PointSet model = withRadii(makeDefaultModel());
+    const PointSet model = withRadii(makeBumpySphere());
     const engine::Sphere bounds{{0, 0, 0}, 1.3f};
     const Camera camera = engine::frameSphere(bounds, 320.0f / 240.0f, 0.7f, 0.5f);
     const RgbaImage a = render(model, small(RenderPath::Compute, 320, 240), camera);
@@ -460,8 +460,8 @@ TEST_F(GoldenTest, Sphere) {
     checkGolden("sphere", sphere);
 }
 
-TEST_F(GoldenTest, ColouredDefaultModel) {
-    checkGolden("default-model", withRadii(makeDefaultModel()));
+TEST_F(GoldenTest, ColouredBumpySphere) {
+    checkGolden("bumpy-sphere", withRadii(makeBumpySphere()));
 }
 
 TEST_F(GoldenTest, RealModel) {
@@ -595,8 +595,8 @@ TEST(CameraTest, ViewpointAvoidsAFlatFaceAndDefaultsToYUpFromZ) {
     const engine::Viewpoint none = engine::chooseViewpoint({}, {});
     EXPECT_EQ(none.up, glm::vec3(0, 1, 0));
     EXPECT_EQ(none.front, glm::vec3(0, 0, 1));
-    // A round model (the default one) keeps the usual view: y up, eye on +z.
-    const PointSet model = makeDefaultModel();
+    // A round model (the bumpy sphere) keeps the usual view: y up, eye on +z.
+    const PointSet model = makeBumpySphere();
     const engine::Viewpoint round = engine::chooseViewpoint(model.position, model.normal);
     EXPECT_EQ(round.up, glm::vec3(0, 1, 0));
     EXPECT_EQ(round.front, glm::vec3(0, 0, 1));

@@ -120,8 +120,8 @@ TEST(TorusUniform, ExactCountOnTorusAndAreaUniform) {
     EXPECT_LT(*std::max_element(d.begin(), d.end()), 1.5 * cell);
 }
 
-TEST(DefaultModel, ColouredSparseFiniteUnitNormals) {
-    const PointSet model = makeDefaultModel();
+TEST(BumpySphere, ColouredSparseFiniteUnitNormals) {
+    const PointSet model = makeBumpySphere();
     EXPECT_GE(model.size(), 1500u);
     EXPECT_LE(model.size(), 2500u);
     ASSERT_TRUE(model.hasColour());
@@ -148,32 +148,32 @@ TEST(DefaultModel, ColouredSparseFiniteUnitNormals) {
     EXPECT_GT(maxTilt, 15.0);
     EXPECT_GT(maxChannel - minChannel, 100); // colour follows the bumps, not constant
     // Deterministic.
-    const PointSet again = makeDefaultModel();
+    const PointSet again = makeBumpySphere();
     EXPECT_EQ(model.position, again.position);
     EXPECT_EQ(model.colour, again.colour);
 }
 
-TEST(DefaultModel, NormalsMatchFiniteDifferencesOfTheSurface) {
-    const PointSet model = makeDefaultModel();
+TEST(BumpySphere, NormalsMatchFiniteDifferencesOfTheSurface) {
+    const PointSet model = makeBumpySphere();
     const float h = 1e-3f;
     double worst = 0.0;
     for (std::size_t i = 0; i < model.size(); ++i) {
         const glm::vec3 d = glm::normalize(model.position[i]);
         // The point lies on the surface in its own direction.
-        ASSERT_LT(glm::length(defaultModelSurface(d) - model.position[i]), 1e-5f);
+        ASSERT_LT(glm::length(bumpySphereSurface(d) - model.position[i]), 1e-5f);
         const glm::vec3 helper = std::abs(d.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(1, 0, 0);
         const glm::vec3 e1 = glm::normalize(glm::cross(helper, d));
         const glm::vec3 e2 = glm::cross(d, e1);
-        const glm::vec3 tu = defaultModelSurface(d + h * e1) - defaultModelSurface(d - h * e1);
-        const glm::vec3 tv = defaultModelSurface(d + h * e2) - defaultModelSurface(d - h * e2);
+        const glm::vec3 tu = bumpySphereSurface(d + h * e1) - bumpySphereSurface(d - h * e1);
+        const glm::vec3 tv = bumpySphereSurface(d + h * e2) - bumpySphereSurface(d - h * e2);
         const glm::vec3 fd = glm::normalize(glm::cross(tu, tv)); // e1 x e2 = d: outward
         worst = std::max(worst, angleInDegrees(fd, model.normal[i]));
     }
     EXPECT_LT(worst, 0.1);
 }
 
-TEST(DefaultModel, IrregularButNotPathological) {
-    const PointSet model = makeDefaultModel();
+TEST(BumpySphere, IrregularButNotPathological) {
+    const PointSet model = makeBumpySphere();
     const std::vector<double> d = nearestDistances(model);
     double mean = 0.0;
     for (const double x : d) mean += x;
@@ -184,6 +184,64 @@ TEST(DefaultModel, IrregularButNotPathological) {
     EXPECT_GT(cv, 0.1); // irregular (a Fibonacci spiral alone is about 0.03)
     EXPECT_LT(cv, 0.5);
     EXPECT_GT(*std::min_element(d.begin(), d.end()), 0.3 * mean); // no near-duplicates
+}
+
+// The default model (issue 26): sparse, coloured with three colours, the horns and ridges there,
+// its normals those of its surface, and its dense version on the same surface.
+TEST(DefaultModel, SparseColouredWithRidgesAndHorns) {
+    const PointSet model = makeDefaultModel();
+    EXPECT_EQ(model.size(), kDefaultModelPoints);
+    EXPECT_LE(model.size(), 3000u); // sparse, as the paper's inputs
+    ASSERT_TRUE(model.hasColour());
+    EXPECT_FALSE(model.hasRadius());
+    EXPECT_TRUE(allFinite(model));
+    float maxRadius = 0.0f;
+    double maxTilt = 0.0;
+    std::size_t red = 0, blue = 0, light = 0;
+    for (std::size_t i = 0; i < model.size(); ++i) {
+        EXPECT_NEAR(glm::length(model.normal[i]), 1.0f, 1e-6f);
+        EXPECT_GT(glm::dot(model.normal[i], model.position[i]), 0.0f); // outward (star-shaped)
+        maxRadius = std::max(maxRadius, glm::length(model.position[i]));
+        maxTilt = std::max(maxTilt, angleInDegrees(model.normal[i], model.position[i]));
+        const glm::ivec3 c(model.colour[i]);
+        red += c.x > 180 && c.y < 80;    // a horn
+        blue += c.z > 150 && c.x < 80;   // the body
+        light += c.x > 220 && c.y > 180; // a ridge's crest
+    }
+    EXPECT_GT(maxRadius, 1.6f); // the horns reach out
+    EXPECT_GT(maxTilt, 60.0);   // their sides are steep
+    EXPECT_GT(red, 20u);
+    EXPECT_GT(blue, 200u);
+    EXPECT_GT(light, 20u);
+    const PointSet again = makeDefaultModel();
+    EXPECT_EQ(model.position, again.position);
+    EXPECT_EQ(model.colour, again.colour);
+}
+
+TEST(DefaultModel, NormalsMatchFiniteDifferencesAndTheDenseVersionLiesOnTheSameSurface) {
+    const PointSet sparse = makeDefaultModel();
+    const PointSet dense = sampleDefaultModel(20000);
+    EXPECT_EQ(dense.size(), 20000u);
+    ASSERT_TRUE(dense.hasColour());
+    for (const PointSet* model : {&sparse, &dense}) {
+        const float h = 1e-3f;
+        double worst = 0.0;
+        float farthest = 0.0f;
+        for (std::size_t i = 0; i < model->size(); ++i) {
+            const glm::vec3 d = glm::normalize(model->position[i]);
+            farthest = std::max(farthest, glm::length(defaultModelSurface(d) - model->position[i]));
+            const glm::vec3 helper = std::abs(d.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(1, 0, 0);
+            const glm::vec3 e1 = glm::normalize(glm::cross(helper, d));
+            const glm::vec3 e2 = glm::cross(d, e1);
+            const glm::vec3 tu = defaultModelSurface(d + h * e1) - defaultModelSurface(d - h * e1);
+            const glm::vec3 tv = defaultModelSurface(d + h * e2) - defaultModelSurface(d - h * e2);
+            const glm::vec3 fd = glm::normalize(glm::cross(tu, tv)); // e1 x e2 = d: outward
+            worst = std::max(worst, angleInDegrees(fd, model->normal[i]));
+        }
+        EXPECT_LT(farthest, 1e-5f) << model->size() << " points";
+        // The horns' sides turn fast: finite differences of float positions are good to about 0.5°.
+        EXPECT_LT(worst, 0.5) << model->size() << " points";
+    }
 }
 
 TEST(AnalyticSurface, SphereClosestPointDistanceNormal) {

@@ -8,7 +8,7 @@
 #include <fmt/core.h>
 #include <glm/geometric.hpp>
 
-#include "commands.h"
+#include "command_error.h"
 
 namespace pnsplat::tools {
 

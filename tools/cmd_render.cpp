@@ -19,6 +19,7 @@
 #include "pnsplat/refine/shapes.h"
 #include "pnsplat/refine/text.h"
 #include "refine_run.h"
+#include "render_compare.h"
 
 namespace pnsplat::tools {
 
@@ -35,6 +36,9 @@ struct RenderArgs {
     std::vector<float> background{1.0f, 1.0f, 1.0f};
     bool flipNormals = false;
     bool adaptive = false;
+    bool compare = false;
+    std::string reference;    // --compare: a dense PLY of the same surface
+    std::string referencePng; // --compare: where to write the reference's render
     EngineArgs engine;
     bool json = false;
     bool keepNormals = false;
@@ -57,8 +61,103 @@ std::string viewpointReason(const engine::Viewpoint& view, const RenderArgs& arg
                        view.frontFlipped ? " (a flat face fills the other side)" : "");
 }
 
+// "23.41 dB" ("identical" for the same pictures).
+std::string decibels(double psnr) {
+    return std::isfinite(psnr) ? fmt::format("{:.2f} dB", psnr) : "identical";
+}
+
+// render --compare: three panels from the input's camera, and their PSNR against a dense render.
+void runCompare(const RenderArgs& args) {
+    using namespace engine;
+    refuseToOverwriteInput(args.output, {args.input, args.frame, args.reference}, args.force);
+    refuseToOverwriteInput(args.referencePng, {args.input, args.frame, args.reference}, args.force);
+    std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
+    CompareJob job;
+    std::string name;
+    job.input = loadForRendering(args.input, args.keepNormals, name);
+    std::string frameName;
+    const PointSet frame =
+        args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
+    std::string referenceName;
+    if (!args.reference.empty()) {
+        job.reference = loadForRendering(args.reference, args.keepNormals, referenceName);
+    } else if (args.input.empty()) {
+        // The default model is analytic: its dense version is the same surface sampled densely.
+        referenceName = "the default model's dense version";
+        PointSet dense = sampleDefaultModel(kDefaultReferencePoints);
+        completeInput(dense, 0, referenceName, {});
+        job.reference = std::move(dense);
+    }
+    const std::size_t referencePoints = job.reference ? job.reference->size() : 0;
+    std::optional<Viewpoint> view;
+    // The camera is chosen once, for the input, and used for every panel and the reference.
+    job.camera = chooseCamera(args.view, args.frame.empty() ? job.input : frame,
+                              float(args.engine.width) / float(args.engine.height), view);
+    job.engine = args.engine;
+    job.background = {args.background[0], args.background[1], args.background[2]};
+    const std::size_t inputCount = job.input.size();
+    const Camera camera = job.camera;
+
+    auto context = createContext(args.engine);
+    const Comparison c = renderComparison(*context, std::move(job));
+    const std::string captions[3] = {
+        fmt::format("input: {} points", inputCount),
+        c.splats ? fmt::format("input as splats: PSNR {}", decibels(c.splats->psnr)) : "input as splats",
+        c.refined ? fmt::format("refined for this camera: {} splats, PSNR {}", c.refinedFrame.splatsDrawn,
+                                decibels(c.refined->psnr))
+                  : fmt::format("refined for this camera: {} splats", c.refinedFrame.splatsDrawn)};
+    unwrap(writePng(args.output, sideBySide(c.panels, captions)));
+    if (!args.referencePng.empty() && !c.reference.pixels.empty())
+        unwrap(writePng(args.referencePng, c.reference));
+    checkValidation(*context);
+    const char* path = c.path == RenderPath::Compute ? "compute" : "graphics";
+    const auto psnr = [](const std::optional<ImageDifference>& d) {
+        return d && std::isfinite(d->psnr) ? fmt::format("{:.3f}", d->psnr) : std::string("null");
+    };
+    const auto ssim = [](const std::optional<ImageDifference>& d) {
+        return d ? fmt::format("{:.5f}", d->ssim) : std::string("null");
+    };
+    if (args.json) {
+        fmt::print(
+            summary,
+            R"({{"input": {}, "output": {}, "input_points": {}, "compare": true, "panel_width": {}, )"
+            R"("panel_height": {}, "device": {}, "path": "{}", "camera": "{}", "fov_degrees": {}, )"
+            R"("refined_splats": {}, "tree_points": {}, "threshold_px": {}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, )"
+            R"("reference": {}, "reference_points": {}, "psnr_splats": {}, "psnr_refined": {}, )"
+            R"("ssim_splats": {}, "ssim_refined": {}}})"
+            "\n",
+            args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
+            inputCount, args.engine.width, args.engine.height, jsonString(context->deviceName()), path,
+            engine::cameraText(camera), jsonNumber(args.view.fovDegrees), c.refinedFrame.splatsDrawn,
+            c.treePoints, jsonNumber(args.engine.threshold), c.refinedFrame.maxSplatPx,
+            c.refinedFrame.overThreshold,
+            c.splats
+                ? jsonString(args.reference.empty() ? std::string("default-model-dense") : args.reference)
+                : "null",
+            referencePoints, psnr(c.splats), psnr(c.refined), ssim(c.splats), ssim(c.refined));
+        return;
+    }
+    fmt::print(summary,
+               "{}: {} points as dots, as splats, and refined for this camera ({} splats drawn, the largest "
+               "{:.2f} px) "
+               "in three {}x{} panels on {} ({} path) -> {}\n",
+               name, inputCount, c.refinedFrame.splatsDrawn, c.refinedFrame.maxSplatPx, args.engine.width,
+               args.engine.height, context->deviceName(), path, outputName(args.output));
+    if (c.splats)
+        fmt::print(
+            summary,
+            "against {} ({} points, the same camera): PSNR input as splats {}, refined {} ({:+.2f} dB); "
+            "SSIM {:.4f}, {:.4f}\n",
+            referenceName, referencePoints, decibels(c.splats->psnr), decibels(c.refined->psnr),
+            c.refined->psnr - c.splats->psnr, c.splats->ssim, c.refined->ssim);
+    if (view)
+        fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
+                   viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);
+}
+
 void runRender(const RenderArgs& args) {
     using namespace engine;
+    if (args.compare) return runCompare(args);
     refuseToOverwriteInput(args.output, {args.input, args.frame}, args.force);
     // Standard output carries the image: the summaries go to standard error.
     std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
@@ -177,8 +276,27 @@ void addRenderCommand(CLI::App& app) {
     addMaxPointsOption(*cmd, args->maxPoints);
     addBackgroundOption(*cmd, args->background);
     cmd->add_flag("--flip-normals", args->flipNormals, "negate every normal (shows why orientation matters)");
-    cmd->add_flag("--adaptive", args->adaptive,
-                  "refine, for this camera, exactly what it needs (the real-time engine, until settled)");
+    CLI::Option* adaptive =
+        cmd->add_flag("--adaptive", args->adaptive,
+                      "refine, for this camera, exactly what it needs (the real-time engine, until settled)");
+    CLI::Option* compare = cmd->add_flag(
+        "--compare", args->compare,
+        "three panels side by side from one camera (chosen for the input): the input as points, "
+        "as splats, and refined for this camera as --adaptive does; --width and --height are "
+        "each panel's; with a reference (the default model has its own), prints how close the "
+        "splats and the refinement come to its render (PSNR, SSIM)");
+    compare->excludes(adaptive)
+        ->excludes("--refine-levels")
+        ->excludes("--fill-hole")
+        ->excludes("--flip-normals");
+    cmd->add_option("--reference", args->reference,
+                    "with --compare: a dense PLY of the same surface, rendered from the same camera as the "
+                    "ground truth (default for the default model: its dense version, "
+                    "300,000 points of the same analytic surface)")
+        ->needs(compare);
+    cmd->add_option("--reference-png", args->referencePng,
+                    "with --compare: write the reference's render (one panel's size) to this PNG")
+        ->needs(compare);
     addEngineOptions(*cmd, args->engine, true, true);
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");

@@ -5,7 +5,6 @@
 
 #include <initializer_list>
 #include <memory>
-#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -17,32 +16,11 @@
 #include <CLI/CLI.hpp>
 #pragma GCC diagnostic pop
 
+#include "command_error.h"
 #include "pnsplat/refine/output_file.h"
 #include "pnsplat/refine/result.h"
 
 namespace pnsplat::tools {
-
-// Exit statuses (README, "Exit status"; the footer of --help): 0 success.
-inline constexpr int kExitDiffers = 1; // `diff`: the images differ past --max-rmse
-inline constexpr int kExitUsage = 2;   // the command line asks for something impossible
-inline constexpr int kExitFailure = 3; // a bad or missing file, a device error, no memory
-
-class CommandError : public std::runtime_error {
-  public:
-    explicit CommandError(const std::string& message, int status = kExitFailure)
-        : std::runtime_error(message), status_(status) {}
-    int status() const { return status_; }
-
-  private:
-    int status_;
-};
-
-// Unwraps a Result or throws its error as a CommandError.
-template <typename T>
-T unwrap(Result<T>&& result) {
-    if (!result) throw CommandError(result.error().message);
-    if constexpr (!std::is_void_v<T>) return std::move(result).value();
-}
 
 // Adds the subcommand `name` to `parent`: its options fill the returned Args (which the subcommand
 // owns), and `run` runs with them once the command line is parsed. Returns the subcommand, for the

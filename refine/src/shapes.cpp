@@ -6,8 +6,10 @@
 #include "pnsplat/refine/shapes.h"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -61,7 +63,8 @@ void appendTorusPoint(PointSet& set, double R, double r, double u, double v) {
     append(set, circle + r * n, n);
 }
 
-// ---- The default model: rho(d) = 1 + 0.25 f(d) over unit directions d. ----
+// ---- The bumpy sphere (the default model before issue 26): rho(d) = 1 + 0.25 f(d) over unit
+// directions d. ----
 
 constexpr double kBumpAmplitude = 0.25;
 constexpr double kThreeSqrt3 = 5.19615242270663188058233902451762;
@@ -103,7 +106,7 @@ struct SurfacePoint {
     double bump;
 };
 
-SurfacePoint defaultModelPoint(const DVec3& d) {
+SurfacePoint bumpySpherePoint(const DVec3& d) {
     const Bump b = bump(d);
     const double rho = 1.0 + kBumpAmplitude * b.value;
     const DVec3 tangentialGradient = kBumpAmplitude * (b.gradient - glm::dot(b.gradient, d) * d);
@@ -275,7 +278,7 @@ PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H) {
     return set;
 }
 
-PointSet makeDefaultModel() {
+PointSet makeBumpySphere() {
     constexpr std::size_t kPoints = 2000;
     constexpr std::uint64_t kSeed = 0x5EED2005u;
     // Jitter of up to 25 % of the mean spacing along each tangent axis: nearest-neighbour
@@ -298,7 +301,7 @@ PointSet makeDefaultModel() {
         const double b = 2.0 * uniform01(rng) - 1.0;
         const DVec3 d = glm::normalize(d0 + kJitter * spacing * (a * e1 + b * e2));
 
-        const SurfacePoint s = defaultModelPoint(d);
+        const SurfacePoint s = bumpySpherePoint(d);
         append(set, s.position, s.normal);
         // Hue from the bump value: valleys (f = -1) blue, crests (f = 1) red.
         const double hue = 240.0 * (1.0 - 0.5 * (std::clamp(s.bump, -1.0, 1.0) + 1.0));
@@ -307,10 +310,129 @@ PointSet makeDefaultModel() {
     return set;
 }
 
+glm::vec3 bumpySphereSurface(glm::vec3 direction) {
+    const DVec3 d(direction);
+    assert(glm::dot(d, d) > 0.0);
+    return toFloat(bumpySpherePoint(glm::normalize(d)).position);
+}
+
+// ---- The default model (issue 26): a ridged, horned, coloured star-shaped surface ----
+//
+// rho(d) = 1 + body(d) + ridges(d) + sum of horns(d) over unit directions d (see shapes.h); the
+// normal follows from the gradient of each term's extension to R^3 as for the bumpy sphere.
+
+namespace {
+
+constexpr int kRidges = 12; // ridges around the y axis
+constexpr double kRidgeAmplitude = 0.06;
+constexpr double kBodyAmplitude = 0.12; // elongation along y
+
+// A horn: height * exp((d . axis - 1) / width): about width^(1/2) radians wide at its base.
+struct Horn {
+    DVec3 axis;
+    double height, width;
+};
+
+std::array<Horn, 4> horns() {
+    return {{{glm::normalize(DVec3(0.25, 1.0, 0.2)), 0.75, 0.02},
+             {glm::normalize(DVec3(-1.0, -0.35, 0.45)), 0.6, 0.025},
+             {glm::normalize(DVec3(0.9, -0.55, 0.5)), 0.6, 0.025},
+             {glm::normalize(DVec3(0.1, -0.3, -1.0)), 0.5, 0.03}}};
+}
+
+struct DefaultField {
+    double value;      // rho - 1
+    DVec3 gradient;    // of the extension to R^3
+    double band;       // s^k, s the distance from the y axis: where the ridges are (0..1)
+    double ridgePhase; // cos(k phi) about the y axis: 1 on a crest, -1 in a valley
+    double horn;       // how much of a horn's foot the direction lies in (0..1)
+};
+
+DefaultField defaultField(const DVec3& d) {
+    const double x = d.x, y = d.y, z = d.z;
+    // Body: 1.5 y^2 - 0.5 (zonal P2 about y), elongated along y.
+    double value = kBodyAmplitude * (1.5 * y * y - 0.5);
+    DVec3 gradient(0.0, kBodyAmplitude * 3.0 * y, 0.0);
+    // Ridges: Re (z + i x)^k = s^k cos(k phi), a polynomial: smooth at the poles, where it vanishes.
+    const std::complex<double> w(z, x);
+    std::complex<double> wk1(1.0, 0.0); // w^(k-1)
+    for (int i = 1; i < kRidges; ++i) wk1 *= w;
+    const std::complex<double> wk = wk1 * w;
+    value += kRidgeAmplitude * wk.real();
+    // d/dz Re w^k = k Re w^(k-1); d/dx Re w^k = Re(i k w^(k-1)) = -k Im w^(k-1).
+    gradient += kRidgeAmplitude * double(kRidges) * DVec3(-wk1.imag(), 0.0, wk1.real());
+    const double band = std::abs(wk);
+    const double phase = band > 1e-12 ? wk.real() / band : 0.0;
+    double horn = 0.0;
+    for (const Horn& h : horns()) {
+        const double cosine = glm::dot(d, h.axis);
+        const double t = h.height * std::exp((cosine - 1.0) / h.width);
+        value += t;
+        gradient += (t / h.width) * h.axis;
+        horn = std::max(horn, std::exp((cosine - 1.0) / (3.0 * h.width)));
+    }
+    return {value, gradient, band, phase, horn};
+}
+
+// x(d) = rho(d) d and its outward normal rho d - grad_S(rho) (see bumpySpherePoint).
+SurfacePoint defaultModelPoint(const DVec3& d, DefaultField& field) {
+    field = defaultField(d);
+    const double rho = 1.0 + field.value;
+    const DVec3 tangentialGradient = field.gradient - glm::dot(field.gradient, d) * d;
+    return {rho * d, glm::normalize(rho * d - tangentialGradient), field.value};
+}
+
+DVec3 mix(const DVec3& a, const DVec3& b, double t) {
+    return a + (b - a) * std::clamp(t, 0.0, 1.0);
+}
+
+// Three colours: a blue-green body, an orange band whose crests are lighter, red horns.
+glm::u8vec3 defaultModelColour(const DefaultField& f) {
+    const DVec3 body(0.20, 0.55, 0.75), valley(0.85, 0.40, 0.10), crest(0.98, 0.85, 0.35),
+        horn(0.85, 0.12, 0.20);
+    DVec3 c = mix(body, mix(valley, crest, 0.5 + 0.5 * f.ridgePhase), f.band);
+    c = mix(c, horn, f.horn);
+    return {static_cast<std::uint8_t>(std::lround(c.x * 255.0)),
+            static_cast<std::uint8_t>(std::lround(c.y * 255.0)),
+            static_cast<std::uint8_t>(std::lround(c.z * 255.0))};
+}
+
+} // namespace
+
+PointSet sampleDefaultModel(std::size_t n, std::uint64_t seed) {
+    // Jitter of up to 25 % of the mean spacing along each tangent axis, as the bumpy sphere.
+    constexpr double kJitter = 0.25;
+    const double spacing = std::sqrt(4.0 * kPi / static_cast<double>(std::max<std::size_t>(n, 1)));
+    std::mt19937_64 rng(seed);
+    PointSet set;
+    set.position.reserve(n);
+    set.normal.reserve(n);
+    set.colour.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const DVec3 d0 = fibonacciDirection(i, n);
+        const DVec3 helper = std::abs(d0.z) < 0.9 ? DVec3(0.0, 0.0, 1.0) : DVec3(1.0, 0.0, 0.0);
+        const DVec3 e1 = glm::normalize(glm::cross(helper, d0));
+        const DVec3 e2 = glm::cross(d0, e1);
+        const double a = 2.0 * uniform01(rng) - 1.0;
+        const double b = 2.0 * uniform01(rng) - 1.0;
+        const DVec3 d = glm::normalize(d0 + kJitter * spacing * (a * e1 + b * e2));
+        DefaultField field{};
+        const SurfacePoint s = defaultModelPoint(d, field);
+        append(set, s.position, s.normal);
+        set.colour.push_back(defaultModelColour(field));
+    }
+    return set;
+}
+
+PointSet makeDefaultModel() {
+    return sampleDefaultModel(kDefaultModelPoints, kDefaultModelSeed);
+}
+
 glm::vec3 defaultModelSurface(glm::vec3 direction) {
     const DVec3 d(direction);
     assert(glm::dot(d, d) > 0.0);
-    return toFloat(defaultModelPoint(glm::normalize(d)).position);
+    DefaultField field{};
+    return toFloat(defaultModelPoint(glm::normalize(d), field).position);
 }
 
 // ---- AnalyticSurface ----

@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
     fs::create_directories(refineFolder);
     PointSet sphere = sampleSphereUniform(60, 1.0f);
     PointSet torus = sampleTorusRandom(120, 1.0f, 0.4f, 3);
-    PointSet model = makeDefaultModel();
+    PointSet model = makeBumpySphere();
     model.position.resize(150), model.normal.resize(150), model.colour.resize(150);
     PointSet cylinder = sampleCappedCylinder(12, 1.0f, 1.5f);
     PointSet withRadii = sphere;

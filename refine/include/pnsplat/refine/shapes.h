@@ -11,7 +11,8 @@
 // std::mt19937_64 with the project's own conversion to [0,1) (std::uniform_real_distribution
 // differs between standard libraries), so a seed gives the same points on every platform.
 // Returned sets carry positions and unit normals; `radius` is left empty (the refinement
-// estimates radii) and only makeDefaultModel fills `colour`. Any thread may call any function.
+// estimates radii) and only the default model and the bumpy sphere fill `colour`. Any thread may call any
+// function.
 #pragma once
 
 #include <cstddef>
@@ -52,17 +53,34 @@ PointSet sampleTorusUniform(std::size_t n, float R, float r);
 // R > 0, H > 0.
 PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H);
 
-// The embedded default model (the README's first command): a closed "bumpy sphere", the star-
-// shaped surface x(d) = rho(d) d over unit directions d, rho(d) = 1 + 0.25 f(d), with f a sum of
-// low-order spherical-harmonic-like polynomials (|f| <= 1, so rho is in [0.75, 1.25]). 2,000
-// points from a jittered Fibonacci spiral (fixed seed), analytic outward normals, and colours
-// from a hue that follows the bump value f. Units: the mean radius is 1.
+// The embedded default model (the README's first command, scripts/demo.sh): a closed star-shaped
+// surface x(d) = rho(d) d over unit directions d, rho(d) = 1 + body(d) + ridges(d) + horns(d),
+// with detail that a sparse sampling loses: 12 ridges around the y axis (amplitude 0.06, about
+// 0.5 apart at the equator), four thin horns (0.5 to 0.75 high, about 0.15 radians wide), and
+// three colours (a blue-green body, an orange band whose ridge crests are lighter, red horns).
+// makeDefaultModel is its sparse, irregular sampling: kDefaultModelPoints points from a jittered
+// Fibonacci spiral of directions (fixed seed), analytic outward normals, colours; units: the
+// body's mean radius is about 1, the horns reach about 1.85 from the origin.
+// sampleDefaultModel samples the same surface with n points (n >= 1) the same way, so that a dense
+// version (say 300,000 points) is the ground truth of pictures of the sparse one.
+inline constexpr std::size_t kDefaultModelPoints = 1500;
+inline constexpr std::uint64_t kDefaultModelSeed = 0x5EED2026u;
 PointSet makeDefaultModel();
+PointSet sampleDefaultModel(std::size_t n, std::uint64_t seed = kDefaultModelSeed);
 
 // The surface point of the default model in the unit direction `direction` (need not be exactly
-// unit: it is normalised first; must not be zero). Lets tests check makeDefaultModel's normals
-// against finite differences of the surface.
+// unit: it is normalised first; must not be zero). Lets tests check the normals against finite
+// differences of the surface.
 glm::vec3 defaultModelSurface(glm::vec3 direction);
+
+// The "bumpy sphere", the default model until issue 26 (tests use it as a smooth, coloured,
+// sparse surface): x(d) = rho(d) d, rho(d) = 1 + 0.25 f(d), with f a sum of low-order
+// spherical-harmonic-like polynomials (|f| <= 1, so rho is in [0.75, 1.25]). 2,000 points from a
+// jittered Fibonacci spiral (fixed seed), analytic outward normals, and colours from a hue that
+// follows the bump value f. Units: the mean radius is 1.
+PointSet makeBumpySphere();
+// Its surface point in the direction `direction` (as defaultModelSurface).
+glm::vec3 bumpySphereSurface(glm::vec3 direction);
 
 // An exact analytic surface: a sphere of radius R, or the torus described above (major radius R,
 // tube radius r), both centred at `centre`, torus axis along z. Functions are const and may be

@@ -40,12 +40,12 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
         R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
         R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "median_splat_px": {:.3f}, "max_splat_px": {:.3f}, )"
         R"("over_threshold": {:.5f}, )"
-        R"("settled": {}}})",
+        R"("resting": {}, "settled": {}}})",
         r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs,
         r.gpu.visibilityMs, r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.nodesVisible,
         r.nodesRefined, r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed, r.evictions,
         r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx, r.medianSplatPx,
-        r.maxSplatPx, r.overThreshold, r.settled ? "true" : "false");
+        r.maxSplatPx, r.overThreshold, r.resting ? "true" : "false", r.settled ? "true" : "false");
 }
 
 void FrameSeries::add(const engine::FrameReport& report, double frameMs) {

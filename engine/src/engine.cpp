@@ -59,6 +59,12 @@ constexpr std::size_t kKeptReports = 256;
 // 46, 31, 19 and 16 ms (a close-up at 16 and 32 px: 58 and 64 ms): past 16 px the pixels the
 // footprints cover cost what the smaller number of splats saves (docs/REALTIME.md).
 constexpr float kMaxThresholdRise = 8.0f;
+// A camera unchanged for this long (and at least kRestFrames frames) is at rest: the frame-time
+// target lets go, and the threshold in force is the one asked for, so that refinement goes on to
+// it and the picture becomes the settled one; it applies again once the camera moves. QSplat
+// (2000) shrank its splats after half a second at rest.
+constexpr double kRestSeconds = 0.5;
+constexpr std::size_t kRestFrames = 2;
 
 // Facing classes: a normal's class is the axis direction nearest it (+x, +y, +z, -x, -y, -z). A
 // chunk holds its splats class after class, so that a frame can leave out the classes of a node none
@@ -140,7 +146,12 @@ struct Engine::Impl {
     // The threshold in force, and the frame time it is adapted to (EngineSettings::targetFrameMs):
     // an exponential mean of the time from one frame's start to the next's.
     float threshold = 0.0f;
+    float movingThreshold = 0.0f; // the threshold in force while the camera moves, kept at rest
     double meanFrameMs = 0.0;
+    // The last frame's camera, and since when (and for how many frames) it has not moved.
+    Camera lastCamera;
+    Clock::time_point stillSince{};
+    std::size_t stillFrames = 0;
     Clock::time_point lastFrameStart{};
     bool haveLastFrame = false;
     std::vector<NodeId> drawnNodes;
@@ -178,7 +189,8 @@ struct Engine::Impl {
     std::size_t upload(const std::vector<Wanted>& wanted, bool lockstep, FrameReport& report,
                        VkCommandBuffer& uploads);
     void releaseUnused();
-    void adaptThreshold(Clock::time_point start, bool lockstep);
+    bool resting(const Camera& camera, Clock::time_point start);
+    void adaptThreshold(Clock::time_point start, bool lockstep, bool resting);
     void collectFinished();
     void measureSplats(const Camera& camera, FrameReport& report) const;
 };
@@ -223,7 +235,7 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
     auto renderer = SplatRenderer::create(context, settings.render);
     if (!renderer) return renderer.error();
     auto impl = std::make_unique<Impl>(context, settings, std::move(tree).value());
-    impl->threshold = settings.threshold;
+    impl->threshold = impl->movingThreshold = settings.threshold;
     impl->hasColour = hasColour;
     impl->renderer = std::move(renderer).value();
     try {
@@ -525,7 +537,20 @@ std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockste
 // kMaxThresholdRise times the threshold asked for at most: a frame of few large splats costs its
 // pixels (each splat's footprint walked by one invocation), which refining divides among smaller
 // ones, so past that, coarser is slower.
-void Engine::Impl::adaptThreshold(Clock::time_point start, bool lockstep) {
+// Whether `camera` is at rest: the same as the last frames' for kRestSeconds and kRestFrames.
+bool Engine::Impl::resting(const Camera& camera, Clock::time_point start) {
+    if (stillFrames == 0 || !(camera == lastCamera)) {
+        lastCamera = camera;
+        stillSince = start;
+        stillFrames = 1;
+        return false;
+    }
+    ++stillFrames;
+    return stillFrames > kRestFrames &&
+           std::chrono::duration<double>(start - stillSince).count() >= kRestSeconds;
+}
+
+void Engine::Impl::adaptThreshold(Clock::time_point start, bool lockstep, bool resting) {
     if (haveLastFrame) {
         const double ms = std::chrono::duration<double, std::milli>(start - lastFrameStart).count();
         meanFrameMs = meanFrameMs > 0.0 ? 0.7 * meanFrameMs + 0.3 * ms : ms;
@@ -533,15 +558,22 @@ void Engine::Impl::adaptThreshold(Clock::time_point start, bool lockstep) {
     lastFrameStart = start;
     haveLastFrame = true;
     if (lockstep || settings.targetFrameMs <= 0.0f) {
+        threshold = movingThreshold = settings.threshold;
+        return;
+    }
+    if (resting) {
         threshold = settings.threshold;
         return;
     }
+    // Moving (again): from the threshold in force while it last moved, not from the rest's.
+    threshold = std::max(movingThreshold, settings.threshold);
     const double target = settings.targetFrameMs;
     if (meanFrameMs > 0.9 * target) {
         const auto rise = static_cast<float>(std::clamp(std::sqrt(meanFrameMs / (0.8 * target)), 1.08, 1.25));
         threshold = std::min(threshold * rise, kMaxThresholdRise * settings.threshold);
     } else if (meanFrameMs < 0.7 * target)
         threshold = std::max(settings.threshold, threshold / 1.04f);
+    movingThreshold = threshold;
 }
 
 // Keeps the tree's points within cpuCacheFactor × the cache's capacity: releases the children of
@@ -639,7 +671,8 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
             "not be parallel to the view direction, and the field of view must lie in (0, 180) degrees"};
     Impl& m = *impl_;
     const Clock::time_point start = Clock::now();
-    m.adaptThreshold(start, options.lockstep);
+    const bool resting = m.resting(camera, start);
+    m.adaptThreshold(start, options.lockstep, resting);
     try {
         // The frame that used this slot last must be done: its report first, then the slot.
         const Clock::time_point slotWait = Clock::now();
@@ -717,6 +750,7 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
 
         report.cacheBytesUsed = std::size_t{m.cache->used()} * sizeof(gpu::Splat);
         report.thresholdPx = m.threshold;
+        report.resting = resting;
         report.queueLength = m.workers ? m.workers->outstanding() : 0;
         if (m.workers) {
             const double busy = m.workers->busySeconds();
@@ -758,6 +792,7 @@ Result<void> Engine::setThreshold(float px) {
             fmt::format("the splat size threshold must be a positive number of pixels (got {})", px)};
     Impl& m = *impl_;
     m.threshold = std::min(m.threshold * (px / m.settings.threshold), kMaxThresholdRise * px);
+    m.movingThreshold = std::min(m.movingThreshold * (px / m.settings.threshold), kMaxThresholdRise * px);
     m.settings.threshold = px;
     return {};
 }

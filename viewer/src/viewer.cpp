@@ -585,8 +585,12 @@ std::vector<TextLine> Session::statistics() const {
                      r.gpu.accumulationMs, r.gpu.normalizationMs),
          kTextColour});
     lines.push_back({fmt::format("{} splats drawn ({} nodes)", r.splatsDrawn, r.nodesVisible), kTextColour});
+    // The state of the level of detail: moving (the frame-time target may draw coarser), at rest
+    // (the target let go: refining to the threshold), settled (the lockstep picture).
+    const char* state = r.settled ? "settled" : r.resting ? "at rest, refining" : "moving";
     lines.push_back(
-        {fmt::format("threshold {:.2f} px (in force {:.2f})", s.threshold, r.thresholdPx), kTextColour});
+        {fmt::format("threshold {:.2f} px (in force {:.2f}), {}", s.threshold, r.thresholdPx, state),
+         kTextColour});
     const auto& refine = s.nodes.refine;
     if (s.adaptive) {
         lines.push_back({fmt::format("refinement on: {} neighbourhood, {}",

@@ -22,6 +22,7 @@ struct Camera {
     // finite, or fovY is outside (0, π).
     bool valid() const;
     glm::mat4 view() const;
+    bool operator==(const Camera&) const = default;
 };
 
 // The camera as text: eye, target and up, nine numbers separated by commas, each in its shortest

@@ -49,7 +49,10 @@ struct EngineSettings {
     // A frame time to keep to, in milliseconds (0: none). Where frames take longer, the threshold in
     // force rises (coarser nodes, fewer splats) until they fit, and falls back towards `threshold`
     // while they have room: a device too slow for the threshold keeps its frame rate, and a fast
-    // one draws at the threshold. The threshold in force is in each FrameReport. Not in lockstep.
+    // one draws at the threshold. The threshold in force is in each FrameReport. Not in lockstep,
+    // and not while the camera rests (FrameReport::resting): then the frames draw at `threshold`
+    // until the picture is the settled one, and the target applies again, from the threshold in
+    // force before, once the camera moves.
     float targetFrameMs = 0.0f;
     // The GPU cache, in bytes (32 bytes a splat); must hold the input's points.
     std::size_t cacheBytes = std::size_t{96} << 20;
@@ -96,7 +99,10 @@ struct FrameReport {
     double refineBusyMs = 0.0;
     std::size_t treeNodes = 0, treePoints = 0; // on the CPU
     bool settled = false;                      // nothing was wanted for this camera: no refinement, no upload
-    float thresholdPx = 0.0f;                  // the threshold in force (EngineSettings::targetFrameMs)
+    // The camera has not moved for half a second: the frame-time target let go (thresholdPx is the
+    // threshold asked for) until it moves again, and refinement goes on to the settled picture.
+    bool resting = false;
+    float thresholdPx = 0.0f; // the threshold in force (EngineSettings::targetFrameMs)
     // With measureSplats: the median and the largest projected splat diameter drawn (pixels), and the
     // share of the splats drawn (in view, facing the eye) above the threshold (about half of a
     // node's splats may be: its median is what the level of detail holds to).

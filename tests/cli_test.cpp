@@ -1229,6 +1229,33 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
     EXPECT_NE(out[4].find("\"workers\": 1,"), std::string::npos) << out[4]; // --threads is --workers
 }
 
+// Issue 26's quality figures: every frame counts the pixels it covers; --quality-every K compares
+// every K-th frame with the lockstep settled picture of its camera, drawn after the run. In
+// lockstep the first frame is that picture (no history yet): PSNR 99, identical; the later ones
+// differ where hysteresis kept a node refined. Fails when the frames are not read back (no covered
+// pixels) or the reference is not the settled picture.
+TEST(CliBenchView, QualityFramesAgainstTheSettledPicture) {
+    const RunResult r =
+        run("bench view --frames 7 --width 64 --height 48 --lockstep --validation --quality-every 3");
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    const std::vector<std::string> out = lines(r.out);
+    ASSERT_EQ(out.size(), 7u + 3u + 1u) << r.out; // frames, quality frames 0, 3 and 6, summary
+    for (std::size_t k = 0; k < 7; ++k) {
+        EXPECT_EQ(out[k].find("\"covered_px\": 0,"), std::string::npos) << out[k];
+        EXPECT_NE(out[k].find("\"splats_per_covered_px\": "), std::string::npos) << out[k];
+    }
+    EXPECT_NE(out[7].find("{\"quality_frame\": 0, \"psnr\": 99.000, \"ssim\": 1.00000"), std::string::npos)
+        << out[7];
+    EXPECT_NE(out[8].find("{\"quality_frame\": 3, \"psnr\": "), std::string::npos) << out[8];
+    EXPECT_NE(out[9].find("{\"quality_frame\": 6, \"psnr\": "), std::string::npos) << out[9];
+    EXPECT_NE(out[10].find("\"quality_frames\": 3, \"psnr_median\": "), std::string::npos) << out[10];
+    EXPECT_EQ(out[10].find("\"psnr_p5\": null"), std::string::npos) << out[10];
+    // Without it: no quality figures.
+    const RunResult plain = run("bench view --frames 2 --width 32 --height 24");
+    ASSERT_TRUE(plain.exited && plain.exitCode == 0) << plain.err;
+    EXPECT_NE(plain.out.find("\"quality_frames\": 0, \"psnr_median\": null"), std::string::npos) << plain.out;
+}
+
 TEST(CliBadInput, RealTimeEngineRefusesBadInputInOneLine) {
     const TempDir dir;
     writeText(dir / "path.txt", "0 0 0 3 0 0 0\n5 0 0 3 oops 0 0\n");

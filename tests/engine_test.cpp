@@ -179,7 +179,7 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
         for (const engine::ImageRegion& hole : *holes) holePixels += hole.pixels;
         // The splats drawn and the points made (the tree: the nodes drawn, their ancestors, and nodes
         // refined for the balance rule or facing away) per covered pixel.
-        const auto covered = double(engine::coveredPixels(adaptiveImage, background));
+        const auto covered = double(engine::coveredPixels(adaptiveImage.pixels, background));
         const double drawnPerPixel = double(drawn->splatsDrawn) / covered;
         const double madePerPixel = double(engine.tree().pointCount()) / covered;
         std::printf("[%s] PSNR %.2f dB, SSIM %.4f against %u levels (%zu points); adaptive: levels to %u, "

@@ -28,6 +28,7 @@ struct BenchViewArgs {
     std::string capture;
     bool lockstep = false;
     bool measure = true;
+    std::size_t qualityEvery = 0; // 0: no quality frames
     EngineArgs engine;
 };
 
@@ -40,6 +41,9 @@ void runBenchView(BenchViewArgs args) {
     const std::size_t inputPoints = points.size();
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
+    // The quality frames' reference engine draws the same points (standard input cannot be read twice).
+    PointSet referencePoints;
+    if (args.qualityEvery > 0) referencePoints = points;
     auto created = engine::Engine::create(*context, std::move(points), settings);
     if (!created) throw CommandError(name + ": " + created.error().message);
     engine::Engine& engine = **created;
@@ -65,7 +69,23 @@ void runBenchView(BenchViewArgs args) {
     engine::FrameOptions options;
     options.lockstep = args.lockstep;
     options.measureSplats = args.measure;
-    options.readBack = !args.capture.empty();
+    // Every frame is read back: its report counts the pixels it covers (a copy of the picture into
+    // host memory in the frame's last command buffer, and a pass over it when the frame is done).
+    options.readBack = true;
+    // The pictures of the quality frames and their cameras, compared after the run (so that the
+    // reference's refinement takes none of the run's time).
+    struct QualityFrame {
+        std::size_t index;
+        engine::Camera camera;
+        engine::RgbaImage picture;
+    };
+    std::vector<QualityFrame> quality;
+    std::uint64_t pendingQuality = 0; // engine frame + 1 of a quality frame not yet read, else 0
+    const auto takeQuality = [&] {
+        if (pendingQuality == 0) return;
+        quality.back().picture = unwrap(engine.image(pendingQuality - 1));
+        pendingQuality = 0;
+    };
     FrameSeries series;
     const Clock::time_point start = Clock::now();
     std::vector<Clock::time_point> starts; // by frame of the run (the engine's frames count on)
@@ -85,6 +105,13 @@ void runBenchView(BenchViewArgs args) {
         starts.push_back(Clock::now());
         const engine::FrameReport report = unwrap(engine.frame(path.at(k), options));
         if (k == 0) firstFrame = report.frame;
+        // The last quality frame's picture, once the next frame is submitted: waiting for it then
+        // costs what the next frame's start would wait anyway (kFramesInFlight).
+        takeQuality();
+        if (args.qualityEvery > 0 && k % args.qualityEvery == 0) {
+            quality.push_back({k, path.at(k), {}});
+            pendingQuality = report.frame + 1;
+        }
         if (!args.capture.empty()) {
             const engine::RgbaImage image = unwrap(engine.image(report.frame));
             unwrap(engine::writePng(fmt::format("{}/frame-{:05}.png", args.capture, k), image));
@@ -92,8 +119,32 @@ void runBenchView(BenchViewArgs args) {
         emit(engine.reports());
     }
     engine.finish();
+    takeQuality();
     emit(engine.reports());
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    if (!quality.empty()) {
+        // The reference: the lockstep settled picture of each quality frame's camera, by an engine
+        // of its own without hysteresis (each node decided for that camera alone) or target.
+        engine::EngineSettings reference = settings;
+        reference.targetFrameMs = 0.0f;
+        reference.hysteresis = 1.0f;
+        auto settled = engine::Engine::create(*context, std::move(referencePoints), reference);
+        if (!settled) throw CommandError(name + ": " + settled.error().message);
+        engine::FrameOptions lockstep;
+        lockstep.lockstep = lockstep.readBack = true;
+        fmt::print(stderr, "bench view: {} quality frames against the lockstep settled picture\n",
+                   quality.size());
+        for (const QualityFrame& q : quality) {
+            const engine::FrameReport r = unwrap((*settled)->frame(q.camera, lockstep));
+            const engine::RgbaImage picture = unwrap((*settled)->image(r.frame));
+            const engine::ImageDifference d = unwrap(engine::compareImages(q.picture, picture));
+            series.addQuality(d.psnr, d.ssim);
+            fmt::print(
+                R"({{"quality_frame": {}, "psnr": {:.3f}, "ssim": {:.5f}, "settled_splats_drawn": {}}})"
+                "\n",
+                q.index, std::min(d.psnr, kIdenticalPsnr), d.ssim, r.splatsDrawn);
+        }
+    }
     fmt::print("{}\n", series.summaryJson(seconds, settings, context->deviceName(), context->driverName()));
     checkValidation(*context);
 }
@@ -120,6 +171,11 @@ void addBenchViewCommand(CLI::App& bench) {
     view->add_option("--capture", args->capture, "write every frame as DIR/frame-NNNNN.png");
     view->add_flag("--lockstep", args->lockstep,
                    "each frame refines and uploads until settled before drawing (reproducible frames)");
+    view->add_option(
+            "--quality-every", args->qualityEvery,
+            "for every K-th frame, draw after the run the lockstep settled picture of its camera and "
+            "print the frame's PSNR and SSIM against it (the summary: median and 5th percentile)")
+        ->check(CLI::Range(std::size_t{1}, std::size_t{1000000}));
     view->add_flag("!--no-measure", args->measure,
                    "skip measuring each splat drawn (max_splat_px, over_threshold: a pass on the CPU)");
     addEngineOptions(*view, args->engine, true, false);

@@ -212,7 +212,7 @@ void runRender(const RenderArgs& args) {
     const char* path = settings.render.path == RenderPath::Compute ? "compute" : "graphics";
     const std::size_t splats = engine.tree().pointCount();
     const std::size_t covered =
-        engine::coveredPixels(image, engine::backgroundPixel(settings.render.background));
+        engine::coveredPixels(image.pixels, engine::backgroundPixel(settings.render.background));
     const double perCovered = covered > 0 ? double(drawn.splatsDrawn) / double(covered) : 0.0;
     if (args.json) {
         fmt::print(

@@ -36,15 +36,17 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
     return fmt::format(
         R"({{"frame": {}, "frame_ms": {:.2f}, "cpu_ms": {:.2f}, "selection_ms": {:.2f}, "upload_ms": {:.2f}, )"
         R"("refine_wait_ms": {:.2f}, "gpu_wait_ms": {:.2f}, "refine_ms": {:.2f}, "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, "normalization_ms": {:.2f}, )"
-        R"("splats_drawn": {}, "nodes_visible": {}, "nodes_refined": {}, "points_generated": {}, )"
+        R"("splats_drawn": {}, "covered_px": {}, "splats_per_covered_px": {}, "nodes_visible": {}, )"
+        R"("nodes_refined": {}, "points_generated": {}, )"
         R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
         R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "median_splat_px": {:.3f}, "max_splat_px": {:.3f}, )"
         R"("over_threshold": {:.5f}, )"
         R"("resting": {}, "settled": {}}})",
         r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs,
-        r.gpu.visibilityMs, r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.nodesVisible,
-        r.nodesRefined, r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed, r.evictions,
-        r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx, r.medianSplatPx,
+        r.gpu.visibilityMs, r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.coveredPixels,
+        r.coveredPixels > 0 ? fmt::format("{:.3f}", double(r.splatsDrawn) / double(r.coveredPixels)) : "null",
+        r.nodesVisible, r.nodesRefined, r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed,
+        r.evictions, r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx, r.medianSplatPx,
         r.maxSplatPx, r.overThreshold, r.resting ? "true" : "false", r.settled ? "true" : "false");
 }
 
@@ -52,9 +54,21 @@ void FrameSeries::add(const engine::FrameReport& report, double frameMs) {
     frames_.push_back({report, frameMs});
 }
 
+void FrameSeries::addQuality(double psnr, double ssim) {
+    psnr_.push_back(std::min(psnr, kIdenticalPsnr));
+    ssim_.push_back(ssim);
+}
+
+namespace {
+// A figure of `values` in JSON: null when there are none.
+std::string orNull(const std::vector<double>& values, double figure) {
+    return values.empty() ? "null" : fmt::format("{:.4g}", figure);
+}
+} // namespace
+
 std::string FrameSeries::summaryJson(double seconds, const engine::EngineSettings& settings,
                                      const std::string& device, const std::string& driver) const {
-    std::vector<double> ms, selection, upload, visibility, accumulation, normalization, splats;
+    std::vector<double> ms, selection, upload, visibility, accumulation, normalization, splats, perCovered;
     std::size_t generated = 0, uploads = 0, uploadBytes = 0, evictions = 0;
     double busyMs = 0.0, worstOver = 0.0;
     float largest = 0.0f;
@@ -67,6 +81,7 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         accumulation.push_back(r.gpu.accumulationMs);
         normalization.push_back(r.gpu.normalizationMs);
         splats.push_back(double(r.splatsDrawn));
+        if (r.coveredPixels > 0) perCovered.push_back(double(r.splatsDrawn) / double(r.coveredPixels));
         generated += r.pointsGenerated;
         uploads += r.nodesUploaded;
         uploadBytes += r.bytesUploaded;
@@ -82,6 +97,8 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         R"("fps_median": {:.1f}, "points_generated": {}, "points_per_second": {:.0f}, )"
         R"("points_per_second_while_queued": {:.0f}, "queued_seconds": {:.3f}, "uploads_per_second": {:.1f}, )"
         R"("upload_mb_per_second": {:.2f}, "evictions": {}, "splats_drawn_median": {:.0f}, )"
+        R"("splats_per_covered_px_median": {}, "quality_frames": {}, "psnr_median": {}, "psnr_p5": {}, )"
+        R"("ssim_median": {}, )"
         R"("selection_ms_median": {:.2f}, "upload_ms_median": {:.2f}, "visibility_ms_median": {:.2f}, )"
         R"("accumulation_ms_median": {:.2f}, "normalization_ms_median": {:.2f}, "max_splat_px_max": {:.3f}, )"
         R"("over_threshold_max": {:.5f}, "threshold_px": {}, "cache_mb": {:.1f}, "workers": {}, "width": {}, )"
@@ -91,9 +108,11 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         busyMs > 0 ? double(generated) / (busyMs * 1e-3) : 0.0, busyMs * 1e-3,
         seconds > 0 ? double(uploads) / seconds : 0.0,
         seconds > 0 ? double(uploadBytes) / double(1 << 20) / seconds : 0.0, evictions, median(splats),
-        median(selection), median(upload), median(visibility), median(accumulation), median(normalization),
-        largest, worstOver, settings.threshold, double(settings.cacheBytes) / double(1 << 20),
-        settings.workers, settings.render.width, settings.render.height,
+        orNull(perCovered, median(perCovered)), psnr_.size(), orNull(psnr_, median(psnr_)),
+        orNull(psnr_, quantile(psnr_, 0.05)), orNull(ssim_, median(ssim_)), median(selection), median(upload),
+        median(visibility), median(accumulation), median(normalization), largest, worstOver,
+        settings.threshold, double(settings.cacheBytes) / double(1 << 20), settings.workers,
+        settings.render.width, settings.render.height,
         settings.render.path == engine::RenderPath::Compute ? "compute" : "graphics", device, driver,
         cpuName());
 }

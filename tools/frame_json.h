@@ -16,9 +16,14 @@ std::string frameJson(const engine::FrameReport& report, double frameMs);
 class FrameSeries {
   public:
     void add(const engine::FrameReport& report, double frameMs);
+    // A frame's picture against the lockstep settled picture of its camera (bench view
+    // --quality-every): PSNR (identical pictures count as kIdenticalPsnr) and SSIM.
+    void addQuality(double psnr, double ssim);
     std::size_t size() const { return frames_.size(); }
     // median and 95th percentile frame time; points generated per second over the run and over the
-    // frames that began with refinements queued; uploads per second; the per-frame split (medians).
+    // frames that began with refinements queued; uploads per second; the per-frame split (medians);
+    // the splats drawn per covered pixel (median, of the frames read back); the quality's median
+    // and 5th percentile PSNR and median SSIM (null without quality frames).
     std::string summaryJson(double seconds, const engine::EngineSettings& settings, const std::string& device,
                             const std::string& driver) const;
 
@@ -28,7 +33,11 @@ class FrameSeries {
         double ms;
     };
     std::vector<Frame> frames_;
+    std::vector<double> psnr_, ssim_;
 };
+
+// The PSNR that stands for identical pictures (infinite) in JSON.
+inline constexpr double kIdenticalPsnr = 99.0;
 
 // The median and the q-quantile (0..1, nearest rank) of `values` (0 when empty).
 double median(std::vector<double> values);

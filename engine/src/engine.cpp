@@ -624,6 +624,7 @@ void Engine::Impl::collectFinished() {
         FrameReport report = submitted.front();
         submitted.pop_front();
         report.gpu = renderer->passTimes(report.frame);
+        report.coveredPixels = renderer->coveredPixels(report.frame).value_or(0);
         // A caller that never asks for them keeps only the latest.
         if (finished.size() == kKeptReports) finished.pop_front();
         finished.push_back(report);

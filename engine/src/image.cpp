@@ -154,11 +154,10 @@ glm::u8vec3 backgroundPixel(glm::vec3 background) {
     return {channel(background.x), channel(background.y), channel(background.z)};
 }
 
-std::size_t coveredPixels(const RgbaImage& image, glm::u8vec3 background) {
+std::size_t coveredPixels(std::span<const std::uint8_t> rgba, glm::u8vec3 background) {
     std::size_t covered = 0;
-    for (std::size_t i = 0; i + 3 < image.pixels.size(); i += 4)
-        covered += image.pixels[i] != background.x || image.pixels[i + 1] != background.y ||
-                   image.pixels[i + 2] != background.z;
+    for (std::size_t i = 0; i + 3 < rgba.size(); i += 4)
+        covered += rgba[i] != background.x || rgba[i + 1] != background.y || rgba[i + 2] != background.z;
     return covered;
 }
 

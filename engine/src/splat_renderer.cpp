@@ -769,6 +769,14 @@ PassTimes SplatRenderer::passTimes(std::uint64_t frame) const {
     return times;
 }
 
+std::optional<std::size_t> SplatRenderer::coveredPixels(std::uint64_t frame) const {
+    const Impl::Slot& slot = impl_->slots[frame % kFramesInFlight];
+    if (slot.frame != frame || !slot.readBack) return std::nullopt;
+    const std::size_t bytes = 4 * std::size_t{impl_->settings.width} * impl_->settings.height;
+    return engine::coveredPixels({static_cast<const std::uint8_t*>(slot.readback.mapped), bytes},
+                                 backgroundPixel(impl_->settings.background));
+}
+
 RgbaImage SplatRenderer::image(std::uint64_t frame) const {
     const Impl::Slot& slot = impl_->slots[frame % kFramesInFlight];
     assert(slot.frame == frame && slot.readBack);

@@ -90,6 +90,8 @@ struct FrameReport {
     double refineMs = 0.0;                    // of that: results into the tree, jobs out, releases
     PassTimes gpu;
     std::size_t splatsDrawn = 0, nodesVisible = 0;
+    // With readBack, once finished (reports()): the pixels a splat covers (not the background).
+    std::size_t coveredPixels = 0;
     std::size_t nodesRefined = 0, pointsGenerated = 0; // refinements that joined the tree this frame
     std::size_t nodesUploaded = 0, bytesUploaded = 0, evictions = 0;
     std::size_t cacheBytesUsed = 0, queueLength = 0; // after the frame; jobs waiting or running

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <vector>
 
 #include <glm/gtc/type_precision.hpp>
@@ -45,8 +46,9 @@ Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, in
 // each channel round(c · 255), as the shaders' packUnorm4x8.
 glm::u8vec3 backgroundPixel(glm::vec3 background);
 
-// The pixels of `image` whose colour (R, G, B) is not `background`: those a splat covers.
-std::size_t coveredPixels(const RgbaImage& image, glm::u8vec3 background);
+// The pixels of an RGBA8 picture (4 bytes a pixel: RgbaImage::pixels, or a read-back buffer) whose
+// colour (R, G, B) is not `background`: those a splat covers.
+std::size_t coveredPixels(std::span<const std::uint8_t> rgba, glm::u8vec3 background);
 
 // A 4-connected set of pixels: its size and its bounding box (inclusive).
 struct ImageRegion {

@@ -108,6 +108,9 @@ class SplatRenderer {
     // pool for them would stall lavapipe, whose vkGetQueryPoolResults waits for the device to idle.
     PassTimes passTimes(std::uint64_t frame) const;
     RgbaImage image(std::uint64_t frame) const;
+    // The pixels of that image a splat covers (not of the background colour: coveredPixels in
+    // image.h), counted in host memory without a copy; nullopt when the frame was not read back.
+    std::optional<std::size_t> coveredPixels(std::uint64_t frame) const;
 
     const RenderSettings& settings() const;
     // Takes `settings` for the frames submitted from now on, without waiting, when they differ from

@@ -36,6 +36,15 @@ PointSet defaultModel() {
     return points;
 }
 
+// Engine settings for the tests: 160x120, at `threshold` px.
+EngineSettings small(float threshold) {
+    EngineSettings settings;
+    settings.render.width = 160;
+    settings.render.height = 120;
+    settings.threshold = threshold;
+    return settings;
+}
+
 Camera framing(const PointSet& points, float aspect) {
     return engine::frameSphere(engine::boundingSphere(points.position), aspect, radians(40.0f), 0.3f);
 }
@@ -48,10 +57,7 @@ Camera framing(const PointSet& points, float aspect) {
 // raised and the picture coarse.
 TEST_F(EngineControlsTest, ACameraAtRestConvergesToTheSettledPicture) {
     const PointSet points = defaultModel();
-    EngineSettings settings;
-    settings.render.width = 160;
-    settings.render.height = 120;
-    settings.threshold = 2.0f;
+    EngineSettings settings = small(2.0f);
     settings.targetFrameMs = 0.001f; // every frame is too slow
     auto created = Engine::create(context(), points, settings);
     ASSERT_TRUE(created.ok()) << created.error().message;
@@ -106,10 +112,7 @@ TEST_F(EngineControlsTest, ACameraAtRestConvergesToTheSettledPicture) {
 // splats drawn would stay the same.
 TEST_F(EngineControlsTest, SetThresholdRefinesToTheNewThreshold) {
     const PointSet points = defaultModel();
-    EngineSettings settings;
-    settings.render.width = 160;
-    settings.render.height = 120;
-    settings.threshold = 8.0f;
+    const EngineSettings settings = small(8.0f);
     auto created = Engine::create(context(), points, settings);
     ASSERT_TRUE(created.ok()) << created.error().message;
     Engine& engine = **created;

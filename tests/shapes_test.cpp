@@ -14,6 +14,18 @@
 namespace pnsplat {
 namespace {
 
+// The outward normal of a star-shaped surface (its point in each direction) in direction d, by
+// central differences of step h along two tangent axes (e1 x e2 = d).
+template <class Surface>
+glm::vec3 finiteDifferenceNormal(Surface surface, glm::vec3 d, float h) {
+    const glm::vec3 helper = std::abs(d.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(1, 0, 0);
+    const glm::vec3 e1 = glm::normalize(glm::cross(helper, d));
+    const glm::vec3 e2 = glm::cross(d, e1);
+    const glm::vec3 tu = surface(d + h * e1) - surface(d - h * e1);
+    const glm::vec3 tv = surface(d + h * e2) - surface(d - h * e2);
+    return glm::normalize(glm::cross(tu, tv));
+}
+
 constexpr double kPi = std::numbers::pi;
 
 bool allFinite(const PointSet& set) {
@@ -161,12 +173,7 @@ TEST(BumpySphere, NormalsMatchFiniteDifferencesOfTheSurface) {
         const glm::vec3 d = glm::normalize(model.position[i]);
         // The point lies on the surface in its own direction.
         ASSERT_LT(glm::length(bumpySphereSurface(d) - model.position[i]), 1e-5f);
-        const glm::vec3 helper = std::abs(d.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(1, 0, 0);
-        const glm::vec3 e1 = glm::normalize(glm::cross(helper, d));
-        const glm::vec3 e2 = glm::cross(d, e1);
-        const glm::vec3 tu = bumpySphereSurface(d + h * e1) - bumpySphereSurface(d - h * e1);
-        const glm::vec3 tv = bumpySphereSurface(d + h * e2) - bumpySphereSurface(d - h * e2);
-        const glm::vec3 fd = glm::normalize(glm::cross(tu, tv)); // e1 x e2 = d: outward
+        const glm::vec3 fd = finiteDifferenceNormal(bumpySphereSurface, d, h);
         worst = std::max(worst, angleInDegrees(fd, model.normal[i]));
     }
     EXPECT_LT(worst, 0.1);
@@ -230,12 +237,7 @@ TEST(DefaultModel, NormalsMatchFiniteDifferencesAndTheDenseVersionLiesOnTheSameS
         for (std::size_t i = 0; i < model->size(); ++i) {
             const glm::vec3 d = glm::normalize(model->position[i]);
             farthest = std::max(farthest, glm::length(defaultModelSurface(d) - model->position[i]));
-            const glm::vec3 helper = std::abs(d.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(1, 0, 0);
-            const glm::vec3 e1 = glm::normalize(glm::cross(helper, d));
-            const glm::vec3 e2 = glm::cross(d, e1);
-            const glm::vec3 tu = defaultModelSurface(d + h * e1) - defaultModelSurface(d - h * e1);
-            const glm::vec3 tv = defaultModelSurface(d + h * e2) - defaultModelSurface(d - h * e2);
-            const glm::vec3 fd = glm::normalize(glm::cross(tu, tv)); // e1 x e2 = d: outward
+            const glm::vec3 fd = finiteDifferenceNormal(defaultModelSurface, d, h);
             worst = std::max(worst, angleInDegrees(fd, model->normal[i]));
         }
         EXPECT_LT(farthest, 1e-5f) << model->size() << " points";

@@ -51,6 +51,32 @@ DVec3 fibonacciDirection(std::size_t i, std::size_t n) {
     return glm::normalize(DVec3(s * std::cos(phi), s * std::sin(phi), z));
 }
 
+// n coloured points of a star-shaped surface, one in each direction of the Fibonacci sphere moved by
+// up to 25 % of the mean spacing along each of two tangent axes (uniformly): nearest-neighbour
+// distances vary by about 17 % (coefficient of variation; 3 % without jitter) while the closest
+// pair keeps 45 % of the mean distance: irregular, but not pathological. `add(d, set)` appends the
+// point of direction d with its normal and colour.
+template <class Add>
+PointSet sampleJittered(std::size_t n, std::uint64_t seed, Add add) {
+    constexpr double kJitter = 0.25;
+    const double spacing = std::sqrt(4.0 * kPi / static_cast<double>(std::max<std::size_t>(n, 1)));
+    std::mt19937_64 rng(seed);
+    PointSet set;
+    set.position.reserve(n);
+    set.normal.reserve(n);
+    set.colour.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const DVec3 d0 = fibonacciDirection(i, n);
+        const DVec3 helper = std::abs(d0.z) < 0.9 ? DVec3(0.0, 0.0, 1.0) : DVec3(1.0, 0.0, 0.0);
+        const DVec3 e1 = glm::normalize(glm::cross(helper, d0));
+        const DVec3 e2 = glm::cross(d0, e1);
+        const double a = 2.0 * uniform01(rng) - 1.0;
+        const double b = 2.0 * uniform01(rng) - 1.0;
+        add(glm::normalize(d0 + kJitter * spacing * (a * e1 + b * e2)), set);
+    }
+    return set;
+}
+
 // Outward unit normal of the torus at parameters (u, v): also the direction from the tube
 // circle to the point.
 DVec3 torusNormal(double u, double v) {
@@ -279,35 +305,13 @@ PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H) {
 }
 
 PointSet makeBumpySphere() {
-    constexpr std::size_t kPoints = 2000;
-    constexpr std::uint64_t kSeed = 0x5EED2005u;
-    // Jitter of up to 25 % of the mean spacing along each tangent axis: nearest-neighbour
-    // distances vary by about 17 % (coefficient of variation; 3 % without jitter) while the
-    // closest pair keeps 45 % of the mean distance: irregular, but not pathological.
-    constexpr double kJitter = 0.25;
-    const double spacing = std::sqrt(4.0 * kPi / static_cast<double>(kPoints));
-
-    std::mt19937_64 rng(kSeed);
-    PointSet set;
-    set.position.reserve(kPoints);
-    set.normal.reserve(kPoints);
-    set.colour.reserve(kPoints);
-    for (std::size_t i = 0; i < kPoints; ++i) {
-        const DVec3 d0 = fibonacciDirection(i, kPoints);
-        const DVec3 helper = std::abs(d0.z) < 0.9 ? DVec3(0.0, 0.0, 1.0) : DVec3(1.0, 0.0, 0.0);
-        const DVec3 e1 = glm::normalize(glm::cross(helper, d0));
-        const DVec3 e2 = glm::cross(d0, e1);
-        const double a = 2.0 * uniform01(rng) - 1.0;
-        const double b = 2.0 * uniform01(rng) - 1.0;
-        const DVec3 d = glm::normalize(d0 + kJitter * spacing * (a * e1 + b * e2));
-
+    return sampleJittered(2000, 0x5EED2005u, [](DVec3 d, PointSet& set) {
         const SurfacePoint s = bumpySpherePoint(d);
         append(set, s.position, s.normal);
         // Hue from the bump value: valleys (f = -1) blue, crests (f = 1) red.
         const double hue = 240.0 * (1.0 - 0.5 * (std::clamp(s.bump, -1.0, 1.0) + 1.0));
         set.colour.push_back(hsvToRgb(hue, 0.7, 0.95));
-    }
-    return set;
+    });
 }
 
 glm::vec3 bumpySphereSurface(glm::vec3 direction) {
@@ -400,28 +404,12 @@ glm::u8vec3 defaultModelColour(const DefaultField& f) {
 } // namespace
 
 PointSet sampleDefaultModel(std::size_t n, std::uint64_t seed) {
-    // Jitter of up to 25 % of the mean spacing along each tangent axis, as the bumpy sphere.
-    constexpr double kJitter = 0.25;
-    const double spacing = std::sqrt(4.0 * kPi / static_cast<double>(std::max<std::size_t>(n, 1)));
-    std::mt19937_64 rng(seed);
-    PointSet set;
-    set.position.reserve(n);
-    set.normal.reserve(n);
-    set.colour.reserve(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const DVec3 d0 = fibonacciDirection(i, n);
-        const DVec3 helper = std::abs(d0.z) < 0.9 ? DVec3(0.0, 0.0, 1.0) : DVec3(1.0, 0.0, 0.0);
-        const DVec3 e1 = glm::normalize(glm::cross(helper, d0));
-        const DVec3 e2 = glm::cross(d0, e1);
-        const double a = 2.0 * uniform01(rng) - 1.0;
-        const double b = 2.0 * uniform01(rng) - 1.0;
-        const DVec3 d = glm::normalize(d0 + kJitter * spacing * (a * e1 + b * e2));
+    return sampleJittered(n, seed, [](DVec3 d, PointSet& set) {
         DefaultField field{};
         const SurfacePoint s = defaultModelPoint(d, field);
         append(set, s.position, s.normal);
         set.colour.push_back(defaultModelColour(field));
-    }
-    return set;
+    });
 }
 
 PointSet makeDefaultModel() {

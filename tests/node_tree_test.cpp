@@ -304,5 +304,22 @@ TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
     EXPECT_TRUE(bendOf(PointSet{}).empty());
 }
 
+// medianRadiiOf, which settles the engine's median test for a node in full view (engine.cpp): more
+// than half of the radii are at least the first, at most half exceed the second.
+TEST(NodeDetail, MedianRadiiBoundTheMedianSplat) {
+    EXPECT_EQ(medianRadiiOf(std::vector<float>{3.0f, 1.0f, 2.0f}), (std::array<float, 2>{2.0f, 2.0f}));
+    EXPECT_EQ(medianRadiiOf(std::vector<float>{4.0f, 1.0f, 3.0f, 2.0f}), (std::array<float, 2>{2.0f, 3.0f}));
+    EXPECT_EQ(medianRadiiOf(std::vector<float>{5.0f}), (std::array<float, 2>{5.0f, 5.0f}));
+    EXPECT_EQ(medianRadiiOf(std::vector<float>{}), (std::array<float, 2>{0.0f, 0.0f}));
+    std::mt19937_64 random(11);
+    for (std::size_t n = 1; n < 40; ++n) {
+        std::vector<float> radii(n);
+        for (float& r : radii) r = float(random() % 7); // ties
+        const auto [low, high] = medianRadiiOf(radii);
+        EXPECT_GT(2 * std::ranges::count_if(radii, [&](float r) { return r >= low; }), std::ptrdiff_t(n));
+        EXPECT_LE(2 * std::ranges::count_if(radii, [&](float r) { return r > high; }), std::ptrdiff_t(n));
+    }
+}
+
 } // namespace
 } // namespace pnsplat

@@ -31,6 +31,7 @@ double millisecondsSince(Clock::time_point t) {
 
 constexpr std::uint64_t kNever = 0; // frame stamps are frame index + 1
 constexpr float kHalfPi = 1.57079632679f;
+constexpr float kPi = 3.14159265359f;
 // The level of detail (docs/REALTIME.md, "The level of detail"). A node is drawn through its
 // children while more than kOverShare of its splats drawn are wider than the threshold: its median
 // splat. The 99th percentile (a share of 0.008, before) let the sparsest patches of a node decide for
@@ -302,53 +303,83 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
     const float scale = settings.render.radiusScale;
     const std::uint64_t stamp = frames->index() + 1;
 
-    // In the frustum, and not seen from behind: splats are one-sided (splat_common.glsl skips
-    // those with n · (p - eye) >= 0), so a node all of whose splats face away draws nothing. The
-    // directions from the eye to the node's sphere lie within asin(R / d) of the direction d to its
-    // centre, its normals within coneAngle of coneAxis: if the two angles and the angle between the
-    // axes sum below π/2, every n · (p - eye) is positive.
-    const auto visible = [&](const Node& node) {
-        if (!settings.render.cullNodes) return true;
+    // What the camera sees of a node, from its box and its normal cone (a cone around coneAxis of
+    // half-angle coneAngle holds its normals; the directions from the eye to a sphere of radius R
+    // around the box's centre lie within asin(R / d) of the direction to the centre, d away):
+    struct NodeView {
+        bool visible = true;   // in the frustum, and not seen only from behind
+        bool allFront = false; // every splat faces the eye (n · (p - eye) < 0)
+        bool noRim = false;    // every splat faces the eye within acos(kRimCosine) of its normal
+        bool inView = false;   // the whole box in the frustum, beyond the near plane
+        float nearest = 0.0f, farthest = 0.0f; // depths of the box's corners
+    };
+    const glm::vec3 forward = glm::normalize(camera.target - camera.eye);
+    const glm::vec3 right = glm::vec3(view[0][0], view[1][0], view[2][0]);
+    const glm::vec3 upward = glm::vec3(view[0][1], view[1][1], view[2][1]);
+    const float rimAngle = kPi - std::acos(kRimCosine); // the angle of n to p - eye beyond which no rim
+    const auto see = [&](const Node& node) {
+        NodeView v;
+        v.nearest = std::numeric_limits<float>::max();
+        v.farthest = std::numeric_limits<float>::lowest();
+        v.inView = true;
+        for (int corner = 0; corner < 8; ++corner) {
+            const glm::vec3 d =
+                glm::vec3{corner & 1 ? node.hi.x : node.lo.x, corner & 2 ? node.hi.y : node.lo.y,
+                          corner & 4 ? node.hi.z : node.lo.z} -
+                camera.eye;
+            const float depth = glm::dot(d, forward);
+            v.nearest = std::min(v.nearest, depth);
+            v.farthest = std::max(v.farthest, depth);
+            v.inView = v.inView && depth > range.near &&
+                       std::abs(glm::dot(d, right)) <= frustum.tanX * depth &&
+                       std::abs(glm::dot(d, upward)) <= frustum.tanY * depth;
+        }
+        if (!settings.render.cullNodes) return v;
         const glm::vec3 centre = (node.lo + node.hi) * 0.5f;
-        const float radius = glm::length(node.hi - node.lo) * 0.5f + node.maxRadius * scale;
-        if (!frustum.intersects(glm::vec3(view * glm::vec4(centre, 1.0f)), radius)) return false;
+        const float box = glm::length(node.hi - node.lo) * 0.5f;
+        const float radius = box + node.maxRadius * scale;
+        v.visible = frustum.intersects(glm::vec3(view * glm::vec4(centre, 1.0f)), radius);
         const glm::vec3 toCentre = centre - camera.eye;
         const float distance = glm::length(toCentre);
-        if (node.coneAngle >= kHalfPi || !(distance > radius)) return true;
+        if (!v.visible || node.coneAngle >= kHalfPi || !(distance > radius)) return v;
         const float between =
             std::acos(std::clamp(glm::dot(toCentre / distance, node.coneAxis), -1.0f, 1.0f));
-        return between + std::asin(radius / distance) + node.coneAngle >= kHalfPi;
+        // Seen only from behind: every n · (p - eye) positive (splat_common.glsl skips those).
+        v.visible = between + std::asin(radius / distance) + node.coneAngle >= kHalfPi;
+        const float least = between - std::asin(box / distance) - node.coneAngle; // of n to p - eye
+        v.allFront = least > kHalfPi;
+        v.noRim = least > rimAngle;
+        return v;
     };
     // The diameter on screen of a node's splat of radius r, at most: r at the depth of the nearest
     // corner of its box (depth is linear, so its minimum over the box is at a corner).
-    const glm::vec3 forward = glm::normalize(camera.target - camera.eye);
-    const auto bound = [&](const Node& node, float radius) {
-        float nearest = std::numeric_limits<float>::max();
-        for (int corner = 0; corner < 8; ++corner) {
-            const glm::vec3 p{corner & 1 ? node.hi.x : node.lo.x, corner & 2 ? node.hi.y : node.lo.y,
-                              corner & 4 ? node.hi.z : node.lo.z};
-            nearest = std::min(nearest, glm::dot(p - camera.eye, forward));
-        }
-        return 2.0f * radius * scale * focal / std::max(nearest, range.near);
+    const auto bound = [&](const NodeView& v, float radius) {
+        return 2.0f * radius * scale * focal / std::max(v.nearest, range.near);
     };
     // Whether the node's splats drawn (in view, facing the eye) are too coarse for the threshold in
     // force times `factor` (the hysteresis, or 1): more than kOverShare of them wider than it (its
     // median splat), or more than kRimShare of those at the silhouette standing out by more than
     // kRimBulgePx times the same ratio (the frame-time target and the hysteresis coarsen both
-    // alike). The box bound settles most nodes at once (no splat reaches kRimMinPx or the limit);
-    // the others are measured splat by splat (no division: r · k > depth), which is exact where a
-    // box seen at a grazing angle or reaching out of the view would refine a node for its nearest
-    // corner alone.
-    const glm::vec3 right = glm::vec3(view[0][0], view[1][0], view[2][0]);
-    const glm::vec3 upward = glm::vec3(view[0][1], view[1][1], view[2][1]);
+    // alike). The box settles most nodes at once: none of its splats reaches kRimMinPx or the
+    // limit; or, for a node all in view and facing the eye, its median radii at the nearest and the
+    // farthest corner (Node::medianRadius) and, for the silhouette, its normal cone or its largest
+    // radius and bend (Node::maxBend). The others are measured
+    // splat by splat (no division: r · k > depth), which is exact where a box seen at a grazing
+    // angle or reaching out of the view would refine a node for its nearest corner alone.
     const float rise = threshold / settings.threshold;
-    const auto exceeds = [&](const Node& node, float factor) {
+    const auto exceeds = [&](const Node& node, const NodeView& v, float factor) {
         const float limit = threshold * factor;
-        if (bound(node, node.maxRadius) <= std::min(limit, kRimMinPx)) return false;
+        if (bound(v, node.maxRadius) <= std::min(limit, kRimMinPx)) return false;
         const float k = 2.0f * scale * focal / limit; // the diameter over the limit, times depth
         // The bulge r · bend / 2 over its limit, times depth.
         const float bulge = scale * focal * 0.5f / (kRimBulgePx * rise * factor);
         const float rimK = 2.0f * scale * focal / kRimMinPx;
+        const bool rimPossible = !v.noRim && node.maxRadius * node.maxBend * bulge > v.nearest &&
+                                 node.maxRadius * rimK > v.nearest;
+        if (v.inView && v.allFront) { // every splat drawn: the median radii settle the first test
+            if (node.medianRadius[0] * k > v.farthest) return true;                  // more than half wider
+            if (node.medianRadius[1] * k <= v.nearest && !rimPossible) return false; // at most half
+        }
         const PointSet& points = node.points;
         std::size_t drawn = 0, over = 0, rim = 0, rimOver = 0;
         for (std::size_t i = 0; i < points.size(); ++i) {
@@ -362,7 +393,7 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
             const float r = points.radius[i];
             ++drawn;
             over += r * k > depth;
-            if (facing < kRimCosine * glm::length(d)) {
+            if (rimPossible && facing < kRimCosine * glm::length(d)) {
                 ++rim;
                 rimOver += r * node.bend[i] * bulge > depth && r * rimK > depth;
             }
@@ -372,14 +403,14 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
     };
     // The facing classes of a node that hold a splat facing the eye (the passes skip a splat seen
     // from behind: the test of frontFacing in splat_common.glsl); the others draw nothing and are
-    // left out before the passes, and so is a node with none. The normal cone of `visible` settles
-    // most nodes that face away; these are beside the silhouette. The loop ends once every class
-    // of the node is found facing the eye.
-    const auto draw = [&](NodeId id, const Node& node) {
+    // left out before the passes, and so is a node with none. The normal cone settles the nodes that
+    // face the eye whole; the others, beside the silhouette, are tested point by point until every
+    // class of the node is found facing the eye.
+    const auto draw = [&](NodeId id, const Node& node, const NodeView& v) {
         const ClassStarts& classes = stateOf(id).classes;
         std::uint32_t present = 0, facing = 0;
         for (std::uint32_t c = 0; c < kFacingClasses; ++c) present |= (classes[c + 1] > classes[c]) << c;
-        if (!settings.render.cullNodes) facing = present; // a test switch: everything drawn
+        if (!settings.render.cullNodes || v.allFront) facing = present; // (a test switch: everything drawn)
         const PointSet& points = node.points;
         for (std::size_t i = 0; i < points.size() && facing != present; ++i)
             if (glm::dot(points.normal[i], points.position[i] - camera.eye) < 0.0f)
@@ -390,7 +421,8 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
     };
     const auto visit = [&](const auto& self, NodeId id) -> void {
         const Node& node = tree.node(id);
-        if (!visible(node)) return;
+        const NodeView v = see(node);
+        if (!v.visible) return;
         NodeState& s = stateOf(id);
         // Hysteresis holds only for a node seen without a break (in the last frame or earlier in
         // this one): one that left the view (or whose subtree was released meanwhile) decides
@@ -398,11 +430,11 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
         const bool descended = s.descended && s.lastVisited + 1 >= stamp;
         s.lastVisited = stamp;
         // Order of refinement and upload: the node's 99th percentile splat at its nearest depth.
-        const float size = bound(node, node.drawnRadius);
-        if (!node.isLeaf() && exceeds(node, descended ? settings.hysteresis : 1.0f)) {
+        const float size = bound(v, node.drawnRadius);
+        if (!node.isLeaf() && exceeds(node, v, descended ? settings.hysteresis : 1.0f)) {
             bool ready = true;
             for (const NodeId c : node.childIds()) {
-                if (stateOf(c).resident || !visible(tree.node(c))) continue;
+                if (stateOf(c).resident || !see(tree.node(c)).visible) continue;
                 out.upload.push_back({c, tree.node(c).level, size});
                 ready = false;
             }
@@ -411,14 +443,14 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
                 for (const NodeId c : node.childIds()) self(self, c);
                 return;
             }
-            draw(id, node);
+            draw(id, node, v);
             return;
         } else if (node.isLeaf() && settings.adaptive && node.level < tree.settings().maxLevel &&
-                   exceeds(node, 1.0f)) {
+                   exceeds(node, v, 1.0f)) {
             out.refine.push_back({id, node.level, size});
         }
         s.descended = false;
-        draw(id, node);
+        draw(id, node, v);
     };
     for (const NodeId root : tree.roots()) visit(visit, root);
     // Breadth-first: coarsest level first, then largest on screen; ties by id (deterministic).
@@ -700,8 +732,11 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
             const Clock::time_point uploading = Clock::now();
             const std::size_t uploaded = m.upload(selection.upload, options.lockstep, report, uploads);
             report.uploadMs += millisecondsSince(uploading);
+            // Settled: nothing more wanted at the threshold asked for (a threshold in force raised by
+            // the frame-time target settles only once the camera rests).
             report.settled = selection.refine.empty() && selection.upload.empty() &&
-                             (!m.workers || m.workers->outstanding() == 0);
+                             (!m.workers || m.workers->outstanding() == 0) &&
+                             m.threshold == m.settings.threshold;
             if (!options.lockstep || report.settled) break;
             if (m.workers && m.workers->outstanding() > 0) {
                 const Clock::time_point waiting = Clock::now();

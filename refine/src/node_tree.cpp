@@ -110,6 +110,17 @@ std::vector<float> bendOf(const PointSet& points) {
     return bend;
 }
 
+std::array<float, 2> medianRadiiOf(std::span<const float> radii) {
+    if (radii.empty()) return {0.0f, 0.0f};
+    std::vector<float> sorted(radii.begin(), radii.end());
+    const std::size_t n = sorted.size();
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(n / 2), sorted.end());
+    const float upper = sorted[n / 2];
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>((n - 1) / 2),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(n / 2));
+    return {n % 2 == 1 ? upper : sorted[(n - 1) / 2], upper};
+}
+
 void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& angle) {
     glm::vec3 sum(0.0f);
     for (const glm::vec3 n : normals) sum += n;
@@ -203,6 +214,8 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         node.hi = box.hi;
         node.maxRadius = std::ranges::max(node.points.radius);
         node.drawnRadius = drawnRadiusOf(node.points.radius);
+        node.medianRadius = medianRadiiOf(node.points.radius);
+        node.maxBend = node.bend.empty() ? 0.0f : std::ranges::max(node.bend);
         normalConeOf(node.points.normal, node.coneAxis, node.coneAngle);
         tree.pointCount_ += node.points.size();
         tree.roots_.push_back(id);
@@ -330,6 +343,8 @@ bool NodeTree::attach(NodeJobResult&& result) {
         child.hi = box.hi;
         child.maxRadius = std::ranges::max(child.points.radius);
         child.drawnRadius = drawnRadiusOf(child.points.radius);
+        child.medianRadius = medianRadiiOf(child.points.radius);
+        child.maxBend = child.bend.empty() ? 0.0f : std::ranges::max(child.bend);
         normalConeOf(child.points.normal, child.coneAxis, child.coneAngle);
         pointCount_ += child.points.size();
     }

@@ -763,7 +763,10 @@ Result<ViewerSummary> Session::run() {
             }
             const bool idle =
                 report.nodesRefined == 0 && report.nodesUploaded == 0 && report.queueLength == 0;
-            stalledFrames_ = !report.settled && idle ? stalledFrames_ + 1 : 0;
+            // A threshold in force raised by the frame-time target is not a stall: the camera's rest
+            // (half a second) lets it go, and the refinement goes on (engine.h, FrameReport::resting).
+            const bool raised = report.thresholdPx > engine_->settings().threshold;
+            stalledFrames_ = !report.settled && idle && !raised ? stalledFrames_ + 1 : 0;
             const bool still = report.settled || stalledFrames_ >= kStalledFrames;
             if (stalledFrames_ == kStalledFrames)
                 message(fmt::format(

@@ -100,7 +100,9 @@ struct FrameReport {
     // rate while it has work.
     double refineBusyMs = 0.0;
     std::size_t treeNodes = 0, treePoints = 0; // on the CPU
-    bool settled = false;                      // nothing was wanted for this camera: no refinement, no upload
+    // Nothing was wanted for this camera at the threshold asked for: no refinement, no upload, and the
+    // threshold in force is the one asked for (the frame-time target has not raised it, or let go).
+    bool settled = false;
     // The camera has not moved for half a second: the frame-time target let go (thresholdPx is the
     // threshold asked for) until it moves again, and refinement goes on to the settled picture.
     bool resting = false;

@@ -41,6 +41,9 @@ inline constexpr float kDrawnRadiusQuantile = 0.99f;
 
 // The kDrawnRadiusQuantile quantile of `radii` (0 when empty).
 float drawnRadiusOf(std::span<const float> radii);
+// The lower and upper medians of `radii`, the (n-1)/2-th and n/2-th smallest (equal for an odd
+// count): more than half of the radii are at least the first, at most half exceed the second.
+std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 // Per point, how far the surface turns within one spacing: the largest angle (radians) between its
 // normal and those of its kBendNeighbours nearest points in `points`. A splat at the silhouette
 // stands out of the surface by about r · bend / 2 (the sagitta of a circle turning by bend over r),
@@ -70,6 +73,8 @@ struct Node {
     // chosen by (a few points of much larger radius, such as those whose new one-ring stayed empty,
     // would otherwise refine a whole node another level or two).
     float drawnRadius = 0.0f;
+    std::array<float, 2> medianRadius{}; // medianRadiiOf its points' radii
+    float maxBend = 0.0f;                // of its points
     // A cone around coneAxis of half-angle coneAngle (radians) holds every normal of its points; at
     // π/2 or more it tells nothing. A renderer skips a node seen from behind (one-sided splats).
     glm::vec3 coneAxis{0.0f, 0.0f, 1.0f};

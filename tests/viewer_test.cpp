@@ -610,6 +610,12 @@ TEST(ViewerProgram, StatsAreBenchViewsLines) {
     EXPECT_EQ(jsonField(l[6], "summary"), "true");
     EXPECT_EQ(jsonField(l[6], "frames"), "6");
     EXPECT_EQ(jsonField(l[6], "width"), "160");
+    // Written as every output is (OutputFile): a session that fails leaves no file, not an empty
+    // or partial one (a plain stream left an empty file when the model did not load).
+    const RunResult failed =
+        view("--frames 2 " + quote(dir / "missing.ply") + " --stats " + quote(dir / "f.json"));
+    EXPECT_TRUE(failed.exited && failed.exitCode == 3) << failed.err;
+    EXPECT_FALSE(fs::exists(dir / "f.json"));
 }
 
 } // namespace

@@ -1,8 +1,7 @@
 // `pnsplat view`: the real-time engine in a window (the viewer library, viewer.h), with the options
 // `render` and `bench view` share; --stats writes bench view's JSON lines.
 #include <cstdio>
-#include <fstream>
-#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,11 +43,10 @@ void runView(const ViewArgs& args) {
     // The window system first: without a display, nothing else is worth doing.
     auto windows = viewer::WindowSystem::open();
     if (!windows) throw CommandError(windows.error().message);
-    std::unique_ptr<std::ofstream> stats;
-    if (!args.stats.empty()) {
-        stats = std::make_unique<std::ofstream>(args.stats);
-        if (!*stats) throw CommandError(args.stats + ": cannot write the statistics");
-    }
+    // Through OutputFile like every output: it appears whole when the session ends, and not at all
+    // when it fails.
+    std::optional<OutputFile> stats;
+    if (!args.stats.empty()) stats.emplace(unwrap(OutputFile::open(args.stats, OutputContent::Text)));
     viewer::Model model = loadModel(args.input, args.camera,
                                     float(args.engine.width) / float(args.engine.height), args.keepNormals);
 
@@ -80,17 +78,16 @@ void runView(const ViewArgs& args) {
     viewer::FrameSink sink;
     if (stats)
         sink = [&](const engine::FrameReport& report, double frameMs) {
-            *stats << frameJson(report, frameMs) << '\n';
+            unwrap(stats->write(frameJson(report, frameMs) + '\n'));
             series.add(report, frameMs);
         };
     const auto summary = viewer::run(**windows, *context, std::move(model), options, loader, sink);
     if (!summary) throw CommandError(summary.error().message);
     if (stats) {
-        *stats << series.summaryJson(summary->seconds, summary->settings, context->deviceName(),
-                                     context->driverName())
-               << '\n';
-        stats->flush();
-        if (!*stats) throw CommandError(args.stats + ": cannot write the statistics");
+        unwrap(stats->write(series.summaryJson(summary->seconds, summary->settings, context->deviceName(),
+                                               context->driverName()) +
+                            '\n'));
+        unwrap(stats->commit());
     }
     checkValidation(*context);
 }

@@ -7,7 +7,6 @@
 #include <cassert>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <optional>
@@ -72,7 +71,7 @@ constexpr std::size_t kRestFrames = 2;
 
 // Facing classes: a normal's class is the axis direction nearest it (+x, +y, +z, -x, -y, -z). A
 // chunk holds its splats class after class, so that a frame can leave out the classes of a node none
-// of whose splats faces the eye (Engine::Impl::select, facingMask) before the passes: beside the
+// of whose splats faces the eye (Engine::Impl::select, `draw`) before the passes: beside the
 // silhouette a node's normals spread over half a sphere and more, and about a third of the splats
 // of the nodes drawn faced away (the bunny at 640x480).
 constexpr std::uint32_t kFacingClasses = 6;
@@ -84,12 +83,11 @@ std::uint32_t facingClass(glm::vec3 n) {
 }
 
 // The splats of a node's points (normals, radii, optional colours), 32 bytes each (gpu::Splat): a
-// chunk's contents, for its upload and its check. By facing class, then in order of radius (then of
-// index), and the classes' starts: the compute
-// path gives each splat one invocation, and invocations run in lockstep in groups (8 lanes of a
-// SIMD batch on lavapipe, a subgroup on a GPU), each group as long as its largest footprint; splats
-// of like radii side by side waste fewer lanes (the bunny close-up at 640x480 on lavapipe:
-// visibility 25.5 -> 21.6 ms). The compute path's sums are integers and its depth a minimum, so its
+// chunk's contents, for its upload and its check, and the classes' starts. By facing class, then in
+// order of radius (then of index): the compute path gives each splat one invocation, and invocations run in
+// lockstep in groups (8 lanes of a SIMD batch on lavapipe, a subgroup on a GPU), each group as long as its
+// largest footprint; splats of like radii side by side waste fewer lanes (the bunny close-up at 640x480 on
+// lavapipe: visibility 25.5 -> 21.6 ms). The compute path's sums are integers and its depth a minimum, so its
 // picture does not depend on the order (the graphics path's float blending does, in the last bits).
 ClassStarts packSplats(const PointSet& points, gpu::Splat* splats) {
     // Radii are positive: their bits order as the floats do.
@@ -760,17 +758,14 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         for (std::size_t k = 0; k < m.drawnNodes.size(); ++k) {
             const Impl::NodeState& s = m.state[m.drawnNodes[k]];
             for (std::uint32_t c = 0; c < kFacingClasses; ++c) {
+                if (!(m.drawnFacing[k] >> c & 1u)) continue;
                 const std::uint32_t count = s.classes[c + 1] - s.classes[c];
-                if (!(m.drawnFacing[k] >> c & 1u) || count == 0) continue;
-                if (!ranges.empty() &&
-                    ranges.back().first + ranges.back().count == s.chunk.first + s.classes[c])
-                    ranges.back().count += count; // the next class of the same chunk
-                else
-                    ranges.push_back({s.chunk.first + s.classes[c], count});
+                ranges.push_back({s.chunk.first + s.classes[c], count});
                 report.splatsDrawn += count;
             }
         }
-        // Draw runs in cache order (adjacent chunks merge into one draw).
+        // Draw runs in cache order (adjacent chunks and classes merge into one draw:
+        // SplatRenderer::submit; empty classes are skipped there).
         std::sort(ranges.begin(), ranges.end(),
                   [](const DrawRange& a, const DrawRange& b) { return a.first < b.first; });
         report.nodesVisible = m.drawnNodes.size();

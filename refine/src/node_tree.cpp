@@ -79,6 +79,21 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
     return parts;
 }
 
+// What a node's selection reads of its points (non-empty; bend filled): its box, largest, 99th
+// percentile and median radii, largest bend and normal cone. For the roots and for a job's children.
+void describePoints(Node& node) {
+    std::vector<std::uint32_t> all(node.points.size());
+    std::iota(all.begin(), all.end(), 0u);
+    const Box box = boxOf(node.points.position, all);
+    node.lo = box.lo;
+    node.hi = box.hi;
+    node.maxRadius = std::ranges::max(node.points.radius);
+    node.drawnRadius = drawnRadiusOf(node.points.radius);
+    node.medianRadius = medianRadiiOf(node.points.radius);
+    node.maxBend = node.bend.empty() ? 0.0f : std::ranges::max(node.bend);
+    normalConeOf(node.points.normal, node.coneAxis, node.coneAngle);
+}
+
 } // namespace
 
 float drawnRadiusOf(std::span<const float> radii) {
@@ -209,14 +224,7 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         }
         for (const SegmentEnds& segment : segments)
             if (part.region.contains(segment.a)) node.segments.push_back(segment);
-        const Box box = boxOf(input.position, part.indices);
-        node.lo = box.lo;
-        node.hi = box.hi;
-        node.maxRadius = std::ranges::max(node.points.radius);
-        node.drawnRadius = drawnRadiusOf(node.points.radius);
-        node.medianRadius = medianRadiiOf(node.points.radius);
-        node.maxBend = node.bend.empty() ? 0.0f : std::ranges::max(node.bend);
-        normalConeOf(node.points.normal, node.coneAxis, node.coneAngle);
+        describePoints(node);
         tree.pointCount_ += node.points.size();
         tree.roots_.push_back(id);
     }
@@ -336,16 +344,7 @@ bool NodeTree::attach(NodeJobResult&& result) {
         child.points = std::move(made.points);
         child.bend = std::move(made.bend);
         child.segments = std::move(made.segments);
-        std::vector<std::uint32_t> all(child.points.size());
-        std::iota(all.begin(), all.end(), 0u);
-        const Box box = boxOf(child.points.position, all);
-        child.lo = box.lo;
-        child.hi = box.hi;
-        child.maxRadius = std::ranges::max(child.points.radius);
-        child.drawnRadius = drawnRadiusOf(child.points.radius);
-        child.medianRadius = medianRadiiOf(child.points.radius);
-        child.maxBend = child.bend.empty() ? 0.0f : std::ranges::max(child.bend);
-        normalConeOf(child.points.normal, child.coneAxis, child.coneAngle);
+        describePoints(child);
         pointCount_ += child.points.size();
     }
     Node& node = nodes_[result.node];

@@ -21,6 +21,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <numbers>
 #include <random>
 #include <set>
@@ -75,7 +76,9 @@ TEST(CliHelp, ProgramAndSubcommandsPrintTheirOptions) {
          {"--reference", "--input", "--output", "--flat-normals", "sphere:R", "torus:R,r", "uniformity_cv",
           "holes"}},
         {"bench --help", {"refine"}},
-        {"bench refine --help", {"--sphere-points", "--target-points", "--repeat", "--output"}},
+        {"bench refine --help",
+         {"--sphere-points", "--target-points", "--repeat", "--output", "--input", "--models", "--levels",
+          "--threads"}},
     };
     for (const Case& c : cases) {
         const RunResult r = run(c.args);
@@ -927,6 +930,93 @@ TEST(CliBench, RefineWritesEveryConfiguration) {
          at = json.find("\"points_per_second_median\"", at + 1))
         ++runs;
     EXPECT_EQ(runs, 8u); // six configurations on one thread, two on two
+}
+
+// The numbers of the object {"1": 12, "2": 34} that is the value of the first `key` in `json`, by
+// their keys (empty when `key` is absent).
+std::map<std::string, double> numbersOf(const std::string& json, const std::string& key) {
+    std::map<std::string, double> values;
+    const std::string opening = "\"" + key + "\": {";
+    const std::size_t at = json.find(opening);
+    if (at == std::string::npos) return values;
+    const std::size_t end = json.find('}', at);
+    for (std::size_t name = json.find('"', at + opening.size()); name < end; name = json.find('"', name)) {
+        const std::size_t nameEnd = json.find('"', name + 1);
+        values[json.substr(name + 1, nameEnd - name - 1)] = std::stod(json.substr(nameEnd + 2));
+        name = nameEnd + 1;
+    }
+    return values;
+}
+
+// bench refine --input: per level, points/s at each thread count, candidates scanned and the
+// neighbourhood per refined point (the counters of LevelStats), the phase split. No wall time is
+// asserted on, only that rates are positive.
+TEST(CliBench, RefineInputReportsEveryLevelAndThreadCount) {
+    const TempDir dir;
+    const fs::path in = dir / "torus.ply", out = dir / "bench.json";
+    PointSet torus = sampleTorusUniform(400, 1.0f, 0.4f);
+    torus.radius.clear(); // estimated on reading, as `refine` does
+    ASSERT_TRUE(writePly(in, torus).ok());
+    const RunResult r = run("bench refine --input " + quote(in) + " --levels 2 --repeat 1 -o " + quote(out));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    const std::string json = readText(out);
+    EXPECT_NE(json.find("\"threads\": [1, 2]"), std::string::npos) << json;
+    EXPECT_EQ(jsonField(json, "name"), "torus") << json;
+    EXPECT_EQ(jsonField(json, "points_in"), "400") << json;
+    std::vector<std::size_t> levels;
+    for (std::size_t at = json.find("{\"level\": "); at != std::string::npos;
+         at = json.find("{\"level\": ", at + 1))
+        levels.push_back(at);
+    ASSERT_EQ(levels.size(), 2u) << json;
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+        SCOPED_TRACE(l + 1);
+        const std::string level = json.substr(levels[l], json.find("}}", levels[l]) + 2 - levels[l]);
+        EXPECT_EQ(jsonField(level, "level"), std::to_string(l + 1));
+        EXPECT_GT(std::stod(jsonField(level, "inserted")), 0.0) << level;
+        const double scanned = std::stod(jsonField(level, "scanned_per_point"));
+        const double neighbourhood = std::stod(jsonField(level, "neighbourhood_per_point"));
+        EXPECT_GT(neighbourhood, 0.0) << level;
+        EXPECT_GE(scanned, neighbourhood) << level;
+        const std::map<std::string, double> rates = numbersOf(level, "points_per_second");
+        ASSERT_EQ(rates.size(), 2u) << level;
+        EXPECT_GT(rates.at("1"), 0.0) << level;
+        EXPECT_GT(rates.at("2"), 0.0) << level;
+        const std::map<std::string, double> shares = numbersOf(level, "phase_share");
+        EXPECT_EQ(shares.size(), 4u) << level;
+        double sum = 0.0;
+        for (const auto& [phase, share] : shares) sum += share;
+        EXPECT_NEAR(sum, 1.0, 0.01) << level;
+    }
+}
+
+// A missing --input file is one line and a failure, and so is a run larger than --max-points; the
+// options of the inputs without inputs and a target the input reaches already are usage errors; the
+// default models missing beside the working directory are skipped, each named.
+TEST(CliBench, RefineInputErrorsAndMissingModels) {
+    const TempDir dir;
+    RunResult r = run("bench refine --input " + quote(dir / "missing.ply") + " --repeat 1");
+    std::cout << "[bench refine --input missing.ply] exit " << r.exitCode << ": " << r.err;
+    EXPECT_TRUE(failsCleanly(r));
+    EXPECT_NE(r.err.find("missing.ply"), std::string::npos) << r.err;
+    EXPECT_EQ(r.out, "");
+    r = run("bench refine --levels 2 --repeat 1");
+    EXPECT_TRUE(failsCleanly(r, Exit::Usage));
+    const fs::path sphere = dir / "sphere.ply";
+    ASSERT_TRUE(writePly(sphere, sampleSphereUniform(200, 1.0f)).ok());
+    r = run("bench refine --input " + quote(sphere) + " --levels 3 --max-points 1000 --repeat 1");
+    EXPECT_TRUE(failsCleanly(r)) << "a run larger than --max-points";
+    EXPECT_NE(r.err.find("--max-points 1000"), std::string::npos) << r.err;
+    r = run("bench refine --input " + quote(sphere) + " --target-points 200 --repeat 1");
+    EXPECT_TRUE(failsCleanly(r, Exit::Usage)) << "a target the input reaches";
+    r = runShell("cd " + quote(dir.path()) + " && " + program() +
+                 " bench refine --models default --sphere-points 100 --levels 1 --threads 1 --repeat 1");
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.out.find("\"name\": \"sphere-100-uniform\""), std::string::npos) << r.out;
+    for (const char* model : {"bunny-3500-random", "fandisk-1500-uniform"}) {
+        EXPECT_NE(r.err.find(fmt::format("../shared/data/{}.ply not found", model)), std::string::npos)
+            << r.err;
+        EXPECT_EQ(r.out.find(model), std::string::npos) << r.out;
+    }
 }
 
 TEST(CliRender, RendersComparesAndFailsPastTheThreshold) {

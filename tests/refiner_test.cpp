@@ -1476,6 +1476,33 @@ TEST(RefinerNeighbourhood, OversizedRadiiAreCutToTheNearestAndCounted) {
         EXPECT_EQ(ordinary.refineLevel().cappedNeighbourhoods, 0u) << level;
 }
 
+// The cost counters of a level (bench refine --input): every refined point scans at least the
+// points of its neighbourhood, a closed surface gives each a one-ring of about six, and the counts
+// are the same on any number of threads.
+TEST(RefinerNeighbourhood, ScannedCandidatesAndNeighbourhoodsAreCounted) {
+    const PointSet input = withRadii(sampleTorusUniform(800, 1.0f, 0.4f));
+    std::vector<LevelStats> byThreads[2];
+    for (const unsigned threads : {1u, 2u}) {
+        RefineOptions o = options();
+        o.threads = threads;
+        Refiner refiner(input, o);
+        for (int level = 0; level < 3; ++level) byThreads[threads - 1].push_back(refiner.refineLevel());
+    }
+    for (std::size_t l = 0; l < byThreads[0].size(); ++l) {
+        const LevelStats& one = byThreads[0][l];
+        const LevelStats& two = byThreads[1][l];
+        const double refined = static_cast<double>(one.refinedPoints);
+        std::cout << "    level " << l + 1 << ": " << static_cast<double>(one.scannedCandidates) / refined
+                  << " scanned, " << static_cast<double>(one.neighbourhoodPoints) / refined
+                  << " neighbours per refined point\n";
+        EXPECT_GE(one.scannedCandidates, one.neighbourhoodPoints) << l;
+        EXPECT_GE(one.neighbourhoodPoints, 4 * one.refinedPoints) << l;
+        EXPECT_LE(one.neighbourhoodPoints, 16 * one.refinedPoints) << l;
+        EXPECT_EQ(one.scannedCandidates, two.scannedCandidates) << l;
+        EXPECT_EQ(one.neighbourhoodPoints, two.neighbourhoodPoints) << l;
+    }
+}
+
 // removeCoincident keeps the first point of each position with all its attributes, in input
 // order; findCoincident names the first pair.
 TEST(PointSetCoincident, RemovesRepeatsKeepingTheFirst) {

@@ -1,8 +1,10 @@
 // `pnsplat bench`: performance harness printing JSON (warm-up, then timed runs; medians).
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <thread>
@@ -20,9 +22,12 @@
 #include "frame_json.h"
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/engine.h"
+#include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/text.h"
+#include "refine_run.h"
 
 namespace pnsplat::tools {
 
@@ -30,9 +35,24 @@ namespace {
 
 struct BenchArgs {
     std::size_t spherePoints = 600;
-    std::size_t targetPoints = 150000;
+    std::size_t targetPoints = 0; // 0: kSweepTargetPoints for the sphere sweep, none with inputs
     unsigned repeat = 5;
     std::string output;
+    // Inputs (--input, --models): a report per input and level instead of the sweep of variants.
+    std::vector<std::string> inputs;
+    std::string models;            // "default": the sphere and kDefaultModels
+    unsigned levels = 0;           // with inputs; 0: kDefaultBenchLevels
+    std::vector<unsigned> threads; // with inputs; empty: 1 and 2
+    std::size_t maxPoints = 0;     // with inputs: RefineJob::maxPoints
+};
+
+inline constexpr std::size_t kSweepTargetPoints = 150000;
+inline constexpr unsigned kDefaultBenchLevels = 4;
+// `--models default`: the sparse real models of ../shared/data, relative to the working directory
+// (the project's root), after the sphere.
+inline constexpr const char* kDefaultModels[] = {
+    "bunny-3500-random",      "lion-3500-random",   "nefertiti-3500-random", "igea-600-uniform",
+    "rockerarm-2000-uniform", "banana-1500-random", "fandisk-1500-uniform",
 };
 
 struct RunResult {
@@ -173,7 +193,15 @@ std::string ratesByProcessor(const PointSet& input, RefineOptions options, const
 #endif
 }
 
-void runBenchRefine(const BenchArgs& args) {
+void runBenchInputs(const BenchArgs& args);
+
+void runBenchRefine(const BenchArgs& given) {
+    if (!given.inputs.empty() || !given.models.empty()) return runBenchInputs(given);
+    if (given.levels != 0 || !given.threads.empty() || given.maxPoints != 0)
+        throw CommandError("bench refine: --levels, --threads and --max-points apply to --input and --models",
+                           kExitUsage);
+    BenchArgs args = given;
+    if (args.targetPoints == 0) args.targetPoints = kSweepTargetPoints;
     PointSet sphere = sampleSphereUniform(args.spherePoints, 1.0f);
     estimateRadii(sphere, 1);
     struct Config {
@@ -221,6 +249,173 @@ void runBenchRefine(const BenchArgs& args) {
         "\n",
         args.spherePoints, args.targetPoints, cpuName(), std::thread::hardware_concurrency(), args.repeat,
         fullSpeedup, fastSpeedup, byProcessor, idealSpeedup, fmt::join(runs, ",\n  "));
+    writeJson(args.output, json);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Per input and level (--input, --models): the full method on each input, level by level, at each
+// thread count.
+
+struct BenchInput {
+    std::string name; // the file's stem, or "sphere-N-uniform"
+    std::string file; // as given; empty for the sphere
+    PointSet points;  // completed (radii, normals) and valid for refinement
+};
+
+// What one run of all levels measured, per level.
+struct LevelRecord {
+    LevelStats stats;
+    double rate() const { return static_cast<double>(stats.inserted) / stats.seconds; }
+};
+
+// The input of a file as `refine` reads and completes it (readInput, completeInput); errors, a
+// missing file among them, are a CommandError naming it.
+BenchInput loadBenchInput(const std::string& file) {
+    const std::string name = inputName(file);
+    PointSet points = readInput(file);
+    if (points.size() < 3)
+        throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", name, points.size()));
+    completeInput(points, 0, name);
+    if (auto valid = validateForRefinement(points); !valid)
+        throw CommandError(name + ": " + valid.error().message);
+    return {std::filesystem::path(file).stem().string(), file, std::move(points)};
+}
+
+// The inputs in order: with `--models default` the sphere and the default models found (a missing
+// one is skipped, saying so), then the --input files (a missing one is an error). All are read
+// before any is timed.
+std::vector<BenchInput> benchInputs(const BenchArgs& args) {
+    std::vector<BenchInput> inputs;
+    if (args.models == "default") {
+        PointSet sphere = sampleSphereUniform(args.spherePoints, 1.0f);
+        estimateRadii(sphere, 1);
+        inputs.push_back({fmt::format("sphere-{}-uniform", args.spherePoints), "", std::move(sphere)});
+        for (const char* model : kDefaultModels) {
+            const std::string file = fmt::format("../shared/data/{}.ply", model);
+            if (!std::filesystem::exists(file)) {
+                fmt::print(stderr,
+                           "pnsplat: bench refine: {} not found (run from the project's root); skipped\n",
+                           file);
+                continue;
+            }
+            inputs.push_back(loadBenchInput(file));
+        }
+    }
+    for (const std::string& file : args.inputs) inputs.push_back(loadBenchInput(file));
+    return inputs;
+}
+
+// One run of the full method on `input`: up to `levels` levels, stopping early at `target` points
+// (0: no target) or at a level that inserts nothing.
+std::vector<LevelRecord> runLevels(const PointSet& input, const RefineOptions& options, unsigned levels,
+                                   std::size_t target) {
+    Refiner refiner(input, options);
+    std::vector<LevelRecord> records;
+    while (records.size() < levels && (target == 0 || refiner.points().size() < target)) {
+        records.push_back({refiner.refineLevel()});
+        if (records.back().stats.inserted == 0) break;
+    }
+    return records;
+}
+
+// A level's JSON record: the counters of `counted` (a profiled run; they do not depend on the
+// thread count), its phase shares, and the median rate at each thread count.
+std::string levelJson(const LevelStats& counted, const std::vector<unsigned>& threads,
+                      const std::vector<std::vector<double>>& rates) {
+    std::vector<std::string> byThreads;
+    for (std::size_t t = 0; t < threads.size(); ++t)
+        byThreads.push_back(fmt::format(R"("{}": {:.0f})", threads[t], median(rates[t])));
+    const PhaseTimes& p = counted.phases;
+    const double sum = p.neighbourhood + p.filtering + p.selection + p.interpolation;
+    const double refined = static_cast<double>(std::max<std::size_t>(counted.refinedPoints, 1));
+    return fmt::format(
+        R"({{"level": {}, "points_before": {}, "inserted": {}, "refined_points": {}, )"
+        R"("scanned_per_point": {:.2f}, "neighbourhood_per_point": {:.2f}, "points_per_second": {{{}}}, )"
+        R"("phase_share": {{"neighbourhood": {:.3f}, "filtering": {:.3f}, "selection": {:.3f}, "interpolation": {:.3f}}}}})",
+        counted.level, counted.pointsBefore, counted.inserted, counted.refinedPoints,
+        static_cast<double>(counted.scannedCandidates) / refined,
+        static_cast<double>(counted.neighbourhoodPoints) / refined, fmt::join(byThreads, ", "),
+        p.neighbourhood / sum, p.filtering / sum, p.selection / sum, p.interpolation / sum);
+}
+
+// One input's JSON record: per thread count one warm-up run and args.repeat timed ones (medians per
+// level), then one profiled run on the first thread count for the phase split and the counters.
+std::string benchInputJson(const BenchInput& input, const std::vector<unsigned>& threads, unsigned levels,
+                           const BenchArgs& args) {
+    RefineOptions options;
+    std::vector<std::vector<std::vector<double>>> rates;     // [level][thread count][run]
+    std::vector<std::vector<double>> totals(threads.size()); // [thread count][run]: all levels
+    for (std::size_t t = 0; t < threads.size(); ++t) {
+        options.threads = threads[t];
+        runLevels(input.points, options, levels, args.targetPoints);
+        for (unsigned k = 0; k < args.repeat; ++k) {
+            const std::vector<LevelRecord> run = runLevels(input.points, options, levels, args.targetPoints);
+            if (rates.size() < run.size())
+                rates.resize(run.size(), std::vector<std::vector<double>>(threads.size()));
+            std::size_t inserted = 0;
+            double seconds = 0.0;
+            for (std::size_t l = 0; l < run.size(); ++l) {
+                rates[l][t].push_back(run[l].rate());
+                inserted += run[l].stats.inserted;
+                seconds += run[l].stats.seconds;
+            }
+            totals[t].push_back(static_cast<double>(inserted) / seconds);
+        }
+    }
+    options.threads = threads.front();
+    options.profile = true;
+    const std::vector<LevelRecord> profiled = runLevels(input.points, options, levels, args.targetPoints);
+    assert(!profiled.empty() && profiled.size() == rates.size()); // the same levels on any thread count
+    std::vector<std::string> levelRecords, byThreads;
+    for (std::size_t l = 0; l < profiled.size(); ++l) {
+        levelRecords.push_back(levelJson(profiled[l].stats, threads, rates[l]));
+        for (std::size_t t = 0; t < threads.size(); ++t)
+            fmt::print(stderr, "  {:<24} level {}, {} thread(s): {:>10.0f} points/s\n", input.name, l + 1,
+                       threads[t], median(rates[l][t]));
+    }
+    for (std::size_t t = 0; t < threads.size(); ++t)
+        byThreads.push_back(fmt::format(R"("{}": {:.0f})", threads[t], median(totals[t])));
+    const LevelStats& last = profiled.back().stats;
+    return fmt::format(
+        R"({{"name": {}, "file": {}, "points_in": {}, "points_out": {}, "points_per_second": {{{}}}, "levels": [
+    {}
+  ]}})",
+        jsonString(input.name), input.file.empty() ? "null" : jsonString(input.file), input.points.size(),
+        last.pointsBefore + last.inserted, fmt::join(byThreads, ", "), fmt::join(levelRecords, ",\n    "));
+}
+
+void runBenchInputs(const BenchArgs& args) {
+    const std::vector<unsigned> threads = args.threads.empty() ? std::vector<unsigned>{1, 2} : args.threads;
+    const unsigned levels = args.levels != 0 ? args.levels : kDefaultBenchLevels;
+    const std::vector<BenchInput> inputs = benchInputs(args);
+    if (inputs.empty()) throw CommandError("bench refine: no input found");
+    for (const BenchInput& input : inputs) {
+        const std::string name = input.file.empty() ? input.name : inputName(input.file);
+        if (args.targetPoints != 0 && args.targetPoints <= input.points.size())
+            throw CommandError(fmt::format("{} has {} points: --target-points {} asks for no more", name,
+                                           input.points.size(), args.targetPoints),
+                               kExitUsage);
+        RefineJob job;
+        job.levels = levels;
+        job.targetPoints = args.targetPoints;
+        job.options.threads = *std::max_element(threads.begin(), threads.end());
+        job.maxPoints = args.maxPoints;
+        checkFits(input.points, job, name);
+    }
+    fmt::print(stderr, "bench refine: {} input(s), {} level(s){}, threads {}, {} timed runs each\n",
+               inputs.size(), levels,
+               args.targetPoints != 0 ? fmt::format(" or >= {} points", args.targetPoints) : "",
+               fmt::join(threads, ","), args.repeat);
+    std::vector<std::string> records;
+    for (const BenchInput& input : inputs) records.push_back(benchInputJson(input, threads, levels, args));
+    const std::string json = fmt::format(
+        R"({{"benchmark": "refine", "case": "inputs per level, full method", "cpu": "{}", "hardware_threads": {}, "repeat": {}, )"
+        R"("threads": [{}], "levels": {}, "target_points": {}, "inputs": [
+  {}
+]}})"
+        "\n",
+        cpuName(), std::thread::hardware_concurrency(), args.repeat, fmt::join(threads, ", "), levels,
+        args.targetPoints != 0 ? fmt::format("{}", args.targetPoints) : "null", fmt::join(records, ",\n  "));
     writeJson(args.output, json);
 }
 
@@ -345,15 +540,38 @@ void addBenchCommand(CLI::App& app) {
     CLI::App* bench = app.add_subcommand("bench", "Performance harness (JSON on standard output)");
     bench->require_subcommand(1);
     const auto [refine, args] = addSubcommand(
-        *bench, "refine", "Points generated per second, full method and faster variants, 1 and 2 threads",
+        *bench, "refine",
+        "Points generated per second: full method and faster variants on a sphere, 1 and 2 threads; or "
+        "per level of given inputs (--input, --models)",
         runBenchRefine);
     refine->add_option("--sphere-points", args->spherePoints, "input: uniform points on the unit sphere")
         ->capture_default_str();
-    refine->add_option("--target-points", args->targetPoints, "refine until at least this many points")
-        ->capture_default_str();
+    refine
+        ->add_option("--target-points", args->targetPoints,
+                     "refine until at least this many points (default: 150000 for the sphere; with "
+                     "inputs, no target: --levels)")
+        ->check(CLI::PositiveNumber);
     refine->add_option("--repeat", args->repeat, "timed runs per configuration (after one warm-up)")
         ->check(CLI::Range(1u, 100u))
         ->capture_default_str();
+    refine
+        ->add_option("--input", args->inputs,
+                     "PLY files to refine with the full method instead of the sweep of variants on the "
+                     "sphere: per level, points/s at each --threads count, candidates scanned and "
+                     "neighbourhood size per refined point, the split per phase")
+        ->type_name("FILE");
+    refine
+        ->add_option("--models", args->models,
+                     "default: the --input report on the sphere and the sparse real models, "
+                     "../shared/data/*.ply from the working directory (the project's root; a missing "
+                     "one is skipped), before any --input files")
+        ->check(CLI::IsMember({"default"}));
+    refine->add_option("--levels", args->levels, "with inputs: levels to refine each (default 4)")
+        ->check(CLI::Range(1u, 16u));
+    refine->add_option("--threads", args->threads, "with inputs: thread counts to time (default 1,2)")
+        ->delimiter(',')
+        ->check(CLI::Range(1u, 256u));
+    addMaxPointsOption(*refine, args->maxPoints);
     refine->add_option("-o,--output", args->output, "write the JSON here instead of standard output");
     addBenchViewCommand(*bench);
 

@@ -59,37 +59,6 @@ std::string bytesText(double bytes) {
     return fmt::format("{:.0f} kB", bytes / 1e3);
 }
 
-// Refuses a job whose estimated output is above job.maxPoints, or with 0 above what the memory
-// budget leaves room for, saying what it would make and need.
-void checkFits(const PointSet& points, const RefineJob& job, const std::string& inputName) {
-    RefinementPlan plan;
-    plan.inputPoints = points.size();
-    plan.levels = job.levels;
-    plan.targetPoints = job.targetPoints;
-    plan.evenOutFactor = job.evenOutFactor;
-    plan.colour = points.hasColour();
-    plan.crease = points.hasCrease();
-    plan.threads = job.options.threads;
-    const RefinementEstimate estimate = estimateRefinement(plan);
-    const std::string would = fmt::format(
-        "{}: {} would make about {} points (a {} file) and need about {} of memory", inputName,
-        job.targetPoints != 0 ? fmt::format("--target-points {}", job.targetPoints)
-                              : fmt::format("{} level(s)", job.levels),
-        approximately(estimate.points), bytesText(estimate.fileBytes), bytesText(estimate.memoryBytes));
-    if (job.maxPoints != 0) {
-        if (estimate.points > static_cast<double>(job.maxPoints))
-            throw CommandError(fmt::format("{}, more than --max-points {}", would, job.maxPoints));
-        return;
-    }
-    const MemoryBudget budget = memoryBudget();
-    const std::size_t fits = pointsWithin(budget.bytes, plan);
-    if (estimate.points > static_cast<double>(fits))
-        throw CommandError(fmt::format(
-            "{}; {} allows {}, about {} points (refine less, or with fewer threads; "
-            "--max-points sets the bound to try anyway)",
-            would, budget.source, bytesText(budget.bytes), approximately(static_cast<double>(fits))));
-}
-
 // The levels of the job on a Refiner of `points`, counted in `run`, whose points they fill.
 void refineLevels(PointSet points, const RefineJob& job, const HoleRims& rims, RefineRun& run) {
     Refiner refiner(std::move(points), job.options);
@@ -127,6 +96,35 @@ void refineLevels(PointSet points, const RefineJob& job, const HoleRims& rims, R
 }
 
 } // namespace
+
+void checkFits(const PointSet& points, const RefineJob& job, const std::string& inputName) {
+    RefinementPlan plan;
+    plan.inputPoints = points.size();
+    plan.levels = job.levels;
+    plan.targetPoints = job.targetPoints;
+    plan.evenOutFactor = job.evenOutFactor;
+    plan.colour = points.hasColour();
+    plan.crease = points.hasCrease();
+    plan.threads = job.options.threads;
+    const RefinementEstimate estimate = estimateRefinement(plan);
+    const std::string would = fmt::format(
+        "{}: {} would make about {} points (a {} file) and need about {} of memory", inputName,
+        job.targetPoints != 0 ? fmt::format("--target-points {}", job.targetPoints)
+                              : fmt::format("{} level(s)", job.levels),
+        approximately(estimate.points), bytesText(estimate.fileBytes), bytesText(estimate.memoryBytes));
+    if (job.maxPoints != 0) {
+        if (estimate.points > static_cast<double>(job.maxPoints))
+            throw CommandError(fmt::format("{}, more than --max-points {}", would, job.maxPoints));
+        return;
+    }
+    const MemoryBudget budget = memoryBudget();
+    const std::size_t fits = pointsWithin(budget.bytes, plan);
+    if (estimate.points > static_cast<double>(fits))
+        throw CommandError(fmt::format(
+            "{}; {} allows {}, about {} points (refine less, or with fewer threads; "
+            "--max-points sets the bound to try anyway)",
+            would, budget.source, bytesText(budget.bytes), approximately(static_cast<double>(fits))));
+}
 
 std::vector<Hole> parseHoles(const std::vector<std::string>& texts) {
     std::vector<Hole> holes;

@@ -69,6 +69,10 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments =
 InputCompletion completeInput(PointSet& points, unsigned threads, const std::string& inputName,
                               const InputOptions& options = {});
 
+// Refuses (CommandError naming `inputName`) a job whose estimated output is above job.maxPoints,
+// or with 0 above what the memory budget leaves room for, saying what it would make and need.
+void checkFits(const PointSet& points, const RefineJob& job, const std::string& inputName);
+
 // Checks that the job fits (RefineJob::maxPoints), completes the input (completeInput,
 // job.estimateRadii and job.keepNormals), checks it, then runs the job. Errors, running out of
 // memory included, are a CommandError naming `inputName`.

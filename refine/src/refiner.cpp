@@ -233,6 +233,8 @@ struct alignas(64) WorkerScratch {          // one cache line apart: workers wri
     BlockArena<NewPoint> arena;                 // the points this worker inserts, cell after cell
     std::size_t inserted = 0, discarded = 0, retried = 0, beyondBound = 0, coincident = 0,
                 boundaryInserted = 0, capped = 0, outsideRegion = 0;
+    // LevelStats::scannedCandidates and neighbourhoodPoints
+    std::size_t scanned = 0, neighbours = 0;
     std::vector<ParentRecord> parents; // refineRegion with recordParents: one per inserted point
 };
 
@@ -827,6 +829,7 @@ void Refiner::State::collectNeighbourhood(std::uint32_t p, const TangentFrame& f
     const float r = levelRadius[p];
     const float reach2 = reach * reach;
     const float r2 = r * r, inner2 = kLambda1 * kLambda1 * r2;
+    s.scanned += candidates.size();
     s.fan.clear();
     s.ring.clear();
     s.outer.clear();
@@ -1206,6 +1209,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         nearby = s.pointNearby;
     }
     const bool cut = gatherNeighbourhood(p, frame, levelRadius[p], nearby, s);
+    std::size_t neighbours = s.fan.size();
     if (profile) s.times.neighbourhood += secondsSince(t0);
     filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
     if (profile) s.times.filtering += secondsSince(t0);
@@ -1218,10 +1222,12 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         gatherNearby(std::span(&p, 1), s.groupCell, kRetryReach, s.wideNearby, s);
         if (profile) t0 = Clock::now(); // gatherNearby counted its own time
         gatherNeighbourhood(p, frame, kRetryReach * levelRadius[p], s.wideNearby, s);
+        neighbours = s.fan.size();
         if (profile) s.times.neighbourhood += secondsSince(t0);
         filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
         if (profile) s.times.filtering += secondsSince(t0);
     }
+    s.neighbours += neighbours;
 
     makeCandidates(p, frame, s);
     if (profile) s.times.interpolation += secondsSince(t0);
@@ -1510,7 +1516,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         s.arena.clear();
         s.times = {};
         s.inserted = s.discarded = s.retried = s.beyondBound = s.coincident = s.boundaryInserted = s.capped =
-            s.outsideRegion = 0;
+            s.outsideRegion = s.scanned = s.neighbours = 0;
         s.parents.clear();
         s.columnsOf = kNoCell;
     }
@@ -1630,6 +1636,8 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         stats.cappedNeighbourhoods += s.capped;
         stats.boundaryInserted += s.boundaryInserted;
         stats.outsideRegion += s.outsideRegion;
+        stats.scannedCandidates += s.scanned;
+        stats.neighbourhoodPoints += s.neighbours;
         stats.phases.neighbourhood += s.times.neighbourhood;
         stats.phases.filtering += s.times.filtering;
         stats.phases.selection += s.times.selection;

@@ -114,6 +114,9 @@ struct LevelStats {
     std::size_t refinedPoints = 0;        // points of P(level-1) refined (all but adaptive skips)
     std::size_t outsideRegion = 0;        // refineRegion: candidates and segment points outside the
                                           // region, not inserted
+    std::size_t scannedCandidates = 0;    // candidates looked at for Nε_p, over every gathering of
+                                          // every refined point (neighbourhood cost; bench refine)
+    std::size_t neighbourhoodPoints = 0;  // |Nε_p| of each refined point's last gathering, summed
 };
 
 // Called as progress(done, total) with points refined so far in the current level, from the

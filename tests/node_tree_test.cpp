@@ -304,6 +304,48 @@ TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
     EXPECT_TRUE(bendOf(PointSet{}).empty());
 }
 
+// bendOf's nearest points (a grid searched cell block by cell block, node_tree.cpp) are exactly a
+// brute-force search's, ties in distance to the lower index: random normals make the widest
+// angle depend on which points are taken. A plane grid (every distance tied many times over), and
+// a sphere with a dense cluster and far, isolated points (their nearest lie beyond the cells
+// around them, which the search must widen to, up to the whole grid).
+TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
+    std::mt19937 random(11);
+    std::normal_distribution<float> gauss;
+    const auto randomNormal = [&] {
+        return glm::normalize(glm::vec3(gauss(random), gauss(random), gauss(random)) + glm::vec3(1e-6f));
+    };
+    PointSet plane, clustered = sampleSphereRandom(2000, 1.0f, 5);
+    for (int y = 0; y < 30; ++y)
+        for (int x = 0; x < 30; ++x) plane.position.push_back({0.1f * float(x), 0.1f * float(y), 0.0f});
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int k = 0; k < 500; ++k)
+        clustered.position.push_back(glm::vec3(0.0f, 0.0f, 1.0f) +
+                                     0.01f * glm::vec3(unit(random), unit(random), unit(random)));
+    for (int k = 0; k < 5; ++k)
+        clustered.position.push_back(glm::vec3(10.0f + 10.0f * float(k), 0.0f, -3.0f * float(k)));
+    for (PointSet* set : {&plane, &clustered}) {
+        set->normal.resize(set->position.size());
+        for (glm::vec3& n : set->normal) n = randomNormal();
+        const std::vector<float> bend = bendOf(*set);
+        ASSERT_EQ(bend.size(), set->size());
+        std::vector<std::pair<float, std::size_t>> byDistance;
+        for (std::size_t i = 0; i < set->size(); ++i) {
+            byDistance.clear();
+            for (std::size_t j = 0; j < set->size(); ++j) {
+                const glm::vec3 d = set->position[j] - set->position[i];
+                byDistance.push_back({glm::dot(d, d), j});
+            }
+            std::partial_sort(byDistance.begin(), byDistance.begin() + kBendNeighbours + 1, byDistance.end());
+            float lowest = 1.0f;
+            for (std::size_t k = 0; k <= kBendNeighbours; ++k)
+                lowest = std::min(lowest, glm::dot(set->normal[i], set->normal[byDistance[k].second]));
+            ASSERT_EQ(bend[i], std::acos(std::clamp(lowest, -1.0f, 1.0f)))
+                << "point " << i << " of " << set->size();
+        }
+    }
+}
+
 // medianRadiiOf, which settles the engine's median test for a node in full view (engine.cpp): more
 // than half of the radii are at least the first, at most half exceed the second.
 TEST(NodeDetail, MedianRadiiBoundTheMedianSplat) {

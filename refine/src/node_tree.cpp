@@ -3,11 +3,13 @@
 #include "pnsplat/refine/node_tree.h"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
+#include <limits>
 #include <numeric>
+#include <span>
 #include <string>
-
-#include "kd_tree.h"
+#include <vector>
 
 #include <cmath>
 #include <glm/common.hpp>
@@ -94,6 +96,225 @@ void describePoints(Node& node) {
     normalConeOf(node.points.normal, node.coneAxis, node.coneAngle);
 }
 
+// The nearest points of each of a set's points, for bendOf: a grid of cubic cells (a dense array
+// of cell starts over the points sorted by cell). Exact: a search stops when the farthest point
+// kept is nearer than every point outside the cells it read; ties in distance go to the lower
+// index, as a brute-force search breaks them. It replaced a k-d tree (nanoflann), whose build and
+// searches were a quarter of the real-time refinement's processor time (the sparse bunny at
+// render's framing, 640x480; now 17 %): 4,500 points on a sphere, 2.7 times faster.
+class NearestGrid {
+  public:
+    explicit NearestGrid(std::span<const glm::vec3> positions) : positions_(positions) {
+        glm::vec3 hi(std::numeric_limits<float>::lowest());
+        lo_ = glm::vec3(std::numeric_limits<float>::max());
+        for (const glm::vec3 p : positions) {
+            lo_ = glm::min(lo_, p);
+            hi = glm::max(hi, p);
+        }
+        // Cells of about two spacings of the surface the points sample, so that a point's nearest
+        // few lie in its 3×3×3 cells: first from the area of the box's three faces, then once more
+        // from the points the non-empty cells hold (kOccupancy wanted: a plane sampled at spacing
+        // s in cells of side 2 s puts 4 in each; the faces' area overestimates a patch's that
+        // crosses its box obliquely, and cells of the real-time refinement's jobs held 2.2 times
+        // the points wanted). No more cells than kCellsPerPoint per point.
+        const glm::vec3 extent = hi - lo_;
+        const float n = static_cast<float>(positions.size());
+        const float area = extent.x * extent.y + extent.y * extent.z + extent.z * extent.x;
+        const float smallest =
+            std::max(1e-6f * std::max({extent.x, extent.y, extent.z}), std::numeric_limits<float>::min());
+        float side = std::max(2.0f * std::sqrt(area / n), smallest);
+        std::vector<std::uint32_t> cellOf(positions.size());
+        for (int pass = 0; pass < 2; ++pass) {
+            for (;; side *= 1.25f) {
+                dims_ = glm::ivec3(extent / side) + 1;
+                if (float(dims_.x) * float(dims_.y) * float(dims_.z) <= kCellsPerPoint * n) break;
+            }
+            scale_ = 1.0f / side;
+            start_.assign(static_cast<std::size_t>(dims_.x) * dims_.y * dims_.z + 1, 0);
+            for (std::size_t i = 0; i < positions.size(); ++i) {
+                cellOf[i] = static_cast<std::uint32_t>(cellIndex(cellAt(positions[i])));
+                ++start_[cellOf[i] + 1];
+            }
+            if (pass == 1) break;
+            const auto occupied = static_cast<float>(
+                std::count_if(start_.begin() + 1, start_.end(), [](std::uint32_t c) { return c > 0; }));
+            side = std::max(side * std::sqrt(kOccupancy * occupied / n), smallest);
+        }
+        for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+        sorted_.resize(positions.size());
+        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+        x_.resize(positions.size());
+        y_.resize(positions.size());
+        z_.resize(positions.size());
+        for (std::size_t i = 0; i < positions.size(); ++i) {
+            const std::uint32_t at = fill[cellOf[i]]++;
+            sorted_[at] = static_cast<std::uint32_t>(i);
+            x_[at] = positions[i].x;
+            y_[at] = positions[i].y;
+            z_[at] = positions[i].z;
+        }
+    }
+
+    // visit(i, nearest, found) for every point i with its min(K, size) nearest as nearest() gives
+    // them, cell after cell: a point's candidates are the points of the 3×3×3 cells around its
+    // own that lie nearer than every point outside them; where fewer than K do, nearest() widens
+    // the search.
+    template <std::size_t K, typename Visit>
+    void forEachNearest(Visit&& visit) const {
+        // A point's candidates nearer than the block's sides: their distances and positions in the
+        // sorted order, appended without a branch.
+        std::vector<float> near2;
+        std::vector<std::uint32_t> nearAt;
+        std::array<std::uint32_t, K> nearest{};
+        for (int cx = 0; cx < dims_.x; ++cx)
+            for (int cy = 0; cy < dims_.y; ++cy)
+                for (int cz = 0; cz < dims_.z; ++cz) {
+                    const glm::ivec3 home(cx, cy, cz);
+                    const std::size_t cell = cellIndex(home);
+                    if (start_[cell] == start_[cell + 1]) continue;
+                    const glm::ivec3 first = glm::max(home - 1, glm::ivec3(0));
+                    const glm::ivec3 last = glm::min(home + 1, dims_ - 1);
+                    std::size_t blockSize = 0;
+                    for (int ox = first.x; ox <= last.x; ++ox)
+                        for (int oy = first.y; oy <= last.y; ++oy) {
+                            const std::size_t row = cellIndex({ox, oy, 0});
+                            blockSize += start_[row + last.z + 1] - start_[row + first.z];
+                        }
+                    near2.resize(blockSize + 1);
+                    nearAt.resize(blockSize + 1);
+                    const bool whole = first == glm::ivec3(0) && last == dims_ - 1;
+                    for (std::uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
+                        const float px = x_[k], py = y_[k], pz = z_[k];
+                        // Every point outside the block is farther than `clear`: the K nearest are
+                        // among those nearer than it, if K of them are.
+                        const float clear = clearance(first, last, 1, {px, py, pz}, home);
+                        const float limit2 = whole ? std::numeric_limits<float>::infinity() : clear * clear;
+                        std::size_t count = 0;
+                        for (int ox = first.x; ox <= last.x; ++ox)
+                            for (int oy = first.y; oy <= last.y; ++oy) {
+                                const std::size_t row = cellIndex({ox, oy, 0});
+                                for (std::uint32_t j = start_[row + first.z]; j < start_[row + last.z + 1];
+                                     ++j) {
+                                    const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
+                                    const float d2 = dx * dx + dy * dy + dz * dz;
+                                    near2[count] = d2;
+                                    nearAt[count] = j;
+                                    count += d2 < limit2;
+                                }
+                            }
+                        std::size_t found = 0;
+                        if (count >= K || whole) {
+                            std::array<float, K> kept{};
+                            for (std::size_t m = 0; m < count; ++m)
+                                if (found < K || near2[m] <= kept[K - 1])
+                                    keep(near2[m], sorted_[nearAt[m]], kept, nearest, found);
+                        } else {
+                            found = this->nearest(sorted_[k], nearest);
+                        }
+                        visit(sorted_[k], nearest, found);
+                    }
+                }
+    }
+
+    // The min(K, size) nearest points to point i (itself among them), by distance, then index.
+    template <std::size_t K>
+    std::size_t nearest(std::uint32_t i, std::array<std::uint32_t, K>& out) const {
+        const glm::vec3 x = positions_[i];
+        const glm::ivec3 home = cellAt(x);
+        const glm::vec3 inCell = (x - lo_) * scale_ - glm::vec3(home); // [0, 1] per axis
+        std::array<float, K> kept{};
+        std::size_t found = 0;
+        // The cells at Chebyshev distance `reach` from x's, for reach = 0, 1, ...: each a shell
+        // around the cube searched so far. A cell nearer to x than the farthest point kept
+        // (distances in cell units, below) is read; the others cannot hold a nearer point.
+        const float unit2 = scale_ * scale_;
+        const auto farther = [&](float bound2) { return found == K && bound2 > kept[K - 1] * unit2; };
+        for (int reach = 0;; ++reach) {
+            const glm::ivec3 first = glm::max(home - reach, glm::ivec3(0));
+            const glm::ivec3 last = glm::min(home + reach, dims_ - 1);
+            for (int cx = first.x; cx <= last.x; ++cx) {
+                const float bx = gapTo(cx - home.x, inCell.x);
+                for (int cy = first.y; cy <= last.y; ++cy) {
+                    const float by = gapTo(cy - home.y, inCell.y), bxy = bx * bx + by * by;
+                    if (farther(bxy)) continue;
+                    const bool shellRow = std::abs(cx - home.x) == reach || std::abs(cy - home.y) == reach;
+                    const std::size_t row = cellIndex({cx, cy, 0});
+                    for (int cz = first.z; cz <= last.z; ++cz) {
+                        if (!shellRow && std::abs(cz - home.z) != reach) continue; // before: seen
+                        const float bz = gapTo(cz - home.z, inCell.z);
+                        if (farther(bxy + bz * bz)) continue;
+                        for (std::uint32_t k = start_[row + cz]; k < start_[row + cz + 1]; ++k) {
+                            const glm::vec3 d = glm::vec3(x_[k], y_[k], z_[k]) - x;
+                            const float d2 = glm::dot(d, d);
+                            if (found < K || d2 <= kept[K - 1]) keep(d2, sorted_[k], kept, out, found);
+                        }
+                    }
+                }
+            }
+            if (first == glm::ivec3(0) && last == dims_ - 1) return found; // every point seen
+            const float clear = clearance(first, last, reach, x, home);
+            if (found == K && kept[K - 1] < clear * clear) return found;
+        }
+    }
+
+  private:
+    static constexpr float kCellsPerPoint = 4.0f;
+    static constexpr float kOccupancy = 3.0f;
+
+    // The distance, in cell units, from x (at `t` in [0, 1] across its cell) to the cell `offset`
+    // cells away along one axis, less a little for rounding.
+    static float gapTo(int offset, float t) {
+        const float gap = offset > 0 ? float(offset) - t : offset < 0 ? float(-offset - 1) + t : 0.0f;
+        return std::max(gap - 1e-3f, 0.0f);
+    }
+    // How far every point outside the cube of cells [first, last] (those within `reach` of `home`,
+    // clamped to the grid) is at least from x, which lies in `home`: no point lies beyond a side at
+    // the grid's border; a little less, for rounding.
+    float clearance(glm::ivec3 first, glm::ivec3 last, int reach, glm::vec3 x, glm::ivec3 home) const {
+        const glm::vec3 inCell = (x - lo_) * scale_ - glm::vec3(home); // [0, 1] per axis
+        float clear = std::numeric_limits<float>::max();
+        for (int a = 0; a < 3; ++a) {
+            if (first[a] > 0) clear = std::min(clear, float(reach) + inCell[a]);
+            if (last[a] < dims_[a] - 1) clear = std::min(clear, float(reach + 1) - inCell[a]);
+        }
+        return (clear - 1e-3f) / scale_;
+    }
+    glm::ivec3 cellAt(glm::vec3 p) const {
+        return glm::clamp(glm::ivec3((p - lo_) * scale_), glm::ivec3(0), dims_ - 1);
+    }
+    std::size_t cellIndex(glm::ivec3 c) const {
+        return (static_cast<std::size_t>(c.x) * dims_.y + c.y) * dims_.z + c.z;
+    }
+    // Inserts (d2, j) among the `found` kept nearest, sorted by distance then index, keeping K.
+    // (A shift loop of its own: written as a search and then a shift, the compiler made the shift
+    // two calls of memmove, which took most of bendOf's time.)
+    template <std::size_t K>
+    static void keep(float d2, std::uint32_t j, std::array<float, K>& kept,
+                     std::array<std::uint32_t, K>& index, std::size_t& found) {
+        const auto before = [&](std::size_t m) { return d2 < kept[m] || (d2 == kept[m] && j < index[m]); };
+        std::size_t m = found;
+        if (found < K) {
+            ++found;
+        } else {
+            if (!before(K - 1)) return;
+            m = K - 1;
+        }
+        for (; m > 0 && before(m - 1); --m) {
+            kept[m] = kept[m - 1];
+            index[m] = index[m - 1];
+        }
+        kept[m] = d2;
+        index[m] = j;
+    }
+
+    std::span<const glm::vec3> positions_;
+    glm::vec3 lo_{0.0f};
+    float scale_ = 1.0f;
+    glm::ivec3 dims_{1};
+    std::vector<std::uint32_t> start_, sorted_; // cell starts into sorted_, the points by cell
+    std::vector<float> x_, y_, z_;              // their positions, in the same order
+};
+
 } // namespace
 
 float drawnRadiusOf(std::span<const float> radii) {
@@ -109,19 +330,13 @@ float drawnRadiusOf(std::span<const float> radii) {
 std::vector<float> bendOf(const PointSet& points) {
     std::vector<float> bend(points.size(), 0.0f);
     if (points.size() < 2) return bend;
-    const KdCloud cloud{points.position};
-    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-    tree.buildIndex();
-    std::array<std::uint32_t, kBendNeighbours + 1> index{}; // the point itself, then its neighbours
-    std::array<float, kBendNeighbours + 1> distance2{};
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const std::size_t found =
-            tree.knnSearch(&points.position[i].x, index.size(), index.data(), distance2.data());
-        float lowest = 1.0f;
+    const NearestGrid grid(points.position);
+    grid.forEachNearest<kBendNeighbours + 1>([&](std::uint32_t i, const auto& nearest, std::size_t found) {
+        float lowest = 1.0f; // the point itself is among its nearest, at angle 0
         for (std::size_t k = 0; k < found; ++k)
-            lowest = std::min(lowest, glm::dot(points.normal[i], points.normal[index[k]]));
+            lowest = std::min(lowest, glm::dot(points.normal[i], points.normal[nearest[k]]));
         bend[i] = std::acos(std::clamp(lowest, -1.0f, 1.0f));
-    }
+    });
     return bend;
 }
 

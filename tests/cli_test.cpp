@@ -1346,6 +1346,40 @@ TEST(CliBenchView, QualityFramesAgainstTheSettledPicture) {
     EXPECT_NE(plain.out.find("\"quality_frames\": 0, \"psnr_median\": null"), std::string::npos) << plain.out;
 }
 
+// bench settle: per model and camera, the settled adaptive picture against the offline refinement
+// (issue 26's lines 1 to 3 in one run): a torus at two cameras gives two records and a summary; the
+// pictures match closely (they differ only in the levels drawn), so a reference drawn wrong (another
+// camera, the wrong points) would fail the PSNR.
+TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
+    const TempDir dir;
+    const fs::path in = dir / "torus.ply";
+    PointSet torus = sampleTorusUniform(400, 1.0f, 0.4f);
+    torus.radius.clear();
+    ASSERT_TRUE(writePly(in, torus).ok());
+    const RunResult r =
+        run("bench settle " + quote(in) + " --cameras framing,grazing --width 64 --height 48 --validation");
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    const std::vector<std::string> out = lines(r.out);
+    ASSERT_EQ(out.size(), 3u) << r.out;
+    for (std::size_t k = 0; k < 2; ++k) {
+        SCOPED_TRACE(out[k]);
+        EXPECT_EQ(jsonField(out[k], "model"), "torus");
+        EXPECT_EQ(jsonField(out[k], "camera"), k == 0 ? "framing" : "grazing");
+        EXPECT_EQ(jsonField(out[k], "settled"), "true");
+        EXPECT_GT(std::stod(jsonField(out[k], "psnr")), 30.0);
+        EXPECT_GT(std::stod(jsonField(out[k], "covered_px")), 100.0);
+        EXPECT_GT(std::stod(jsonField(out[k], "drawn_per_covered_px")), 0.0);
+        EXPECT_GE(std::stod(jsonField(out[k], "made_per_covered_px")),
+                  std::stod(jsonField(out[k], "drawn_per_covered_px")));
+        EXPECT_GE(std::stod(jsonField(out[k], "reference_levels")), 1.0);
+    }
+    EXPECT_EQ(jsonField(out[2], "cases"), "2") << out[2];
+    const RunResult wrong = run("bench settle " + quote(in) + " --cameras sideways");
+    EXPECT_TRUE(failsCleanly(wrong, Exit::Usage)) << wrong.err;
+    const RunResult missing = run("bench settle " + quote(dir / "missing.ply"));
+    EXPECT_TRUE(failsCleanly(missing, Exit::Failure)) << missing.err;
+}
+
 TEST(CliBadInput, RealTimeEngineRefusesBadInputInOneLine) {
     const TempDir dir;
     writeText(dir / "path.txt", "0 0 0 3 0 0 0\n5 0 0 3 oops 0 0\n");

@@ -65,26 +65,6 @@ EngineSettings adaptive(std::uint32_t width, std::uint32_t height) {
     return settings;
 }
 
-// The largest projected diameter, in pixels, that 99 % of the front-facing splats in view stay
-// within (the screen-space measure of the engine's FrameReport, here for any point set).
-float splatSizeP99(const PointSet& points, const Camera& camera, std::uint32_t width, std::uint32_t height) {
-    const glm::mat4 view = camera.view();
-    const float tanY = std::tan(camera.fovY * 0.5f), tanX = tanY * float(width) / float(height);
-    const float focal = float(height) / (2.0f * tanY);
-    std::vector<float> sizes;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const glm::vec3 p = glm::vec3(view * glm::vec4(points.position[i], 1.0f));
-        const float depth = -p.z;
-        if (!(depth > 1e-6f) || std::abs(p.x) > tanX * depth || std::abs(p.y) > tanY * depth) continue;
-        if (glm::dot(points.normal[i], points.position[i] - camera.eye) >= 0.0f) continue;
-        sizes.push_back(2.0f * points.radius[i] * focal / depth);
-    }
-    if (sizes.empty()) return 0.0f;
-    const auto at = sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() * 99 / 100);
-    std::nth_element(sizes.begin(), at, sizes.end());
-    return *at;
-}
-
 class EngineTest : public test::GpuTest {};
 
 struct View {
@@ -167,7 +147,8 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
         // the whole model would take tens of millions of points).
         Refiner offline(input, RefineOptions{});
         while (offline.levels() < deepest + 1 &&
-               splatSizeP99(offline.points(), camera, kWidth, kHeight) > 2.0f)
+               engine::splatDiameterQuantile(offline.points().position, offline.points().normal,
+                                             offline.points().radius, camera, kWidth, kHeight, 0.99f) > 2.0f)
             offline.refineLevel();
         const RgbaImage offlineImage = render(offline.points(), adaptive(kWidth, kHeight).render, camera);
         const auto difference = engine::compareImages(adaptiveImage, offlineImage);

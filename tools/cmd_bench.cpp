@@ -574,6 +574,7 @@ void addBenchCommand(CLI::App& app) {
     addMaxPointsOption(*refine, args->maxPoints);
     refine->add_option("-o,--output", args->output, "write the JSON here instead of standard output");
     addBenchViewCommand(*bench);
+    addBenchSettleCommand(*bench);
 
     const auto [render, renderArgs] = addSubcommand(
         *bench, "render",

@@ -58,5 +58,6 @@ void addDiffCommand(CLI::App& app);
 void addViewCommand(CLI::App& app);
 // `bench view`, under `bench`.
 void addBenchViewCommand(CLI::App& bench);
+void addBenchSettleCommand(CLI::App& bench);
 
 } // namespace pnsplat::tools

@@ -4,12 +4,14 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <fmt/format.h>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/vec2.hpp>
+#include <glm/vec4.hpp>
 
 namespace pnsplat::engine {
 
@@ -195,6 +197,28 @@ bool Frustum::intersects(glm::vec3 c, float radius) const {
     if ((c.x - tanX * depth) * nx > radius || (-c.x - tanX * depth) * nx > radius) return false;
     if ((c.y - tanY * depth) * ny > radius || (-c.y - tanY * depth) * ny > radius) return false;
     return true;
+}
+
+float splatDiameterQuantile(std::span<const glm::vec3> positions, std::span<const glm::vec3> normals,
+                            std::span<const float> radii, const Camera& camera, std::uint32_t width,
+                            std::uint32_t height, float quantile) {
+    const glm::mat4 view = camera.view();
+    const float tanY = std::tan(camera.fovY * 0.5f), tanX = tanY * float(width) / float(height);
+    const float focal = float(height) / (2.0f * tanY);
+    std::vector<float> sizes;
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+        const glm::vec3 p = glm::vec3(view * glm::vec4(positions[i], 1.0f));
+        const float depth = -p.z;
+        if (!(depth > 1e-6f) || std::abs(p.x) > tanX * depth || std::abs(p.y) > tanY * depth) continue;
+        if (glm::dot(normals[i], positions[i] - camera.eye) >= 0.0f) continue;
+        sizes.push_back(2.0f * radii[i] * focal / depth);
+    }
+    if (sizes.empty()) return 0.0f;
+    const auto at =
+        sizes.begin() +
+        static_cast<std::ptrdiff_t>(std::min(sizes.size() - 1, std::size_t(quantile * float(sizes.size()))));
+    std::nth_element(sizes.begin(), at, sizes.end());
+    return *at;
 }
 
 } // namespace pnsplat::engine

@@ -93,6 +93,13 @@ DepthRange depthRange(const Camera& camera, const Sphere& bounds);
 
 glm::mat4 projection(float fovY, float aspect, DepthRange range);
 
+// The `quantile` (in [0, 1]) of the diameters on screen, in pixels (2 r f / depth, f = height /
+// (2 tan(fovY / 2)), as the engine measures splats), of the splats in the view of `camera` in a
+// width × height image that face its eye; 0 when none does.
+float splatDiameterQuantile(std::span<const glm::vec3> positions, std::span<const glm::vec3> normals,
+                            std::span<const float> radii, const Camera& camera, std::uint32_t width,
+                            std::uint32_t height, float quantile);
+
 // View-space frustum test of a bounding sphere (centre already in view space).
 struct Frustum {
     float tanX, tanY; // half-angle tangents: x / -z and y / -z at the edges

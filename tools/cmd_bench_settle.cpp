@@ -1,0 +1,235 @@
+// `pnsplat bench settle`: the settled picture of the real-time engine (`render --adaptive`) against
+// the offline refinement, for models and cameras: the measurements of issue 26's first three lines
+// in one run (docs/REALTIME.md, "Measuring a settled picture"). One JSON object per model and
+// camera on standard output, then a summary line.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <fmt/core.h>
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+
+#include "commands.h"
+#include "engine_setup.h"
+#include "frame_json.h"
+#include "pnsplat/engine/image.h"
+#include "pnsplat/refine/refiner.h"
+#include "pnsplat/refine/text.h"
+
+namespace pnsplat::tools {
+
+namespace {
+
+// The sparse real models of ../shared/data that issue 26 measures.
+constexpr const char* kSettleModels[] = {"bunny-3500-random",  "igea-600-uniform",
+                                         "lion-3500-random",   "nefertiti-3500-random",
+                                         "banana-1500-random", "rockerarm-2000-uniform"};
+
+// A camera about the model's bounding sphere (centre c, radius R): the eye at
+// c + distance · R · normalize(direction), looking at c + lookOffset · R; or, for "framing", the
+// camera `render` chooses.
+struct SettleView {
+    const char* name;
+    glm::vec3 direction;
+    float distance;
+    glm::vec3 lookOffset;
+};
+// The close-up and grazing cameras of EngineTest.SettledPictureMatchesTheOfflineRefinement.
+constexpr SettleView kSettleViews[] = {
+    {"framing", {0.0f, 0.0f, 0.0f}, 0.0f, {0.0f, 0.0f, 0.0f}},
+    {"close-up", {0.15f, 0.1f, 1.0f}, 1.0f, {0.05f, 0.15f, 0.55f}},
+    {"grazing", {0.15f, 1.0f, 0.35f}, 2.4f, {0.0f, -0.15f, 0.0f}},
+};
+
+struct SettleArgs {
+    std::vector<std::string> inputs; // empty: kSettleModels from ../shared/data
+    std::vector<std::string> views;  // empty: all of kSettleViews
+    // Below the 4,194,304 splats of lavapipe's largest storage buffer (128 MiB), which a picture drawn
+    // without the node tree takes in one.
+    std::size_t maxReferencePoints = 4'000'000;
+    EngineArgs engine;
+};
+
+// The offline refinement the settled picture is measured against: one level deeper than the
+// deepest node drawn, or, where that is deeper, the level at which its splats in view are at most
+// 2 px (99th percentile), as in EngineTest; no deeper than maxPoints allows (a level triples the
+// points).
+struct OfflineReference {
+    PointSet points;
+    std::uint32_t levels = 0;
+    bool capped = false; // stopped by maxPoints before either
+};
+OfflineReference offlineReference(const PointSet& input, std::uint32_t deepest, const engine::Camera& camera,
+                                  std::uint32_t width, std::uint32_t height, std::size_t maxPoints) {
+    RefineOptions options;
+    options.threads = 0;
+    Refiner refiner(input, options);
+    OfflineReference out;
+    const auto converged = [&] {
+        const PointSet& p = refiner.points();
+        return engine::splatDiameterQuantile(p.position, p.normal, p.radius, camera, width, height, 0.99f) <=
+               2.0f;
+    };
+    while (refiner.levels() < deepest + 1 && !converged()) {
+        if (3 * refiner.points().size() > maxPoints) {
+            out.capped = true;
+            break;
+        }
+        refiner.refineLevel();
+    }
+    out.levels = refiner.levels();
+    out.points = std::move(refiner).takePoints();
+    return out;
+}
+
+engine::Camera settleCamera(const SettleView& view, const PointSet& points, const engine::Sphere& bounds,
+                            float aspect) {
+    const float fov = 40.0f * std::numbers::pi_v<float> / 180.0f;
+    if (view.distance == 0.0f) {
+        std::optional<engine::Viewpoint> chosen;
+        CameraArgs framing;
+        return chooseCamera(framing, points, aspect, chosen);
+    }
+    engine::Camera camera;
+    camera.target = bounds.centre + view.lookOffset * bounds.radius;
+    camera.eye = bounds.centre + glm::normalize(view.direction) * view.distance * bounds.radius;
+    camera.fovY = fov;
+    return camera;
+}
+
+void runBenchSettle(const SettleArgs& args) {
+    std::vector<std::string> files = args.inputs;
+    if (files.empty()) {
+        for (const char* model : kSettleModels) {
+            const std::string file = fmt::format("../shared/data/{}.ply", model);
+            if (std::filesystem::exists(file)) {
+                files.push_back(file);
+            } else {
+                fmt::print(stderr, "bench settle: {} is absent (run from the project root): skipped\n", file);
+            }
+        }
+        if (files.empty()) throw CommandError("bench settle: none of the default models found");
+    }
+    // Every model loaded first: a bad file fails before any work, in one line.
+    struct Model {
+        std::string name, loaded;
+        PointSet points;
+    };
+    std::vector<Model> models;
+    for (const std::string& file : files) {
+        Model& model = models.emplace_back();
+        model.points = loadForRendering(file, false, model.loaded);
+        model.name = std::filesystem::path(file).stem().string();
+    }
+    std::vector<const SettleView*> views;
+    for (const SettleView& view : kSettleViews)
+        if (args.views.empty() || std::ranges::find(args.views, view.name) != args.views.end())
+            views.push_back(&view);
+    auto context = createContext(args.engine);
+    const engine::EngineSettings adaptive = engineSettings(args.engine, *context, true);
+    const engine::EngineSettings drawOnly = engineSettings(args.engine, *context, false);
+    const glm::u8vec3 background = engine::backgroundPixel(adaptive.render.background);
+    const float aspect = float(args.engine.width) / float(args.engine.height);
+    fmt::print(stderr, "bench settle: {} model(s), {} camera(s), {}x{} on {}, threshold {} px\n",
+               models.size(), views.size(), args.engine.width, args.engine.height, context->deviceName(),
+               args.engine.threshold);
+    double lowestPsnr = std::numeric_limits<double>::infinity(), mostDrawn = 0.0, mostMade = 0.0;
+    std::size_t holePixels = 0, cases = 0;
+    for (const Model& model : models) {
+        const PointSet& input = model.points;
+        const std::string& name = model.name;
+        const std::string& loaded = model.loaded;
+        for (const SettleView* view : views) {
+            auto created = engine::Engine::create(*context, input, adaptive);
+            if (!created) throw CommandError(loaded + ": " + created.error().message);
+            engine::Engine& engine = **created;
+            const engine::Camera camera = settleCamera(*view, input, engine.bounds(), aspect);
+            engine::FrameOptions options;
+            options.lockstep = options.readBack = options.measureSplats = true;
+            const engine::FrameReport settled = unwrap(engine.frame(camera, options));
+            const engine::RgbaImage picture = unwrap(engine.image(settled.frame));
+            std::uint32_t deepest = 0;
+            for (const NodeId id : engine.drawn()) deepest = std::max(deepest, engine.tree().node(id).level);
+            const std::size_t made = engine.tree().pointCount();
+            engine.finish();
+
+            const OfflineReference reference = offlineReference(input, deepest, camera, args.engine.width,
+                                                                args.engine.height, args.maxReferencePoints);
+            auto offline = engine::Engine::create(*context, reference.points, drawOnly);
+            if (!offline) throw CommandError(loaded + ": offline reference: " + offline.error().message);
+            engine::FrameOptions once;
+            once.readBack = true;
+            const engine::FrameReport drawn = unwrap((*offline)->frame(camera, once));
+            const engine::RgbaImage offlinePicture = unwrap((*offline)->image(drawn.frame));
+            (*offline)->finish();
+
+            const engine::ImageDifference difference = unwrap(engine::compareImages(picture, offlinePicture));
+            const auto holes =
+                unwrap(engine::enclosedBackgroundAbsentIn(picture, offlinePicture, background));
+            std::size_t holeArea = 0;
+            for (const engine::ImageRegion& hole : holes) holeArea += hole.pixels;
+            const auto covered = static_cast<double>(engine::coveredPixels(picture.pixels, background));
+            const double drawnPerPixel = covered > 0.0 ? double(settled.splatsDrawn) / covered : 0.0;
+            const double madePerPixel = covered > 0.0 ? double(made) / covered : 0.0;
+            fmt::print(
+                R"({{"model": {}, "camera": {}, "width": {}, "height": {}, "settled": {}, "psnr": {:.3f}, "ssim": {:.5f}, )"
+                R"("holes": {}, "hole_pixels": {}, "covered_px": {}, "splats_drawn": {}, "drawn_per_covered_px": {:.2f}, )"
+                R"("points_made": {}, "made_per_covered_px": {:.2f}, "median_splat_px": {:.2f}, "deepest_level": {}, )"
+                R"("refine_ms": {:.0f}, "reference_levels": {}, "reference_points": {}, "reference_capped": {}}})"
+                "\n",
+                jsonString(name), jsonString(view->name), args.engine.width, args.engine.height,
+                settled.settled ? "true" : "false", std::min(difference.psnr, kIdenticalPsnr),
+                difference.ssim, holes.size(), holeArea, covered, settled.splatsDrawn, drawnPerPixel, made,
+                madePerPixel, settled.medianSplatPx, deepest, settled.refineWaitMs, reference.levels,
+                reference.points.size(), reference.capped ? "true" : "false");
+            std::fflush(stdout);
+            lowestPsnr = std::min(lowestPsnr, std::min(difference.psnr, kIdenticalPsnr));
+            mostDrawn = std::max(mostDrawn, drawnPerPixel);
+            mostMade = std::max(mostMade, madePerPixel);
+            holePixels += holeArea;
+            ++cases;
+        }
+    }
+    fmt::print(R"({{"summary": true, "cases": {}, "psnr_lowest": {:.3f}, "hole_pixels": {}, )"
+               R"("drawn_per_covered_px_highest": {:.2f}, "made_per_covered_px_highest": {:.2f}}})"
+               "\n",
+               cases, lowestPsnr, holePixels, mostDrawn, mostMade);
+    checkValidation(*context);
+}
+
+} // namespace
+
+void addBenchSettleCommand(CLI::App& bench) {
+    auto args = std::make_shared<SettleArgs>();
+    args->engine.width = 640;
+    args->engine.height = 480;
+    CLI::App* settle = bench.add_subcommand(
+        "settle", "The real-time engine's settled picture against the offline refinement, for models and "
+                  "cameras: PSNR, SSIM, holes, splats drawn and points made per covered pixel (JSON lines)");
+    settle->add_option(
+        "input", args->inputs,
+        "input PLYs (default: the sparse bunny, igea, lion, nefertiti, banana and rockerarm of "
+        "../shared/data, from the project root)");
+    settle
+        ->add_option("--cameras", args->views, "framing (render's camera), close-up, grazing (default: all)")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"framing", "close-up", "grazing"}));
+    settle
+        ->add_option("--max-reference-points", args->maxReferencePoints,
+                     "refine the offline reference no further than this many points (it is then reported as "
+                     "capped)")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    settle->add_option("--width", args->engine.width, "image width in pixels")->capture_default_str();
+    settle->add_option("--height", args->engine.height, "image height in pixels")->capture_default_str();
+    addEngineOptions(*settle, args->engine, true, false);
+    settle->callback([args] { runBenchSettle(*args); });
+}
+
+} // namespace pnsplat::tools

@@ -308,7 +308,9 @@ TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
 // brute-force search's, ties in distance to the lower index: random normals make the widest
 // angle depend on which points are taken. A plane grid (every distance tied many times over), and
 // a sphere with a dense cluster and far, isolated points (their nearest lie beyond the cells
-// around them, which the search must widen to, up to the whole grid).
+// around them, which the search must widen to, up to the whole grid), and points spread past the
+// largest float (render of such a model failed with "cannot create std::vector larger than
+// max_size()" before its one-line error).
 TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
     std::mt19937 random(11);
     std::normal_distribution<float> gauss;
@@ -324,7 +326,12 @@ TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
                                      0.01f * glm::vec3(unit(random), unit(random), unit(random)));
     for (int k = 0; k < 5; ++k)
         clustered.position.push_back(glm::vec3(10.0f + 10.0f * float(k), 0.0f, -3.0f * float(k)));
-    for (PointSet* set : {&plane, &clustered}) {
+    // Coordinates near the largest float: the grid's extent passes it (distances overflow to
+    // infinity, tied by index like any other).
+    PointSet huge;
+    for (const float x : {-3e38f, 3e38f, 0.0f, 1.0f, 2.0f})
+        for (const float y : {-3e38f, 0.0f, 3e38f}) huge.position.push_back({x, y, 0.5f * x});
+    for (PointSet* set : {&plane, &clustered, &huge}) {
         set->normal.resize(set->position.size());
         for (glm::vec3& n : set->normal) n = randomNormal();
         const std::vector<float> bend = bendOf(*set);

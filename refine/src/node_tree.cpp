@@ -105,38 +105,39 @@ void describePoints(Node& node) {
 class NearestGrid {
   public:
     explicit NearestGrid(std::span<const glm::vec3> positions) : positions_(positions) {
-        glm::vec3 hi(std::numeric_limits<float>::lowest());
-        lo_ = glm::vec3(std::numeric_limits<float>::max());
+        glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
         for (const glm::vec3 p : positions) {
-            lo_ = glm::min(lo_, p);
+            lo = glm::min(lo, p);
             hi = glm::max(hi, p);
         }
+        lo_ = lo;
         // Cells of about two spacings of the surface the points sample, so that a point's nearest
         // few lie in its 3×3×3 cells: first from the area of the box's three faces, then once more
         // from the points the non-empty cells hold (kOccupancy wanted: a plane sampled at spacing
         // s in cells of side 2 s puts 4 in each; the faces' area overestimates a patch's that
         // crosses its box obliquely, and cells of the real-time refinement's jobs held 2.2 times
-        // the points wanted). No more cells than kCellsPerPoint per point.
-        const glm::vec3 extent = hi - lo_;
-        const float n = static_cast<float>(positions.size());
-        const float area = extent.x * extent.y + extent.y * extent.z + extent.z * extent.x;
-        const float smallest =
-            std::max(1e-6f * std::max({extent.x, extent.y, extent.z}), std::numeric_limits<float>::min());
-        float side = std::max(2.0f * std::sqrt(area / n), smallest);
+        // the points wanted). No more cells than kCellsPerPoint per point. The grid's geometry is in
+        // double precision: the extent of floats may pass the largest float (3e38 either side).
+        const glm::dvec3 extent = glm::dvec3(hi) - lo_;
+        const double n = static_cast<double>(positions.size());
+        const double area = extent.x * extent.y + extent.y * extent.z + extent.z * extent.x;
+        const double smallest = std::max(1e-6 * std::max({extent.x, extent.y, extent.z}),
+                                         double{std::numeric_limits<float>::min()});
+        double side = std::max(2.0 * std::sqrt(area / n), smallest);
         std::vector<std::uint32_t> cellOf(positions.size());
         for (int pass = 0; pass < 2; ++pass) {
-            for (;; side *= 1.25f) {
+            for (;; side *= 1.25) {
                 dims_ = glm::ivec3(extent / side) + 1;
-                if (float(dims_.x) * float(dims_.y) * float(dims_.z) <= kCellsPerPoint * n) break;
+                if (double(dims_.x) * double(dims_.y) * double(dims_.z) <= kCellsPerPoint * n) break;
             }
-            scale_ = 1.0f / side;
+            scale_ = 1.0 / side;
             start_.assign(static_cast<std::size_t>(dims_.x) * dims_.y * dims_.z + 1, 0);
             for (std::size_t i = 0; i < positions.size(); ++i) {
                 cellOf[i] = static_cast<std::uint32_t>(cellIndex(cellAt(positions[i])));
                 ++start_[cellOf[i] + 1];
             }
             if (pass == 1) break;
-            const auto occupied = static_cast<float>(
+            const auto occupied = static_cast<double>(
                 std::count_if(start_.begin() + 1, start_.end(), [](std::uint32_t c) { return c > 0; }));
             side = std::max(side * std::sqrt(kOccupancy * occupied / n), smallest);
         }
@@ -187,8 +188,9 @@ class NearestGrid {
                         const float px = x_[k], py = y_[k], pz = z_[k];
                         // Every point outside the block is farther than `clear`: the K nearest are
                         // among those nearer than it, if K of them are.
-                        const float clear = clearance(first, last, 1, {px, py, pz}, home);
-                        const float limit2 = whole ? std::numeric_limits<float>::infinity() : clear * clear;
+                        const double clear = clearance(first, last, 1, {px, py, pz}, home);
+                        const auto limit2 = whole ? std::numeric_limits<float>::infinity()
+                                                  : static_cast<float>(clear * clear);
                         std::size_t count = 0;
                         for (int ox = first.x; ox <= last.x; ++ox)
                             for (int oy = first.y; oy <= last.y; ++oy) {
@@ -199,7 +201,7 @@ class NearestGrid {
                                     const float d2 = dx * dx + dy * dy + dz * dz;
                                     near2[count] = d2;
                                     nearAt[count] = j;
-                                    count += d2 < limit2;
+                                    count += static_cast<std::size_t>(d2 < limit2 || whole);
                                 }
                             }
                         std::size_t found = 0;
@@ -221,14 +223,16 @@ class NearestGrid {
     std::size_t nearest(std::uint32_t i, std::array<std::uint32_t, K>& out) const {
         const glm::vec3 x = positions_[i];
         const glm::ivec3 home = cellAt(x);
-        const glm::vec3 inCell = (x - lo_) * scale_ - glm::vec3(home); // [0, 1] per axis
+        const glm::vec3 inCell((glm::dvec3(x) - lo_) * scale_ - glm::dvec3(home)); // [0, 1] per axis
         std::array<float, K> kept{};
         std::size_t found = 0;
         // The cells at Chebyshev distance `reach` from x's, for reach = 0, 1, ...: each a shell
         // around the cube searched so far. A cell nearer to x than the farthest point kept
         // (distances in cell units, below) is read; the others cannot hold a nearer point.
-        const float unit2 = scale_ * scale_;
-        const auto farther = [&](float bound2) { return found == K && bound2 > kept[K - 1] * unit2; };
+        const double unit2 = scale_ * scale_;
+        const auto farther = [&](float bound2) {
+            return found == K && double{bound2} > double{kept[K - 1]} * unit2;
+        };
         for (int reach = 0;; ++reach) {
             const glm::ivec3 first = glm::max(home - reach, glm::ivec3(0));
             const glm::ivec3 last = glm::min(home + reach, dims_ - 1);
@@ -252,14 +256,14 @@ class NearestGrid {
                 }
             }
             if (first == glm::ivec3(0) && last == dims_ - 1) return found; // every point seen
-            const float clear = clearance(first, last, reach, x, home);
-            if (found == K && kept[K - 1] < clear * clear) return found;
+            const double clear = clearance(first, last, reach, x, home);
+            if (found == K && double{kept[K - 1]} < clear * clear) return found;
         }
     }
 
   private:
-    static constexpr float kCellsPerPoint = 4.0f;
-    static constexpr float kOccupancy = 3.0f;
+    static constexpr double kCellsPerPoint = 4.0;
+    static constexpr double kOccupancy = 3.0;
 
     // The distance, in cell units, from x (at `t` in [0, 1] across its cell) to the cell `offset`
     // cells away along one axis, less a little for rounding.
@@ -270,17 +274,17 @@ class NearestGrid {
     // How far every point outside the cube of cells [first, last] (those within `reach` of `home`,
     // clamped to the grid) is at least from x, which lies in `home`: no point lies beyond a side at
     // the grid's border; a little less, for rounding.
-    float clearance(glm::ivec3 first, glm::ivec3 last, int reach, glm::vec3 x, glm::ivec3 home) const {
-        const glm::vec3 inCell = (x - lo_) * scale_ - glm::vec3(home); // [0, 1] per axis
-        float clear = std::numeric_limits<float>::max();
+    double clearance(glm::ivec3 first, glm::ivec3 last, int reach, glm::vec3 x, glm::ivec3 home) const {
+        const glm::dvec3 inCell = (glm::dvec3(x) - lo_) * scale_ - glm::dvec3(home); // [0, 1] per axis
+        double clear = std::numeric_limits<double>::max();
         for (int a = 0; a < 3; ++a) {
-            if (first[a] > 0) clear = std::min(clear, float(reach) + inCell[a]);
-            if (last[a] < dims_[a] - 1) clear = std::min(clear, float(reach + 1) - inCell[a]);
+            if (first[a] > 0) clear = std::min(clear, double(reach) + inCell[a]);
+            if (last[a] < dims_[a] - 1) clear = std::min(clear, double(reach + 1) - inCell[a]);
         }
-        return (clear - 1e-3f) / scale_;
+        return (clear - 1e-3) / scale_;
     }
     glm::ivec3 cellAt(glm::vec3 p) const {
-        return glm::clamp(glm::ivec3((p - lo_) * scale_), glm::ivec3(0), dims_ - 1);
+        return glm::ivec3(glm::clamp((glm::dvec3(p) - lo_) * scale_, glm::dvec3(0.0), glm::dvec3(dims_ - 1)));
     }
     std::size_t cellIndex(glm::ivec3 c) const {
         return (static_cast<std::size_t>(c.x) * dims_.y + c.y) * dims_.z + c.z;
@@ -308,8 +312,8 @@ class NearestGrid {
     }
 
     std::span<const glm::vec3> positions_;
-    glm::vec3 lo_{0.0f};
-    float scale_ = 1.0f;
+    glm::dvec3 lo_{0.0};
+    double scale_ = 1.0; // cell coordinates: (position - lo_) · scale_
     glm::ivec3 dims_{1};
     std::vector<std::uint32_t> start_, sorted_; // cell starts into sorted_, the points by cell
     std::vector<float> x_, y_, z_;              // their positions, in the same order

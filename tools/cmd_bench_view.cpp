@@ -16,6 +16,7 @@
 #include "engine_setup.h"
 #include "frame_json.h"
 #include "pnsplat/engine/image.h"
+#include "refine_run.h"
 
 namespace pnsplat::tools {
 
@@ -30,6 +31,7 @@ struct BenchViewArgs {
     bool measure = true;
     std::size_t qualityEvery = 0; // 0: no quality frames
     EngineArgs engine;
+    std::vector<std::string> columns; // the input's, when it is text
 };
 
 constexpr std::size_t kDefaultFrames = 240;
@@ -37,7 +39,7 @@ constexpr std::size_t kDefaultFrames = 240;
 void runBenchView(BenchViewArgs args) {
     using Clock = std::chrono::steady_clock;
     std::string name;
-    PointSet points = loadForRendering(args.input, false, name);
+    PointSet points = loadForRendering(args.input, false, name, args.columns);
     const std::size_t inputPoints = points.size();
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
@@ -159,7 +161,10 @@ void addBenchViewCommand(CLI::App& bench) {
     CLI::App* view = bench.add_subcommand(
         "view",
         "The real-time engine offscreen along a camera path: one JSON line per frame, then a summary");
-    view->add_option("input", args->input, "input PLY; omitted: the embedded default model");
+    view->add_option("input", args->input,
+                     "input point file: PLY, PCD or text (.xyz .txt .pts .csv; README, Use); omitted: the "
+                     "embedded default model");
+    addColumnsOption(*view, args->columns);
     view->add_option("--camera-path", args->cameraPath,
                      "orbit (a turn about the model), zoom (towards it and back), or a keyframe file "
                      "(docs/REALTIME.md)")

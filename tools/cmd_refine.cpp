@@ -1,4 +1,4 @@
-// `pnsplat refine`: refine a PLY point set (or the embedded default model) offline.
+// `pnsplat refine`: refine a point set of a file (PLY, PCD, text) or the embedded default model offline.
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -13,6 +13,7 @@
 #include "commands.h"
 #include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/point_file.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes.h"
 #include "pnsplat/refine/text.h"
@@ -44,6 +45,7 @@ struct RefineArgs {
     float evenOut = 0.0f;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
     std::size_t maxPoints = 0;
+    std::vector<std::string> columns; // the input's, when it is text
 };
 
 constexpr unsigned kDefaultLevels = 4;
@@ -69,7 +71,7 @@ void runRefine(const RefineArgs& args) {
         points = makeDefaultModel();
         inputName = "the default model";
     } else {
-        points = readInput(args.input, &comments);
+        points = readInput(args.input, &comments, args.columns);
     }
 
     RefineJob job;
@@ -106,8 +108,7 @@ void runRefine(const RefineArgs& args) {
     const unsigned done = run.levels;
     const std::size_t outputCount = run.points.size();
 
-    unwrap(writePly(output, run.points, args.ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian,
-                    comments));
+    unwrap(writePointFile(output, run.points, args.ascii, comments));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate =
         refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;
@@ -162,13 +163,15 @@ void addRefineCommand(CLI::App& app) {
     const auto [cmd, args] = addSubcommand(
         app, "refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)", runRefine);
     cmd->add_option("input", args->input,
-                    "input PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 [crease]]: crease "
-                    "points; normals and radii "
-                    "estimated when absent); - for standard input; "
+                    "input point file: PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 "
+                    "[crease]]: crease points), PCD, or text (.xyz .txt .pts .csv: x y z [nx ny nz] [r g b], "
+                    "README, Use); normals and radii estimated when absent; - for standard input; "
                     "omitted: the embedded default model");
+    addColumnsOption(*cmd, args->columns);
     cmd->add_option("-o,--output", args->output,
-                    "output PLY, - for standard output (default: <input>-refined.ply; standard output for "
-                    "input -); links are followed, devices and pipes written through");
+                    "output file, - for standard output (default: <input>-refined.ply; standard output for "
+                    "input -): PLY, or PCD for NAME.pcd, or text with a header line for NAME.xyz .txt .pts "
+                    ".csv; links are followed, devices and pipes written through");
     auto* levels = cmd->add_option("-l,--levels", args->levels,
                                    fmt::format("refinement levels (default {})", kDefaultLevels))
                        ->check(CLI::Range(1u, 64u));
@@ -219,7 +222,7 @@ void addRefineCommand(CLI::App& app) {
     addMaxPointsOption(*cmd, args->maxPoints);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     addKeepNormalsOption(*cmd, args->keepNormals);
-    cmd->add_flag("--ascii", args->ascii, "write an ascii PLY (default binary little-endian)");
+    cmd->add_flag("--ascii", args->ascii, "write an ascii PLY or PCD (default binary little-endian)");
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");
     addForceFlag(*cmd, args->force);

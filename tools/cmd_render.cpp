@@ -43,6 +43,7 @@ struct RenderArgs {
     bool json = false;
     bool keepNormals = false;
     bool force = false;
+    std::vector<std::string> columns; // the input's, when it is text
 };
 
 // "+x", "-z", ...: the name of an axis direction.
@@ -74,7 +75,7 @@ void runCompare(const RenderArgs& args) {
     std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
     CompareJob job;
     std::string name;
-    job.input = loadForRendering(args.input, args.keepNormals, name);
+    job.input = loadForRendering(args.input, args.keepNormals, name, args.columns);
     std::string frameName;
     const PointSet frame =
         args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
@@ -162,7 +163,7 @@ void runRender(const RenderArgs& args) {
     // Standard output carries the image: the summaries go to standard error.
     std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
     std::string name;
-    PointSet points = loadForRendering(args.input, args.keepNormals, name);
+    PointSet points = loadForRendering(args.input, args.keepNormals, name, args.columns);
     std::string frameName;
     const PointSet frame =
         args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
@@ -260,7 +261,9 @@ void addRenderCommand(CLI::App& app) {
     const auto [cmd, args] = addSubcommand(
         app, "render", "Render a point set offscreen as surface splats into a PNG (Vulkan)", runRender);
     cmd->add_option("input", args->input,
-                    "input PLY, - for standard input; omitted: the embedded default model");
+                    "input point file: PLY, PCD or text (.xyz .txt .pts .csv; README, Use), - for standard "
+                    "input; omitted: the embedded default model");
+    addColumnsOption(*cmd, args->columns);
     cmd->add_option("-o,--output", args->output, "output PNG, - for standard output")->capture_default_str();
     addForceFlag(*cmd, args->force);
     addSizeOptions(*cmd, args->engine, "image {} in pixels", 1);

@@ -27,12 +27,14 @@ struct ViewArgs {
     std::size_t frames = 0;
     bool screenshotOverlay = false;
     bool keepNormals = false;
+    std::vector<std::string> columns; // the input's (and dropped files'), when text
 };
 
 // The model of `path` (empty: the embedded default model) framed as `render` frames it.
-viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float aspect, bool keepNormals) {
+viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float aspect, bool keepNormals,
+                        const std::vector<std::string>& columns) {
     viewer::Model model;
-    model.points = loadForRendering(path, keepNormals, model.name);
+    model.points = loadForRendering(path, keepNormals, model.name, columns);
     std::optional<engine::Viewpoint> view;
     model.camera = chooseCamera(camera, model.points, aspect, view);
     model.bounds = engine::boundingSphere(model.points.position);
@@ -47,8 +49,9 @@ void runView(const ViewArgs& args) {
     // when it fails.
     std::optional<OutputFile> stats;
     if (!args.stats.empty()) stats.emplace(unwrap(OutputFile::open(args.stats, OutputContent::Text)));
-    viewer::Model model = loadModel(args.input, args.camera,
-                                    float(args.engine.width) / float(args.engine.height), args.keepNormals);
+    viewer::Model model =
+        loadModel(args.input, args.camera, float(args.engine.width) / float(args.engine.height),
+                  args.keepNormals, args.columns);
 
     engine::ContextOptions contextOptions;
     for (const std::string& name : (*windows)->instanceExtensions())
@@ -71,8 +74,10 @@ void runView(const ViewArgs& args) {
     CameraArgs framing;
     framing.fovDegrees = args.camera.fovDegrees;
     const bool keepNormals = args.keepNormals;
-    const viewer::ModelLoader loader = [framing, keepNormals](const std::string& path, float aspect) {
-        return loadModel(path, framing, aspect, keepNormals);
+    // Dropped files are read as the input is: any point file, text columns named by --columns.
+    const viewer::ModelLoader loader = [framing, keepNormals, columns = args.columns](const std::string& path,
+                                                                                      float aspect) {
+        return loadModel(path, framing, aspect, keepNormals, columns);
     };
     FrameSeries series;
     viewer::FrameSink sink;
@@ -103,7 +108,9 @@ void addViewCommand(CLI::App& app) {
     // As bench view: at 2 px, lavapipe draws the bunny at 5 frames a second (docs/VIEWER.md).
     args->engine.targetFps = 24.0;
     cmd->add_option("input", args->input,
-                    "input PLY; omitted: the embedded default model (or drop a file on the window)");
+                    "input point file: PLY, PCD or text (.xyz .txt .pts .csv; README, Use); omitted: the "
+                    "embedded default model (or drop a file on the window)");
+    addColumnsOption(*cmd, args->columns);
     addSizeOptions(*cmd, args->engine, "window {} (screen units; the picture has the framebuffer's pixels)",
                    64);
     addCameraOptions(*cmd, args->camera);

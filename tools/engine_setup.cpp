@@ -10,14 +10,15 @@
 
 namespace pnsplat::tools {
 
-PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name) {
+PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name,
+                          const std::vector<std::string>& columns) {
     PointSet points;
     if (input.empty()) {
         name = "the default model";
         points = makeDefaultModel();
     } else {
         name = inputName(input);
-        points = readInput(input);
+        points = readInput(input, nullptr, columns);
     }
     completeInput(points, 0, name, {.keepNormals = keepNormals});
     return points;

@@ -19,10 +19,12 @@ class Option;
 
 namespace pnsplat::tools {
 
-// The points of `input` (a PLY file, or the embedded default model when empty) with normals and
-// radii (estimated when the file has none), flipped normals turned back unless `keepNormals`;
-// `name` receives a name for messages.
-PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name);
+// The points of `input` (a point file: readInput, refine_run.h; or the embedded default model when
+// empty) with normals and radii (estimated when the file has none), flipped normals turned back
+// unless `keepNormals`; `columns` names a text file's columns (--columns); `name` receives a name
+// for messages.
+PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name,
+                          const std::vector<std::string>& columns = {});
 
 // The engine's options that the commands share.
 struct EngineArgs {

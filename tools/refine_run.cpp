@@ -12,6 +12,7 @@
 #include "pnsplat/refine/memory_budget.h"
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/point_file.h"
 #include "pnsplat/refine/text.h"
 #include "progress.h"
 
@@ -161,19 +162,40 @@ void addKeepNormalsOption(CLI::App& cmd, bool& keep) {
                  "(by default they are turned back, with a note)");
 }
 
-PointSet readInput(const std::string& path, std::vector<std::string>* comments) {
-    PlyReadOptions options;
+void addColumnsOption(CLI::App& cmd, std::vector<std::string>& columns) {
+    cmd.add_option("--columns", columns,
+                   "text input (.xyz .txt .pts .csv): the names of its columns, left to right, e.g. "
+                   "x,y,z,nx,ny,nz,r,g,b (names: x y z nx ny nz r g b rf gf bf radius; others are skipped); "
+                   "default: the file's header line, else by their number (README, Use)")
+        ->delimiter(',')
+        ->type_name("NAME,...");
+}
+
+PointSet readInput(const std::string& path, std::vector<std::string>* comments,
+                   const std::vector<std::string>& columns) {
+    PointFileOptions options;
     options.requireNormals = false;
-    PlyData data = unwrap(readPly(path, options));
+    options.columns = columns;
+    PointFileData file = unwrap(readPointFile(path, options));
+    PlyData& data = file.data;
+    const char* what = file.kind == PointFileKind::Ply   ? "vertex propert"
+                       : file.kind == PointFileKind::Pcd ? "field"
+                                                         : "column";
+    const bool plural = data.unusedProperties.size() != 1;
     std::vector<std::string> unused;
     if (!data.unusedProperties.empty())
-        unused.push_back(fmt::format("vertex propert{} {}", data.unusedProperties.size() == 1 ? "y" : "ies",
-                                     fmt::join(data.unusedProperties, ", ")));
+        unused.push_back(fmt::format(
+            "{}{} {}", what, file.kind == PointFileKind::Ply ? (plural ? "ies" : "y") : (plural ? "s" : ""),
+            fmt::join(data.unusedProperties, ", ")));
     for (const PlyData::Element& element : data.unusedElements)
         unused.push_back(fmt::format("element {} ({} item(s))", element.name, element.count));
     if (!unused.empty())
         fmt::print(stderr, "pnsplat: warning: {}: not used, dropped: {}\n", inputName(path),
                    fmt::join(unused, "; "));
+    if (file.skippedPoints > 0)
+        fmt::print(stderr,
+                   "pnsplat: {}: {} point(s) with a NaN position (holes of an organised cloud) left out\n",
+                   inputName(path), file.skippedPoints);
     if (comments) *comments = std::move(data.comments);
     return std::move(data.points);
 }

@@ -57,11 +57,17 @@ std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
 // `--keep-normals` on `cmd`, into `keep`.
 void addKeepNormalsOption(CLI::App& cmd, bool& keep);
 
-// The points of a PLY file (or "-": standard input) for refinement or rendering: normals may be
-// absent (completeInput estimates them). A bad file is a CommandError. What the file holds beyond
-// the points (other properties and elements) is named in a warning on stderr; its header comments
-// are returned in `comments` when given, for the output to carry on.
-PointSet readInput(const std::string& path, std::vector<std::string>* comments = nullptr);
+// `--columns NAME,...` on `cmd` (text inputs), into `columns` (PointFileOptions::columns).
+void addColumnsOption(CLI::App& cmd, std::vector<std::string>& columns);
+
+// The points of a point file (PLY, PCD or text: point_file.h; "-": standard input) for refinement
+// or rendering: normals may be absent (completeInput estimates them); `columns` names a text
+// file's columns (empty: its header line or their number). A bad file is a CommandError. What the
+// file holds beyond the points (other properties, fields, columns and elements) is named in a
+// warning on stderr, PCD points left out for a NaN position in a note; a PLY file's header
+// comments are returned in `comments` when given, for the output to carry on.
+PointSet readInput(const std::string& path, std::vector<std::string>* comments = nullptr,
+                   const std::vector<std::string>& columns = {});
 
 // Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
 // positions dropped, for normals estimated and for flipped normals turned back; its errors are a

@@ -29,19 +29,20 @@
 #include <fmt/core.h>
 
 #include "pnsplat/refine/output_file.h"
+#include "point_rows.h"
 
 namespace pnsplat {
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
-// Normals shorter than this are rejected; normals within kUnitTolerance of unit length are kept
-// bit for bit (so files written by writePly read back exactly), all others are normalised.
-constexpr double kMinNormalLength = 1e-12;
-constexpr double kUnitTolerance = 1e-6;
+using detail::FileData;
+using detail::kMaxHeaderBytes;
+using detail::printable;
+using detail::readWholeFile;
+using detail::unitDirection; // normals: kept bit for bit within 1e-6 of unit length, else normalised
+
 constexpr std::size_t kWriteChunkBytes = std::size_t{1} << 20;
-constexpr std::size_t kReadChunkBytes = std::size_t{1} << 20; // first buffer of a stream
 
 // ---------------------------------------------------------------------------------------------
 // Header model
@@ -157,14 +158,6 @@ std::vector<std::string_view> splitWords(std::string_view line) {
         if (i > start) words.push_back(line.substr(start, i - start));
     }
     return words;
-}
-
-// Printable form of a header word for messages (header bytes may be anything).
-std::string printable(std::string_view word) {
-    std::string out;
-    for (char c : word.substr(0, 40)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
-    if (word.size() > 40) out += "...";
-    return out;
 }
 
 std::optional<std::uint64_t> parseCount(std::string_view word) {
@@ -325,18 +318,6 @@ std::uint8_t toColourByte(double value, ScalarType type) {
 bool finiteFloats(double x, double y, double z) {
     return std::isfinite(static_cast<float>(x)) && std::isfinite(static_cast<float>(y)) &&
            std::isfinite(static_cast<float>(z));
-}
-
-// A normal as stored: values within kUnitTolerance of unit length are kept bit for bit, others
-// normalized; nullopt for a direction too short to normalize. The values are finite floats.
-std::optional<glm::vec3> unitDirection(double x, double y, double z) {
-    const glm::vec3 n(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
-    const double nx = n.x, ny = n.y, nz = n.z;
-    const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
-    if (!(length >= kMinNormalLength)) return std::nullopt;
-    if (std::abs(length - 1.0) <= kUnitTolerance) return n;
-    return glm::vec3(static_cast<float>(nx / length), static_cast<float>(ny / length),
-                     static_cast<float>(nz / length));
 }
 
 // Stores row `i` (values by slot) into `points`; returns the problem, or nullptr when valid.
@@ -743,71 +724,6 @@ class AsciiReader {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Files
-
-std::string errnoMessage(int error) {
-    return std::generic_category().message(error);
-}
-
-struct FileCloser {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-};
-
-struct FileData {
-    std::unique_ptr<char[]> bytes;
-    std::size_t size = 0;
-    std::string_view view() const { return {bytes.get(), size}; }
-};
-
-// The bytes of a stream (standard input, a pipe, a character device) up to its end.
-Result<FileData> readStream(int fd, std::string_view file) {
-    FileData data;
-    std::size_t capacity = 0;
-    for (;;) {
-        if (data.size == capacity) {
-            capacity = std::max(kReadChunkBytes, 2 * capacity);
-            auto bigger = std::make_unique_for_overwrite<char[]>(capacity + 1);
-            if (data.size > 0) std::memcpy(bigger.get(), data.bytes.get(), data.size);
-            data.bytes = std::move(bigger);
-        }
-        const ssize_t n = ::read(fd, data.bytes.get() + data.size, capacity - data.size);
-        if (n == 0) return data;
-        if (n < 0 && errno != EINTR) return fail(file, fmt::format("cannot read: {}", errnoMessage(errno)));
-        if (n > 0) data.size += static_cast<std::size_t>(n);
-    }
-}
-
-Result<FileData> readWholeFile(const fs::path& path, std::string_view file) {
-    if (path == "-") return readStream(STDIN_FILENO, file);
-    std::error_code ec;
-    const fs::file_status status = fs::status(path, ec);
-    if (status.type() == fs::file_type::not_found) return fail(file, "no such file");
-    if (ec) return fail(file, fmt::format("cannot read: {}", ec.message()));
-    if (status.type() == fs::file_type::directory) return fail(file, "is a directory, not a file");
-    if (status.type() == fs::file_type::fifo || status.type() == fs::file_type::character) {
-        errno = 0;
-        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (fd < 0) return fail(file, fmt::format("cannot open: {}", errnoMessage(errno)));
-        Result<FileData> data = readStream(fd, file);
-        ::close(fd);
-        return data;
-    }
-    if (status.type() != fs::file_type::regular)
-        return fail(file, "not a file, a pipe or a character device");
-
-    errno = 0;
-    std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "rb"));
-    if (!f) return fail(file, fmt::format("cannot open: {}", errnoMessage(errno)));
-    const std::uintmax_t size = fs::file_size(path, ec);
-    if (ec) return fail(file, fmt::format("cannot read: {}", ec.message()));
-    if (size > std::numeric_limits<std::size_t>::max() / 2) return fail(file, "file too large");
-    FileData data;
-    data.bytes = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(size) + 1);
-    data.size = std::fread(data.bytes.get(), 1, static_cast<std::size_t>(size), f.get());
-    if (std::ferror(f.get())) return fail(file, fmt::format("cannot read: {}", errnoMessage(errno)));
-    return data;
-}
-
 Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options, std::string_view file) {
     Result<Header> header = parseHeader(bytes, file);
     if (!header) return header.error();

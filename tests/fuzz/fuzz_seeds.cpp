@@ -1,7 +1,8 @@
 // Writes the fuzz targets' starting corpora (scripts/fuzz.sh): small valid files of every kind the
 // reader takes — ascii and binary, with and without radii, colours, second normals and faces,
 // positions only — made here rather than stored. fuzz_ply's folder gets the files; fuzz_refine's
-// gets each one several times behind the byte that picks the variant (refine_fuzz.cpp).
+// gets each one several times behind the byte that picks the variant (refine_fuzz.cpp); fuzz_points's
+// gets text and PCD files (point_file.h) of the same sets, and a few hand-written ones.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +10,7 @@
 #include <string>
 
 #include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/point_file.h"
 #include "pnsplat/refine/shapes.h"
 
 using namespace pnsplat;
@@ -25,13 +27,14 @@ bool write(const fs::path& path, const PointSet& points, PlyFormat format) {
 } // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 3) {
-        std::fprintf(stderr, "usage: fuzz_seeds PLY_FOLDER REFINE_FOLDER\n");
+    if (argc != 4) {
+        std::fprintf(stderr, "usage: fuzz_seeds PLY_FOLDER REFINE_FOLDER POINTS_FOLDER\n");
         return 2;
     }
-    const fs::path folder = argv[1], refineFolder = argv[2];
+    const fs::path folder = argv[1], refineFolder = argv[2], pointsFolder = argv[3];
     fs::create_directories(folder);
     fs::create_directories(refineFolder);
+    fs::create_directories(pointsFolder);
     PointSet sphere = sampleSphereUniform(60, 1.0f);
     PointSet torus = sampleTorusRandom(120, 1.0f, 0.4f, 3);
     PointSet model = makeBumpySphere();
@@ -74,5 +77,29 @@ int main(int argc, char** argv) {
             ok = ok && out.good();
         }
     }
+    // Text and PCD files (fuzz_points): every attribute, in each flavour and encoding.
+    for (const char* name : {"coloured.xyz", "coloured.csv", "coloured.pts", "coloured.pcd", "creases.txt",
+                             "creases.pcd", "radii.pcd"}) {
+        const std::string file = name;
+        const PointSet& points = file.starts_with("coloured")  ? model
+                                 : file.starts_with("creases") ? cylinder
+                                                               : withRadii;
+        for (const bool ascii : {false, true}) {
+            const Result<void> written =
+                writePointFile(pointsFolder / ((ascii ? "ascii-" : "") + file), points, ascii);
+            if (!written) std::fprintf(stderr, "fuzz_seeds: %s\n", written.error().message.c_str());
+            ok = ok && written.ok();
+        }
+    }
+    std::ofstream cloudCompare(pointsFolder / "cloudcompare.txt");
+    cloudCompare
+        << "//X,Y,Z,Rf,Gf,Bf,Nx,Ny,Nz\n0,0,0,0.5,0.25,1,0,0,1\n1,0,0,1.0,0,0,0,0,1\n0,1,0,0,1,0,0,0,1\n";
+    std::ofstream pts(pointsFolder / "leica.pts");
+    pts << "2\n0 0 0 -1200 255 0 0\n1 0 0 300 0 255 0\n1\n0 1 0 0 0 0 255\n";
+    std::ofstream pcd(pointsFolder / "organised.pcd");
+    pcd << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z rgb curvature\nSIZE 4 4 4 4 4\nTYPE F F F U F\n"
+           "COUNT 1 1 1 1 1\nWIDTH 2\nHEIGHT 2\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 4\nDATA ascii\n"
+           "0 0 0 16711680 0\nnan nan nan 0 0\n1 0 0 65280 0.1\n0 1 0 255 0.2\n";
+    ok = ok && cloudCompare.good() && pts.good() && pcd.good();
     return ok ? 0 : 1;
 }

@@ -1,0 +1,167 @@
+// What the point-file readers share (point_rows.h): reading a file's bytes, and checking and
+// storing a row of values the same way for every format.
+#include "point_rows.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <system_error>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+namespace pnsplat::detail {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kMinNormalLength = 1e-12;
+constexpr double kUnitTolerance = 1e-6;
+constexpr std::size_t kReadChunkBytes = std::size_t{1} << 20; // first buffer of a stream
+
+std::string errnoMessage(int error) {
+    return std::generic_category().message(error);
+}
+
+struct FileCloser {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+};
+
+// The bytes of a stream (standard input, a pipe, a character device) up to its end.
+Result<FileData> readStream(int fd, std::string_view file) {
+    FileData data;
+    std::size_t capacity = 0;
+    for (;;) {
+        if (data.size == capacity) {
+            capacity = std::max(kReadChunkBytes, 2 * capacity);
+            auto bigger = std::make_unique_for_overwrite<char[]>(capacity + 1);
+            if (data.size > 0) std::memcpy(bigger.get(), data.bytes.get(), data.size);
+            data.bytes = std::move(bigger);
+        }
+        const ssize_t n = ::read(fd, data.bytes.get() + data.size, capacity - data.size);
+        if (n == 0) return data;
+        if (n < 0 && errno != EINTR) return fail(file, fmt::format("cannot read: {}", errnoMessage(errno)));
+        if (n > 0) data.size += static_cast<std::size_t>(n);
+    }
+}
+
+// Whether three values stay finite as floats.
+bool finiteFloats(double x, double y, double z) {
+    return std::isfinite(static_cast<float>(x)) && std::isfinite(static_cast<float>(y)) &&
+           std::isfinite(static_cast<float>(z));
+}
+
+} // namespace
+
+std::string printable(std::string_view word) {
+    std::string out;
+    for (char c : word.substr(0, 40)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
+    if (word.size() > 40) out += "...";
+    return out;
+}
+
+Result<FileData> readWholeFile(const fs::path& path, std::string_view file) {
+    if (path == "-") return readStream(STDIN_FILENO, file);
+    std::error_code ec;
+    const fs::file_status status = fs::status(path, ec);
+    if (status.type() == fs::file_type::not_found) return fail(file, "no such file");
+    if (ec) return fail(file, fmt::format("cannot read: {}", ec.message()));
+    if (status.type() == fs::file_type::directory) return fail(file, "is a directory, not a file");
+    if (status.type() == fs::file_type::fifo || status.type() == fs::file_type::character) {
+        errno = 0;
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) return fail(file, fmt::format("cannot open: {}", errnoMessage(errno)));
+        Result<FileData> data = readStream(fd, file);
+        ::close(fd);
+        return data;
+    }
+    if (status.type() != fs::file_type::regular)
+        return fail(file, "not a file, a pipe or a character device");
+
+    errno = 0;
+    std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "rb"));
+    if (!f) return fail(file, fmt::format("cannot open: {}", errnoMessage(errno)));
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (ec) return fail(file, fmt::format("cannot read: {}", ec.message()));
+    if (size > std::numeric_limits<std::size_t>::max() / 2) return fail(file, "file too large");
+    FileData data;
+    data.bytes = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(size) + 1);
+    data.size = std::fread(data.bytes.get(), 1, static_cast<std::size_t>(size), f.get());
+    if (std::ferror(f.get())) return fail(file, fmt::format("cannot read: {}", errnoMessage(errno)));
+    return data;
+}
+
+std::optional<glm::vec3> unitDirection(double x, double y, double z) {
+    const glm::vec3 n(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+    const double nx = n.x, ny = n.y, nz = n.z;
+    const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
+    if (!(length >= kMinNormalLength)) return std::nullopt;
+    if (std::abs(length - 1.0) <= kUnitTolerance) return n;
+    return glm::vec3(static_cast<float>(nx / length), static_cast<float>(ny / length),
+                     static_cast<float>(nz / length));
+}
+
+bool parseFloatField(std::string_view field, float& value) {
+    if (field.size() > 1 && field[0] == '+' && field[1] != '-') field.remove_prefix(1);
+    const char* end = field.data() + field.size();
+    const auto [ptr, ec] = std::from_chars(field.data(), end, value);
+    if (field.empty() || ptr != end) return false;
+    if (ec == std::errc()) return true;
+    if (ec != std::errc::result_out_of_range) return false;
+    double wide = 0.0;
+    const auto [wideEnd, wideError] = std::from_chars(field.data(), end, wide);
+    value = wideError == std::errc() ? static_cast<float>(wide)
+                                     : (field[0] == '-' ? -std::numeric_limits<float>::infinity()
+                                                        : std::numeric_limits<float>::infinity());
+    return true;
+}
+
+void sizePoints(PointSet& points, const RowLayout& layout, bool colour, std::size_t n) {
+    points.position.resize(n);
+    if (layout.normal) points.normal.resize(n);
+    if (layout.radius) points.radius.resize(n);
+    if (colour) points.colour.resize(n);
+    if (layout.crease) points.crease.resize(n);
+}
+
+const char* storeRow(PointSet& points, const RowLayout& layout, std::size_t i,
+                     const std::array<double, kRowSlots>& v) {
+    const auto x = static_cast<float>(v[kX]);
+    const auto y = static_cast<float>(v[kY]);
+    const auto z = static_cast<float>(v[kZ]);
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) return "non-finite coordinate";
+    points.position[i] = glm::vec3(x, y, z);
+    if (layout.normal) {
+        if (!finiteFloats(v[kNx], v[kNy], v[kNz])) return "non-finite normal";
+        const auto n = unitDirection(v[kNx], v[kNy], v[kNz]);
+        if (!n) return "zero-length normal";
+        points.normal[i] = *n;
+    }
+    if (layout.crease) {
+        if (!finiteFloats(v[kNx2], v[kNy2], v[kNz2])) return "non-finite crease normal";
+        const auto n = unitDirection(v[kNx2], v[kNy2], v[kNz2]);
+        bool ordinary = false;
+        if (layout.creaseFlag) {
+            if (!std::isfinite(v[kCreaseFlag])) return "non-finite crease flag";
+            ordinary = v[kCreaseFlag] == 0.0;
+        } else {
+            ordinary = (v[kNx2] == 0.0 && v[kNy2] == 0.0 && v[kNz2] == 0.0) || (n && *n == points.normal[i]);
+        }
+        if (!ordinary && !n) return "crease normal of a crease point is not a direction";
+        points.crease[i] = ordinary ? glm::vec3(0.0f) : *n;
+    }
+    if (layout.radius) {
+        const auto r = static_cast<float>(v[kRadius]);
+        if (!std::isfinite(r) || r < 0.0f) return "negative or non-finite radius";
+        points.radius[i] = r;
+    }
+    return nullptr;
+}
+
+} // namespace pnsplat::detail

@@ -273,13 +273,19 @@ TEST(NodeTree, LevelsStaySeparatedAcrossNodesOfDifferentLevels) {
     EXPECT_GT(checked, 10000u);
 }
 
-// bendOf (the engine's measure of the silhouette, engine.cpp): per point the largest angle between
-// its normal and those of its kBendNeighbours nearest points, against a brute-force search on a
+// neighbourShapeOf (the engine's measure of the silhouette and its splats' radii, engine.cpp): per
+// point the largest angle between its normal and those of its kBendNeighbours nearest points, and
+// the distance to the farthest of them where its radius is larger, against a brute-force search on a
 // random sphere (whose bends are then about the angle the 6th neighbour subtends) and a plane.
 TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
-    const PointSet sphere = sampleSphereRandom(1500, 2.0f, 7);
-    const std::vector<float> bend = bendOf(sphere);
+    PointSet sphere = sampleSphereRandom(1500, 2.0f, 7);
+    sphere.radius.assign(sphere.size(), 1.0f);                                   // beyond the 6th point
+    for (std::size_t i = 0; i < sphere.size(); i += 2) sphere.radius[i] = 0.01f; // below its spacing
+    const NeighbourShape shape = neighbourShapeOf(sphere);
+    const std::vector<float>& bend = shape.bend;
     ASSERT_EQ(bend.size(), sphere.size());
+    ASSERT_EQ(shape.splatRadius.size(), sphere.size());
+    std::size_t smaller = 0;
     std::vector<std::pair<float, std::size_t>> byDistance;
     for (std::size_t i = 0; i < sphere.size(); ++i) {
         byDistance.clear();
@@ -293,18 +299,22 @@ TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
         // On a sphere of radius 2 the normals turn by the angle the farthest neighbour subtends.
         const float subtended = 2.0f * std::asin(byDistance[kBendNeighbours - 1].first / 4.0f);
         ASSERT_NEAR(bend[i], subtended, 2e-3f) << "point " << i;
+        const float farthest = byDistance[kBendNeighbours - 1].first;
+        ASSERT_NEAR(shape.splatRadius[i], std::min(sphere.radius[i], farthest), 1e-6f) << "point " << i;
+        smaller += shape.splatRadius[i] < sphere.radius[i];
     }
+    EXPECT_EQ(smaller, sphere.size() - sphere.size() / 2); // the points of radius 1
     PointSet plane;
     for (int y = 0; y < 20; ++y)
         for (int x = 0; x < 20; ++x) {
             plane.position.push_back({0.1f * float(x), 0.1f * float(y), 0.0f});
             plane.normal.push_back({0.0f, 0.0f, 1.0f});
         }
-    for (const float b : bendOf(plane)) EXPECT_EQ(b, 0.0f);
-    EXPECT_TRUE(bendOf(PointSet{}).empty());
+    for (const float b : neighbourShapeOf(plane).bend) EXPECT_EQ(b, 0.0f);
+    EXPECT_TRUE(neighbourShapeOf(PointSet{}).bend.empty());
 }
 
-// bendOf's nearest points (a grid searched cell block by cell block, node_tree.cpp) are exactly a
+// neighbourShapeOf's nearest points (a grid searched cell block by cell block, node_tree.cpp) are exactly a
 // brute-force search's, ties in distance to the lower index: random normals make the widest
 // angle depend on which points are taken. A plane grid (every distance tied many times over), and
 // a sphere with a dense cluster and far, isolated points (their nearest lie beyond the cells
@@ -334,7 +344,7 @@ TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
     for (PointSet* set : {&plane, &clustered, &huge}) {
         set->normal.resize(set->position.size());
         for (glm::vec3& n : set->normal) n = randomNormal();
-        const std::vector<float> bend = bendOf(*set);
+        const std::vector<float> bend = neighbourShapeOf(*set).bend;
         ASSERT_EQ(bend.size(), set->size());
         std::vector<std::pair<float, std::size_t>> byDistance;
         for (std::size_t i = 0; i < set->size(); ++i) {

@@ -34,13 +34,15 @@ constexpr float kHalfPi = 1.57079632679f;
 constexpr float kPi = 3.14159265359f;
 // The level of detail (docs/REALTIME.md, "The level of detail"). A node is drawn through its
 // children while more than kOverShare of its splats drawn are wider than the threshold: its median
-// splat. The 99th percentile (a share of 0.008, before) let the sparsest patches of a node decide for
-// all of it: the refinement's radii spread (the 99th percentile is about 1.9 times the median), so
-// at 2 px the median splat drawn was 0.8 px and a covered pixel held 28 splats (the bunny at
-// 640x480), while away from the silhouettes a picture changes little from one level to the next.
+// splat. Splats are drawn and measured with Node::splatRadius, about the local spacing (the
+// refinement's radii are about twice it: docs/REALTIME.md, "Splats of the local spacing"). The 99th
+// percentile (a share of 0.008, before) let the sparsest patches of a node decide for all of it: the
+// refinement's radii spread (the 99th percentile is about 1.9 times the median), so at 2 px the median splat
+// drawn was 0.8 px and a covered pixel held 28 splats (the bunny at 640x480), while away from the silhouettes
+// a picture changes little from one level to the next.
 constexpr double kOverShare = 0.5;
 // At the silhouettes it does: there a coarser level covers more pixels than the next (a splat's
-// disk stands out of a curved surface by about r · bend / 2, node_tree.h, bendOf, which the next
+// disk stands out of a curved surface by about r · bend / 2, node_tree.h, neighbourShapeOf, which the next
 // level's smaller splats shrink), and a pixel of surface against background costs far more than a
 // shade. A splat seen within acos(kRimCosine) of edge-on (its normal's cosine to the ray below
 // kRimCosine) is at the silhouette; a node is also drawn through its children while more than
@@ -89,7 +91,7 @@ std::uint32_t facingClass(glm::vec3 n) {
 // largest footprint; splats of like radii side by side waste fewer lanes (the bunny close-up at 640x480 on
 // lavapipe: visibility 25.5 -> 21.6 ms). The compute path's sums are integers and its depth a minimum, so its
 // picture does not depend on the order (the graphics path's float blending does, in the last bits).
-ClassStarts packSplats(const PointSet& points, gpu::Splat* splats) {
+ClassStarts packSplats(const PointSet& points, std::span<const float> splatRadius, gpu::Splat* splats) {
     // Radii are positive: their bits order as the floats do.
     struct Key {
         std::uint32_t facing, radius, index;
@@ -99,7 +101,7 @@ ClassStarts packSplats(const PointSet& points, gpu::Splat* splats) {
     ClassStarts starts{};
     for (std::size_t i = 0; i < points.size(); ++i) {
         const std::uint32_t facing = facingClass(points.normal[i]);
-        order[i] = {facing, std::bit_cast<std::uint32_t>(points.radius[i]), static_cast<std::uint32_t>(i)};
+        order[i] = {facing, std::bit_cast<std::uint32_t>(splatRadius[i]), static_cast<std::uint32_t>(i)};
         ++starts[facing + 1];
     }
     for (std::uint32_t c = 0; c < kFacingClasses; ++c) starts[c + 1] += starts[c];
@@ -111,7 +113,7 @@ ClassStarts packSplats(const PointSet& points, gpu::Splat* splats) {
             const glm::u8vec3 c = points.colour[i];
             colour = std::uint32_t{c.x} | std::uint32_t{c.y} << 8 | std::uint32_t{c.z} << 16;
         }
-        splats[k] = gpu::Splat{points.position[i], points.radius[i], points.normal[i], colour};
+        splats[k] = gpu::Splat{points.position[i], splatRadius[i], points.normal[i], colour};
     }
     return starts;
 }
@@ -261,7 +263,7 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
             const auto chunk = impl->cache->allocatePermanent(static_cast<std::uint32_t>(node.points.size()));
             assert(chunk);
             splats.resize(node.points.size());
-            const ClassStarts classes = packSplats(node.points, splats.data());
+            const ClassStarts classes = packSplats(node.points, node.splatRadius, splats.data());
             impl->cache->write(*chunk, splats, *impl->frames, uploads);
             Impl::NodeState& s = impl->stateOf(root);
             s.chunk = *chunk;
@@ -391,7 +393,7 @@ Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
                   std::abs(glm::dot(d, right)) <= frustum.tanX * depth &&
                   std::abs(glm::dot(d, upward)) <= frustum.tanY * depth))
                 continue;
-            const float r = points.radius[i];
+            const float r = node.splatRadius[i];
             ++drawn;
             over += r * k > depth;
             if (rimPossible && facing < kRimCosine * glm::length(d)) {
@@ -549,7 +551,7 @@ std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockste
                 if (d.first < chunk->first + chunk->count && chunk->first < d.first + d.count) ++overwrites;
         }
         splats.resize(node.points.size());
-        s.classes = packSplats(node.points, splats.data());
+        s.classes = packSplats(node.points, node.splatRadius, splats.data());
         cache->write(*chunk, splats, *frames, uploads);
         s.chunk = *chunk;
         s.resident = true;
@@ -678,14 +680,15 @@ void Engine::Impl::measureSplats(const Camera& camera, FrameReport& report) cons
     std::size_t over = 0;
     std::vector<float> sizes;
     for (const NodeId id : drawnNodes) {
-        const PointSet& points = tree.node(id).points;
+        const Node& node = tree.node(id);
+        const PointSet& points = node.points;
         for (std::size_t i = 0; i < points.size(); ++i) {
             const glm::vec3 p = glm::vec3(view * glm::vec4(points.position[i], 1.0f));
             const float depth = -p.z;
             if (!(depth > range.near) || std::abs(p.x) > tanX * depth || std::abs(p.y) > tanY * depth ||
                 glm::dot(points.normal[i], points.position[i] - camera.eye) >= 0.0f)
                 continue;
-            const float size = scale * points.radius[i] / depth;
+            const float size = scale * node.splatRadius[i] / depth;
             sizes.push_back(size);
             over += size > settings.threshold;
         }
@@ -898,7 +901,7 @@ Result<std::size_t> Engine::verifyCache() {
                 return Error{fmt::format("node {}: chunk of {} splats for {} points", id, chunk.count,
                                          node.points.size())};
             expected.resize(chunk.count);
-            packSplats(node.points, expected.data());
+            packSplats(node.points, node.splatRadius, expected.data());
             if (std::memcmp(expected.data(), gpu + chunk.first, chunk.count * sizeof(gpu::Splat)) != 0)
                 return Error{fmt::format("node {} (level {}): its chunk at splat {} differs from its points",
                                          id, node.level, chunk.first)};

@@ -81,22 +81,24 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
     return parts;
 }
 
-// What a node's selection reads of its points (non-empty; bend filled): its box, largest, 99th
-// percentile and median radii, largest bend and normal cone. For the roots and for a job's children.
+// What a node's selection reads of its points (non-empty; bend and splatRadius filled): its box,
+// largest, 99th percentile and median splat radii, largest point radius, largest bend and normal
+// cone. For the roots and for a job's children.
 void describePoints(Node& node) {
     std::vector<std::uint32_t> all(node.points.size());
     std::iota(all.begin(), all.end(), 0u);
     const Box box = boxOf(node.points.position, all);
     node.lo = box.lo;
     node.hi = box.hi;
-    node.maxRadius = std::ranges::max(node.points.radius);
-    node.drawnRadius = drawnRadiusOf(node.points.radius);
-    node.medianRadius = medianRadiiOf(node.points.radius);
+    node.maxRadius = std::ranges::max(node.splatRadius);
+    node.maxPointRadius = std::ranges::max(node.points.radius);
+    node.drawnRadius = drawnRadiusOf(node.splatRadius);
+    node.medianRadius = medianRadiiOf(node.splatRadius);
     node.maxBend = node.bend.empty() ? 0.0f : std::ranges::max(node.bend);
     normalConeOf(node.points.normal, node.coneAxis, node.coneAngle);
 }
 
-// The nearest points of each of a set's points, for bendOf: a grid of cubic cells (a dense array
+// The nearest points of each of a set's points, for neighbourShapeOf: a grid of cubic cells (a dense array
 // of cell starts over the points sorted by cell). Exact: a search stops when the farthest point
 // kept is nearer than every point outside the cells it read; ties in distance go to the lower
 // index, as a brute-force search breaks them. It replaced a k-d tree (nanoflann), whose build and
@@ -291,7 +293,7 @@ class NearestGrid {
     }
     // Inserts (d2, j) among the `found` kept nearest, sorted by distance then index, keeping K.
     // (A shift loop of its own: written as a search and then a shift, the compiler made the shift
-    // two calls of memmove, which took most of bendOf's time.)
+    // two calls of memmove, which took most of the search's time.)
     template <std::size_t K>
     static void keep(float d2, std::uint32_t j, std::array<float, K>& kept,
                      std::array<std::uint32_t, K>& index, std::size_t& found) {
@@ -331,17 +333,22 @@ float drawnRadiusOf(std::span<const float> radii) {
     return *at;
 }
 
-std::vector<float> bendOf(const PointSet& points) {
-    std::vector<float> bend(points.size(), 0.0f);
-    if (points.size() < 2) return bend;
+NeighbourShape neighbourShapeOf(const PointSet& points) {
+    NeighbourShape shape;
+    shape.bend.assign(points.size(), 0.0f);
+    shape.splatRadius.assign(points.radius.begin(), points.radius.end()); // none without radii
+    if (points.size() < 2) return shape;
     const NearestGrid grid(points.position);
     grid.forEachNearest<kBendNeighbours + 1>([&](std::uint32_t i, const auto& nearest, std::size_t found) {
         float lowest = 1.0f; // the point itself is among its nearest, at angle 0
         for (std::size_t k = 0; k < found; ++k)
             lowest = std::min(lowest, glm::dot(points.normal[i], points.normal[nearest[k]]));
-        bend[i] = std::acos(std::clamp(lowest, -1.0f, 1.0f));
+        shape.bend[i] = std::acos(std::clamp(lowest, -1.0f, 1.0f));
+        const float farthest = glm::length(points.position[nearest[found - 1]] - points.position[i]);
+        if (points.hasRadius() && farthest > 0.0f)
+            shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
     });
-    return bend;
+    return shape;
 }
 
 std::array<float, 2> medianRadiiOf(std::span<const float> radii) {
@@ -431,7 +438,10 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         pending.push_back(std::move(halves[1]));
         pending.push_back(std::move(halves[0]));
     }
-    const std::vector<float> bend = bendOf(input);
+    // A tree only drawn draws the radii it was given.
+    const NeighbourShape shape = neighbourShapeOf(input);
+    const std::span<const float> splatRadius =
+        forRefinement ? std::span<const float>(shape.splatRadius) : std::span<const float>(input.radius);
     for (SplitPart& part : roots) {
         const NodeId id = tree.allocate();
         Node& node = tree.nodes_[id];
@@ -439,7 +449,8 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         node.points.reserve(part.indices.size());
         for (const std::uint32_t i : part.indices) {
             node.points.appendFrom(input, i);
-            node.bend.push_back(bend[i]);
+            node.bend.push_back(shape.bend[i]);
+            node.splatRadius.push_back(splatRadius[i]);
         }
         for (const SegmentEnds& segment : segments)
             if (part.region.contains(segment.a)) node.segments.push_back(segment);
@@ -471,7 +482,7 @@ NodeId NodeTree::allocate() {
 bool NodeTree::ready(NodeId id, std::vector<NodeId>& blockers) const {
     const Node& x = nodes_[id];
     if (!x.isLeaf() || x.level >= settings_.maxLevel) return false;
-    const float reach = kRetryReach * x.maxRadius;
+    const float reach = kRetryReach * x.maxPointRadius;
     const glm::vec3 lo = x.lo - reach, hi = x.hi + reach;
     bool ok = true;
     std::vector<NodeId> stack(roots_.rbegin(), roots_.rend());
@@ -518,7 +529,7 @@ NodeJob NodeTree::makeJob(NodeId id, bool recordParents) const {
     input.level = x.level;
     input.segments = x.segments;
     input.recordParents = recordParents;
-    const float reach = kRetryReach * x.maxRadius;
+    const float reach = kRetryReach * x.maxPointRadius;
     for (const NodeId root : roots_)
         gatherContext(id, x.lo - reach, x.hi + reach, x.level, root, input.points);
     return job;
@@ -532,15 +543,17 @@ NodeJobResult NodeTree::run(NodeJob job, const NodeSettings& settings) {
     RegionResult refined = refineRegion(std::move(job.input), settings.refine);
     out.stats = refined.stats;
     out.parents = std::move(refined.parents);
-    const std::vector<float> bend = bendOf(refined.points);
+    const NeighbourShape shape = neighbourShapeOf(refined.points);
     for (SplitPart& part : splitNode(refined.points.position, region, settings.maxNodePoints)) {
         NodeChild& child = out.children.emplace_back();
         child.region = part.region;
         child.points.reserve(part.indices.size());
         child.bend.reserve(part.indices.size());
+        child.splatRadius.reserve(part.indices.size());
         for (const std::uint32_t i : part.indices) {
             child.points.appendFrom(refined.points, i);
-            child.bend.push_back(bend[i]);
+            child.bend.push_back(shape.bend[i]);
+            child.splatRadius.push_back(shape.splatRadius[i]);
         }
         for (const SegmentEnds& segment : refined.segments)
             if (part.region.contains(segment.a)) child.segments.push_back(segment);
@@ -562,6 +575,7 @@ bool NodeTree::attach(NodeJobResult&& result) {
         child.parent = result.node;
         child.points = std::move(made.points);
         child.bend = std::move(made.bend);
+        child.splatRadius = std::move(made.splatRadius);
         child.segments = std::move(made.segments);
         describePoints(child);
         pointCount_ += child.points.size();
@@ -581,6 +595,7 @@ void NodeTree::release(NodeId id) {
         pointCount_ -= child.points.size();
         child.points = PointSet{};
         child.bend = {};
+        child.splatRadius = {};
         child.segments = {};
         live_[c] = 0;
         --liveCount_;

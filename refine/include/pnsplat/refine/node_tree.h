@@ -44,13 +44,22 @@ float drawnRadiusOf(std::span<const float> radii);
 // The lower and upper medians of `radii`, the (n-1)/2-th and n/2-th smallest (equal for an odd
 // count): more than half of the radii are at least the first, at most half exceed the second.
 std::array<float, 2> medianRadiiOf(std::span<const float> radii);
-// Per point, how far the surface turns within one spacing: the largest angle (radians) between its
-// normal and those of its kBendNeighbours nearest points in `points`. A splat at the silhouette
-// stands out of the surface by about r · bend / 2 (the sagitta of a circle turning by bend over r),
-// which the next level's smaller splats halve; the engine refines the nodes whose silhouette splats
-// stand out visibly (engine.cpp, the level of detail).
+// Per point, from its kBendNeighbours nearest points in `points` (a level's points in a region):
+//  - bend: how far the surface turns within one spacing, the largest angle (radians) between its
+//    normal and theirs. A splat at the silhouette stands out of the surface by about r · bend / 2
+//    (the sagitta of a circle turning by bend over r), which the next level's smaller splats halve;
+//    the engine refines the nodes whose silhouette splats stand out visibly (engine.cpp, the level
+//    of detail).
+//  - splatRadius: the radius its splat is drawn with, the distance to the farthest of them, at most
+//    its own radius (the point's radius when it has no neighbour). Choice (docs/REALTIME.md, "Splats
+//    of the local spacing"): the refinement's radius reaches the farthest member of the point's
+//    next one-ring, about twice the spacing, so that its disk covers each pixel many times over; the
+//    sixth nearest point lies about 1.3 spacings away and still covers the surface.
 inline constexpr std::size_t kBendNeighbours = 6;
-std::vector<float> bendOf(const PointSet& points);
+struct NeighbourShape {
+    std::vector<float> bend, splatRadius;
+};
+NeighbourShape neighbourShapeOf(const PointSet& points);
 // The cone of `normals` (unit): axis their normalised sum, half-angle the largest angle to it (π
 // when the sum is too short to be an axis).
 void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& angle);
@@ -68,12 +77,13 @@ struct NodeSettings {
 struct Node {
     Region region;                // the part of space the node owns
     glm::vec3 lo{0.0f}, hi{0.0f}; // the box of its points (refit)
-    float maxRadius = 0.0f;       // of its points
-    // The radius that kDrawnRadiusQuantile of its points do not exceed: what its level of detail is
-    // chosen by (a few points of much larger radius, such as those whose new one-ring stayed empty,
-    // would otherwise refine a whole node another level or two).
+    float maxRadius = 0.0f;       // of its splats (splatRadius)
+    float maxPointRadius = 0.0f;  // of its points (the refinement's radii): the reach of its refinement
+    // The splat radius that kDrawnRadiusQuantile of its points do not exceed: the order in which
+    // nodes are refined and uploaded (a few points of much larger radius, such as those whose new
+    // one-ring stayed empty, would otherwise put a node first).
     float drawnRadius = 0.0f;
-    std::array<float, 2> medianRadius{}; // medianRadiiOf its points' radii
+    std::array<float, 2> medianRadius{}; // medianRadiiOf its splat radii
     float maxBend = 0.0f;                // of its points
     // A cone around coneAxis of half-angle coneAngle (radians) holds every normal of its points; at
     // π/2 or more it tells nothing. A renderer skips a node seen from behind (one-sided splats).
@@ -82,10 +92,12 @@ struct Node {
     std::uint32_t level = 0; // its points are P(level) in its region
     NodeId parent = kNoNode; // kNoNode for a root
     std::array<NodeId, 4> children{kNoNode, kNoNode, kNoNode, kNoNode};
-    std::uint32_t childCount = 0;      // 0: a leaf (not refined, or its children released)
-    std::uint32_t generation = 0;      // counts the uses of this slot: jobs check it
-    PointSet points;                   // its points (normals, radii, colours, creases as P0's)
-    std::vector<float> bend;           // per point: bendOf over its level's points of its parent's region
+    std::uint32_t childCount = 0; // 0: a leaf (not refined, or its children released)
+    std::uint32_t generation = 0; // counts the uses of this slot: jobs check it
+    PointSet points;              // its points (normals, radii, colours, creases as P0's)
+    // Per point, neighbourShapeOf over its level's points of its parent's region (a root: of the
+    // input); a tree only drawn draws points.radius.
+    std::vector<float> bend, splatRadius;
     std::vector<SegmentEnds> segments; // boundary and crease segments whose first point is its own
 
     bool isLeaf() const { return childCount == 0; }
@@ -103,7 +115,7 @@ struct NodeJob {
 struct NodeChild {
     Region region;
     PointSet points;
-    std::vector<float> bend;
+    std::vector<float> bend, splatRadius;
     std::vector<SegmentEnds> segments;
 };
 struct NodeJobResult {

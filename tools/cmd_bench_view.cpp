@@ -16,6 +16,7 @@
 #include "engine_setup.h"
 #include "frame_json.h"
 #include "pnsplat/engine/image.h"
+#include "refine_run.h"
 
 namespace pnsplat::tools {
 
@@ -30,6 +31,7 @@ struct BenchViewArgs {
     bool measure = true;
     std::size_t qualityEvery = 0; // 0: no quality frames
     EngineArgs engine;
+    bool keepOutliers = false;
 };
 
 constexpr std::size_t kDefaultFrames = 240;
@@ -37,7 +39,7 @@ constexpr std::size_t kDefaultFrames = 240;
 void runBenchView(BenchViewArgs args) {
     using Clock = std::chrono::steady_clock;
     std::string name;
-    PointSet points = loadForRendering(args.input, false, name);
+    PointSet points = loadForRendering(args.input, {.keepOutliers = args.keepOutliers}, name);
     const std::size_t inputPoints = points.size();
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
@@ -179,6 +181,7 @@ void addBenchViewCommand(CLI::App& bench) {
     view->add_flag("!--no-measure", args->measure,
                    "skip measuring each splat drawn (max_splat_px, over_threshold: a pass on the CPU)");
     addEngineOptions(*view, args->engine, true, false);
+    addKeepOutliersOption(*view, args->keepOutliers);
     view->callback([args] { runBenchView(*args); });
 }
 

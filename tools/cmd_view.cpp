@@ -27,12 +27,14 @@ struct ViewArgs {
     std::size_t frames = 0;
     bool screenshotOverlay = false;
     bool keepNormals = false;
+    bool keepOutliers = false;
 };
 
 // The model of `path` (empty: the embedded default model) framed as `render` frames it.
-viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float aspect, bool keepNormals) {
+viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float aspect,
+                        const InputOptions& input) {
     viewer::Model model;
-    model.points = loadForRendering(path, keepNormals, model.name);
+    model.points = loadForRendering(path, input, model.name);
     std::optional<engine::Viewpoint> view;
     model.camera = chooseCamera(camera, model.points, aspect, view);
     model.bounds = engine::boundingSphere(model.points.position);
@@ -47,8 +49,9 @@ void runView(const ViewArgs& args) {
     // when it fails.
     std::optional<OutputFile> stats;
     if (!args.stats.empty()) stats.emplace(unwrap(OutputFile::open(args.stats, OutputContent::Text)));
-    viewer::Model model = loadModel(args.input, args.camera,
-                                    float(args.engine.width) / float(args.engine.height), args.keepNormals);
+    const InputOptions input{.keepNormals = args.keepNormals, .keepOutliers = args.keepOutliers};
+    viewer::Model model =
+        loadModel(args.input, args.camera, float(args.engine.width) / float(args.engine.height), input);
 
     engine::ContextOptions contextOptions;
     for (const std::string& name : (*windows)->instanceExtensions())
@@ -70,9 +73,8 @@ void runView(const ViewArgs& args) {
     // Dropped files are framed anew (--camera belongs to the first model); --fov stays.
     CameraArgs framing;
     framing.fovDegrees = args.camera.fovDegrees;
-    const bool keepNormals = args.keepNormals;
-    const viewer::ModelLoader loader = [framing, keepNormals](const std::string& path, float aspect) {
-        return loadModel(path, framing, aspect, keepNormals);
+    const viewer::ModelLoader loader = [framing, input](const std::string& path, float aspect) {
+        return loadModel(path, framing, aspect, input);
     };
     FrameSeries series;
     viewer::FrameSink sink;
@@ -126,6 +128,7 @@ void addViewCommand(CLI::App& app) {
     cmd->add_option("--stats", args->stats,
                     "write one JSON line per frame to FILE, then a summary line (the fields of bench view)");
     addKeepNormalsOption(*cmd, args->keepNormals);
+    addKeepOutliersOption(*cmd, args->keepOutliers);
 }
 
 } // namespace pnsplat::tools

@@ -10,7 +10,8 @@
 
 namespace pnsplat::tools {
 
-PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name) {
+PointSet loadForRendering(const std::string& input, const InputOptions& options, std::string& name,
+                          InputCompletion* completion) {
     PointSet points;
     if (input.empty()) {
         name = "the default model";
@@ -19,7 +20,8 @@ PointSet loadForRendering(const std::string& input, bool keepNormals, std::strin
         name = inputName(input);
         points = readInput(input);
     }
-    completeInput(points, 0, name, {.keepNormals = keepNormals});
+    const InputCompletion done = completeInput(points, 0, name, options);
+    if (completion) *completion = done;
     return points;
 }
 

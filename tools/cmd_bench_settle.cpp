@@ -124,7 +124,7 @@ void runBenchSettle(const SettleArgs& args) {
     std::vector<Model> models;
     for (const std::string& file : files) {
         Model& model = models.emplace_back();
-        model.points = loadForRendering(file, false, model.loaded);
+        model.points = loadForRendering(file, {}, model.loaded);
         model.name = std::filesystem::path(file).stem().string();
     }
     std::vector<const SettleView*> views;

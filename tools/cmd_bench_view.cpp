@@ -32,6 +32,7 @@ struct BenchViewArgs {
     std::size_t qualityEvery = 0; // 0: no quality frames
     EngineArgs engine;
     std::vector<std::string> columns; // the input's, when it is text
+    bool keepOutliers = false;
 };
 
 constexpr std::size_t kDefaultFrames = 240;
@@ -39,7 +40,7 @@ constexpr std::size_t kDefaultFrames = 240;
 void runBenchView(BenchViewArgs args) {
     using Clock = std::chrono::steady_clock;
     std::string name;
-    PointSet points = loadForRendering(args.input, false, name, args.columns);
+    PointSet points = loadForRendering(args.input, {.keepOutliers = args.keepOutliers}, name, args.columns);
     const std::size_t inputPoints = points.size();
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
@@ -184,6 +185,7 @@ void addBenchViewCommand(CLI::App& bench) {
     view->add_flag("!--no-measure", args->measure,
                    "skip measuring each splat drawn (max_splat_px, over_threshold: a pass on the CPU)");
     addEngineOptions(*view, args->engine, true, false);
+    addKeepOutliersOption(*view, args->keepOutliers);
     view->callback([args] { runBenchView(*args); });
 }
 

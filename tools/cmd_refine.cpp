@@ -40,6 +40,7 @@ struct RefineArgs {
     bool estimateRadii = false;
     bool json = false;
     bool keepNormals = false;
+    bool keepOutliers = false;
     double thetaFDegrees = 30.0;
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
@@ -101,6 +102,7 @@ void runRefine(const RefineArgs& args) {
     job.evenOutFactor = args.evenOut;
     job.estimateRadii = args.estimateRadii;
     job.keepNormals = args.keepNormals;
+    job.keepOutliers = args.keepOutliers;
     job.holes = parseHoles(args.holes);
     job.maxPoints = args.maxPoints;
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
@@ -117,11 +119,13 @@ void runRefine(const RefineArgs& args) {
             summary,
             R"({{"input": {}, "output": {}, "points_in": {}, "distinct_in": {}, "points_out": {}, "levels": {}, )"
             R"("evening_out_levels": {}, "hole_filling_levels": {}, "holes": {}, "rim_points": {}, )"
-            R"("refine_seconds": {:.4f}, "seconds": {:.4f}, "points_per_second": {:.0f}, "capped_neighbourhoods": {}, "turned_normals": {}}})"
+            R"("refine_seconds": {:.4f}, "seconds": {:.4f}, "points_per_second": {:.0f}, "capped_neighbourhoods": {}, "turned_normals": {}, )"
+            R"("outliers": {}}})"
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(output)), inputCount,
-            run.inputPoints, outputCount, done, run.evenOutLevels, run.holeFillingLevels, job.holes.size(),
-            run.enlargedRadii, refineSeconds, total, rate, run.cappedNeighbourhoods, run.turnedNormals);
+            run.inputPoints + run.outliers, outputCount, done, run.evenOutLevels, run.holeFillingLevels,
+            job.holes.size(), run.enlargedRadii, refineSeconds, total, rate, run.cappedNeighbourhoods,
+            run.turnedNormals, run.outliers);
     } else {
         std::string levelDetail =
             run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
@@ -129,7 +133,9 @@ void runRefine(const RefineArgs& args) {
             levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them",
                                        job.holes.size(), run.enlargedRadii, run.holeFillingLevels);
         std::vector<std::string> inputDetail;
-        if (run.inputPoints != inputCount) inputDetail.push_back(fmt::format("{} distinct", run.inputPoints));
+        if (run.inputPoints + run.outliers != inputCount)
+            inputDetail.push_back(fmt::format("{} distinct", run.inputPoints + run.outliers));
+        if (run.outliers > 0) inputDetail.push_back(fmt::format("{} outlier(s) left out", run.outliers));
         if (run.turnedNormals > 0)
             inputDetail.push_back(fmt::format("{} flipped normal(s) turned back", run.turnedNormals));
         const std::string distinct =
@@ -222,6 +228,7 @@ void addRefineCommand(CLI::App& app) {
     addMaxPointsOption(*cmd, args->maxPoints);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     addKeepNormalsOption(*cmd, args->keepNormals);
+    addKeepOutliersOption(*cmd, args->keepOutliers);
     cmd->add_flag("--ascii", args->ascii, "write an ascii PLY or PCD (default binary little-endian)");
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");

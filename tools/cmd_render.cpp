@@ -42,8 +42,11 @@ struct RenderArgs {
     EngineArgs engine;
     bool json = false;
     bool keepNormals = false;
+    bool keepOutliers = false;
     bool force = false;
     std::vector<std::string> columns; // the input's, when it is text
+
+    InputOptions inputOptions() const { return {.keepNormals = keepNormals, .keepOutliers = keepOutliers}; }
 };
 
 // "+x", "-z", ...: the name of an axis direction.
@@ -75,18 +78,21 @@ void runCompare(const RenderArgs& args) {
     std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
     CompareJob job;
     std::string name;
-    job.input = loadForRendering(args.input, args.keepNormals, name, args.columns);
+    InputCompletion completion;
+    job.input = loadForRendering(args.input, args.inputOptions(), name, args.columns, &completion);
     std::string frameName;
     const PointSet frame =
-        args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
+        args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.inputOptions(), frameName);
     std::string referenceName;
     if (!args.reference.empty()) {
-        job.reference = loadForRendering(args.reference, args.keepNormals, referenceName);
+        // A reference is the true surface densely sampled (a mesh's vertices, say): kept whole.
+        job.reference = loadForRendering(
+            args.reference, {.keepNormals = args.keepNormals, .keepOutliers = true}, referenceName);
     } else if (args.input.empty()) {
         // The default model is analytic: its dense version is the same surface sampled densely.
         referenceName = "the default model's dense version";
         PointSet dense = sampleDefaultModel(kDefaultReferencePoints);
-        completeInput(dense, 0, referenceName, {});
+        completeInput(dense, 0, referenceName, {.keepOutliers = true});
         job.reference = std::move(dense);
     }
     const std::size_t referencePoints = job.reference ? job.reference->size() : 0;
@@ -125,7 +131,7 @@ void runCompare(const RenderArgs& args) {
             R"("panel_height": {}, "device": {}, "path": "{}", "camera": "{}", "fov_degrees": {}, )"
             R"("refined_splats": {}, "tree_points": {}, "threshold_px": {}, "max_splat_px": {:.3f}, "over_threshold": {:.5f}, )"
             R"("reference": {}, "reference_points": {}, "psnr_splats": {}, "psnr_refined": {}, )"
-            R"("ssim_splats": {}, "ssim_refined": {}}})"
+            R"("ssim_splats": {}, "ssim_refined": {}, "outliers": {}}})"
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
             inputCount, args.engine.width, args.engine.height, jsonString(context->deviceName()), path,
@@ -135,7 +141,8 @@ void runCompare(const RenderArgs& args) {
             c.splats
                 ? jsonString(args.reference.empty() ? std::string("default-model-dense") : args.reference)
                 : "null",
-            referencePoints, psnr(c.splats), psnr(c.refined), ssim(c.splats), ssim(c.refined));
+            referencePoints, psnr(c.splats), psnr(c.refined), ssim(c.splats), ssim(c.refined),
+            completion.outliers);
         return;
     }
     fmt::print(summary,
@@ -163,10 +170,11 @@ void runRender(const RenderArgs& args) {
     // Standard output carries the image: the summaries go to standard error.
     std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
     std::string name;
-    PointSet points = loadForRendering(args.input, args.keepNormals, name, args.columns);
+    InputCompletion completion;
+    PointSet points = loadForRendering(args.input, args.inputOptions(), name, args.columns, &completion);
     std::string frameName;
     const PointSet frame =
-        args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.keepNormals, frameName);
+        args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.inputOptions(), frameName);
     std::optional<Viewpoint> view;
     const Camera camera = chooseCamera(args.view, args.frame.empty() ? points : frame,
                                        float(args.engine.width) / float(args.engine.height), view);
@@ -178,6 +186,7 @@ void runRender(const RenderArgs& args) {
         job.levels = args.refineLevels;
         job.holes = parseHoles(args.holes);
         job.keepNormals = args.keepNormals;
+        job.keepOutliers = true; // loadForRendering has left them out (or was asked to keep them)
         job.maxPoints = args.maxPoints;
         RefineRun run = refineWithProgress(std::move(points), job, name);
         points = std::move(run.points);
@@ -222,7 +231,8 @@ void runRender(const RenderArgs& args) {
             R"("width": {}, "height": {}, "device": {}, "path": "{}", "visibility_ms": {:.3f}, "accumulation_ms": {:.3f}, )"
             R"("normalization_ms": {:.3f}, "camera": "{}", "fov_degrees": {}, "frame": {}, "up": {}, "eye_side": {}, )"
             R"("adaptive": {}, "threshold_px": {}, "nodes": {}, "median_splat_px": {:.3f}, "max_splat_px": {:.3f}, )"
-            R"("over_threshold": {:.5f}, "covered_px": {}, "splats_per_covered_px": {:.3f}, "refine_ms": {:.1f}}})"
+            R"("over_threshold": {:.5f}, "covered_px": {}, "splats_per_covered_px": {:.3f}, "refine_ms": {:.1f}, )"
+            R"("outliers": {}}})"
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
             inputCount, levels, splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
@@ -232,7 +242,7 @@ void runRender(const RenderArgs& args) {
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
             drawn.medianSplatPx, drawn.maxSplatPx, drawn.overThreshold, covered, perCovered,
-            drawn.refineWaitMs);
+            drawn.refineWaitMs, completion.outliers);
         return;
     }
     fmt::print(
@@ -304,6 +314,7 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_flag("--json", args->json,
                   "print the summary as one JSON line on standard output (fields: see README, Use)");
     addKeepNormalsOption(*cmd, args->keepNormals);
+    addKeepOutliersOption(*cmd, args->keepOutliers);
 }
 
 } // namespace pnsplat::tools

@@ -28,13 +28,14 @@ struct ViewArgs {
     bool screenshotOverlay = false;
     bool keepNormals = false;
     std::vector<std::string> columns; // the input's (and dropped files'), when text
+    bool keepOutliers = false;
 };
 
 // The model of `path` (empty: the embedded default model) framed as `render` frames it.
-viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float aspect, bool keepNormals,
-                        const std::vector<std::string>& columns) {
+viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float aspect,
+                        const InputOptions& input, const std::vector<std::string>& columns) {
     viewer::Model model;
-    model.points = loadForRendering(path, keepNormals, model.name, columns);
+    model.points = loadForRendering(path, input, model.name, columns);
     std::optional<engine::Viewpoint> view;
     model.camera = chooseCamera(camera, model.points, aspect, view);
     model.bounds = engine::boundingSphere(model.points.position);
@@ -49,9 +50,9 @@ void runView(const ViewArgs& args) {
     // when it fails.
     std::optional<OutputFile> stats;
     if (!args.stats.empty()) stats.emplace(unwrap(OutputFile::open(args.stats, OutputContent::Text)));
-    viewer::Model model =
-        loadModel(args.input, args.camera, float(args.engine.width) / float(args.engine.height),
-                  args.keepNormals, args.columns);
+    const InputOptions input{.keepNormals = args.keepNormals, .keepOutliers = args.keepOutliers};
+    viewer::Model model = loadModel(
+        args.input, args.camera, float(args.engine.width) / float(args.engine.height), input, args.columns);
 
     engine::ContextOptions contextOptions;
     for (const std::string& name : (*windows)->instanceExtensions())
@@ -73,11 +74,10 @@ void runView(const ViewArgs& args) {
     // Dropped files are framed anew (--camera belongs to the first model); --fov stays.
     CameraArgs framing;
     framing.fovDegrees = args.camera.fovDegrees;
-    const bool keepNormals = args.keepNormals;
     // Dropped files are read as the input is: any point file, text columns named by --columns.
-    const viewer::ModelLoader loader = [framing, keepNormals, columns = args.columns](const std::string& path,
-                                                                                      float aspect) {
-        return loadModel(path, framing, aspect, keepNormals, columns);
+    const viewer::ModelLoader loader = [framing, input, columns = args.columns](const std::string& path,
+                                                                                float aspect) {
+        return loadModel(path, framing, aspect, input, columns);
     };
     FrameSeries series;
     viewer::FrameSink sink;
@@ -133,6 +133,7 @@ void addViewCommand(CLI::App& app) {
     cmd->add_option("--stats", args->stats,
                     "write one JSON line per frame to FILE, then a summary line (the fields of bench view)");
     addKeepNormalsOption(*cmd, args->keepNormals);
+    addKeepOutliersOption(*cmd, args->keepOutliers);
 }
 
 } // namespace pnsplat::tools

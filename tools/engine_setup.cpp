@@ -10,8 +10,8 @@
 
 namespace pnsplat::tools {
 
-PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name,
-                          const std::vector<std::string>& columns) {
+PointSet loadForRendering(const std::string& input, const InputOptions& options, std::string& name,
+                          const std::vector<std::string>& columns, InputCompletion* completion) {
     PointSet points;
     if (input.empty()) {
         name = "the default model";
@@ -20,7 +20,8 @@ PointSet loadForRendering(const std::string& input, bool keepNormals, std::strin
         name = inputName(input);
         points = readInput(input, nullptr, columns);
     }
-    completeInput(points, 0, name, {.keepNormals = keepNormals});
+    const InputCompletion done = completeInput(points, 0, name, options);
+    if (completion) *completion = done;
     return points;
 }
 

@@ -10,6 +10,7 @@
 
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/engine.h"
+#include "pnsplat/refine/input.h"
 #include "pnsplat/refine/point_set.h"
 
 namespace CLI {
@@ -20,11 +21,14 @@ class Option;
 namespace pnsplat::tools {
 
 // The points of `input` (a point file: readInput, refine_run.h; or the embedded default model when
-// empty) with normals and radii (estimated when the file has none), flipped normals turned back
-// unless `keepNormals`; `columns` names a text file's columns (--columns); `name` receives a name
-// for messages.
-PointSet loadForRendering(const std::string& input, bool keepNormals, std::string& name,
-                          const std::vector<std::string>& columns = {});
+// empty) completed as `refine` completes them (completeInput): outliers left out unless
+// options.keepOutliers, normals and radii estimated when the file has none, flipped normals turned
+// back unless options.keepNormals; `columns` names a text file's columns (--columns). `name`
+// receives a name for messages; `completion`, when given, what was done. The real-time engine's
+// loader: `render`, `bench view` and `view` (a dropped file too).
+PointSet loadForRendering(const std::string& input, const InputOptions& options, std::string& name,
+                          const std::vector<std::string>& columns = {},
+                          InputCompletion* completion = nullptr);
 
 // The engine's options that the commands share.
 struct EngineArgs {

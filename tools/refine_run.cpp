@@ -11,6 +11,7 @@
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/memory_budget.h"
 #include "pnsplat/refine/normal_estimation.h"
+#include "pnsplat/refine/outliers.h"
 #include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/point_file.h"
 #include "pnsplat/refine/text.h"
@@ -171,6 +172,15 @@ void addColumnsOption(CLI::App& cmd, std::vector<std::string>& columns) {
         ->type_name("NAME,...");
 }
 
+void addKeepOutliersOption(CLI::App& cmd, bool& keep) {
+    cmd.add_flag(
+        "--keep-outliers", keep,
+        fmt::format("keep every input point: by default points isolated at the scale of the sampling "
+                    "(the mean distance to their {} nearest points far above the median) are left "
+                    "out, with a note",
+                    kOutlierNearest));
+}
+
 PointSet readInput(const std::string& path, std::vector<std::string>* comments,
                    const std::vector<std::string>& columns) {
     PointFileOptions options;
@@ -213,6 +223,14 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
                 ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
                               removed.withOtherAttributes)
                 : "");
+    if (done->outliers > 0)
+        fmt::print(stderr,
+                   "pnsplat: {}: {} outlier(s) left out: points far from their {} nearest (a mean distance "
+                   "above {:.4g}, {:.1f} times the median) or off their plane (the first at {:.6g} {:.6g} "
+                   "{:.6g}); --keep-outliers keeps them\n",
+                   inputName, done->outliers, kOutlierNearest, done->outlierThreshold,
+                   done->outlierThreshold / done->outlierMedian, done->firstOutlier.x, done->firstOutlier.y,
+                   done->firstOutlier.z);
     if (done->normalComponents > 0)
         fmt::print(stderr,
                    "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented "
@@ -232,13 +250,15 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
         throw CommandError(
             fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
     checkFits(points, job, inputName);
-    const InputCompletion completed =
-        completeInput(points, job.options.threads, inputName,
-                      {.replaceRadii = job.estimateRadii, .keepNormals = job.keepNormals});
+    const InputCompletion completed = completeInput(points, job.options.threads, inputName,
+                                                    {.replaceRadii = job.estimateRadii,
+                                                     .keepNormals = job.keepNormals,
+                                                     .keepOutliers = job.keepOutliers});
     RefineRun run;
     run.radiiEstimated = completed.radiiEstimated;
     run.inputPoints = points.size();
     run.turnedNormals = completed.turnedNormals;
+    run.outliers = completed.outliers;
     if (auto valid = validateForRefinement(points); !valid)
         throw CommandError(inputName + ": " + valid.error().message);
     HoleRims rims;

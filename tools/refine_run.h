@@ -18,7 +18,7 @@ namespace pnsplat::tools {
 
 struct RefineRun {
     PointSet points;
-    std::size_t inputPoints = 0;          // refined from: the input's distinct positions (completeInput)
+    std::size_t inputPoints = 0;          // refined from: the input's distinct positions, outliers left out
     unsigned levels = 0;                  // levels run, the hole filling's and evening out's included
     unsigned evenOutLevels = 0;           // adaptive levels of evenOut after them (part of `levels`)
     unsigned holeFillingLevels = 0;       // adaptive levels filling the holes before them (part of `levels`)
@@ -28,6 +28,7 @@ struct RefineRun {
     std::size_t maxNeighbours = 0;        // the bound the neighbourhoods were cut to (RefineOptions)
     bool radiiEstimated = false;          // the input's radii were estimated (completeInput)
     std::size_t turnedNormals = 0;        // flipped input normals turned back (completeInput)
+    std::size_t outliers = 0;             // isolated input points left out (completeInput, findOutliers)
 };
 
 // What to refine and how far: `holes` are filled first (enlargeAroundHoles, fillHoles; paper
@@ -43,6 +44,7 @@ struct RefineJob {
     std::vector<Hole> holes;
     bool estimateRadii = false; // replace the input's radii by estimated ones
     bool keepNormals = false;   // refuse flipped input normals instead of turning them back
+    bool keepOutliers = false;  // refine isolated input points too instead of leaving them out
     std::size_t maxPoints = 0;
 };
 
@@ -56,6 +58,8 @@ std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
 
 // `--keep-normals` on `cmd`, into `keep`.
 void addKeepNormalsOption(CLI::App& cmd, bool& keep);
+// `--keep-outliers` on `cmd`, into `keep`.
+void addKeepOutliersOption(CLI::App& cmd, bool& keep);
 
 // `--columns NAME,...` on `cmd` (text inputs), into `columns` (PointFileOptions::columns).
 void addColumnsOption(CLI::App& cmd, std::vector<std::string>& columns);
@@ -70,7 +74,8 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments =
                    const std::vector<std::string>& columns = {});
 
 // Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
-// positions dropped, for normals estimated and for flipped normals turned back; its errors are a
+// positions dropped, for outliers left out, for normals estimated and for flipped normals turned
+// back; its errors are a
 // CommandError naming `inputName`.
 InputCompletion completeInput(PointSet& points, unsigned threads, const std::string& inputName,
                               const InputOptions& options = {});
@@ -80,8 +85,8 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
 void checkFits(const PointSet& points, const RefineJob& job, const std::string& inputName);
 
 // Checks that the job fits (RefineJob::maxPoints), completes the input (completeInput,
-// job.estimateRadii and job.keepNormals), checks it, then runs the job. Errors, running out of
-// memory included, are a CommandError naming `inputName`.
+// job.estimateRadii, job.keepNormals and job.keepOutliers), checks it, then runs the job. Errors, running out
+// of memory included, are a CommandError naming `inputName`.
 RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName);
 
 } // namespace pnsplat::tools

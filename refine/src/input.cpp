@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 
 #include "pnsplat/refine/normal_estimation.h"
+#include "pnsplat/refine/outliers.h"
 #include "pnsplat/refine/radius_estimation.h"
 
 namespace pnsplat {
@@ -19,6 +20,18 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
     if (points.size() < 3)
         return Error{fmt::format("{} points but {} distinct position(s); at least 3 are needed", given,
                                  points.size())};
+    // Before the estimations: an outlier's normal and radius would be measured across the gap
+    // around it, and its neighbours' would reach it.
+    if (!options.keepOutliers) {
+        const OutlierSearch search = findOutliers(points.position, threads);
+        done.outlierMedian = search.median;
+        done.outlierThreshold = search.threshold;
+        if (!search.outliers.empty()) {
+            done.outliers = search.outliers.size();
+            done.firstOutlier = points.position[search.outliers[0]];
+            removePoints(points, search.outliers);
+        }
+    }
     if (!points.hasNormal()) {
         const Result<NormalEstimate> estimate = estimateNormals(points, threads);
         if (!estimate) return estimate.error();

@@ -1,7 +1,7 @@
 // A nanoflann k-d tree over a span of positions, the library's one adaptor for nanoflann: for the
 // estimations of inputs that come without radii or normals (normal_estimation.cpp,
-// radius_estimation.cpp), the refinement's check for points too close to tell apart
-// (validateForRefinement) and the nearest points of `pnsplat eval` (quality.cpp). Private to
+// radius_estimation.cpp), the outlier search (outliers.cpp), the refinement's check for points too close to
+// tell apart (validateForRefinement) and the nearest points of `pnsplat eval` (quality.cpp). Private to
 // refine/src. Build once, then query from any thread.
 #pragma once
 

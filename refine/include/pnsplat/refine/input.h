@@ -1,11 +1,14 @@
 // A scan as the refinement takes it (ALGORITHM.md §9; what `pnsplat refine` and `render` do with a file):
-// points that repeat an earlier position merged, normals estimated when there are none, flipped
+// points that repeat an earlier position merged, outliers left out (outliers.h), normals estimated
+// when there are none, flipped
 // normals turned back (or refused) when there are, radii estimated when there are none (or always,
 // when asked). Not in the paper. Any thread may call it; the estimations run on the given number
 // of worker threads (0 = all), with results that do not depend on it.
 #pragma once
 
 #include <cstddef>
+
+#include <glm/vec3.hpp>
 
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
@@ -15,10 +18,15 @@ namespace pnsplat {
 struct InputOptions {
     bool replaceRadii = false; // estimate radii even when the set has them
     bool keepNormals = false;  // refuse flipped normals (findFlippedNormals) instead of turning them
+    bool keepOutliers = false; // keep the points findOutliers finds isolated instead of removing them
 };
 
 struct InputCompletion {
     CoincidentRemoval repeats;        // points dropped for repeating an earlier position (removeCoincident)
+    std::size_t outliers = 0;         // points left out as isolated (findOutliers; 0 with keepOutliers)
+    glm::vec3 firstOutlier{0.0f};     // the position of the first of them, in input order
+    double outlierMedian = 0.0;       // the median and the threshold of the mean distance to the
+    double outlierThreshold = 0.0;    // kOutlierNearest nearest (OutlierSearch; 0: not searched)
     std::size_t normalComponents = 0; // normals estimated: the connected parts oriented (0: it had normals)
     std::size_t turnedNormals = 0;    // given normals that were flipped, turned back (findFlippedNormals)
     std::size_t firstTurned = 0;      // the first of them, an index into the completed set

@@ -118,23 +118,4 @@ OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned thread
     return search;
 }
 
-void removePoints(PointSet& points, std::span<const std::uint32_t> drop) {
-    assert(std::is_sorted(drop.begin(), drop.end()));
-    std::size_t kept = 0, next = 0;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        if (next < drop.size() && drop[next] == i) {
-            ++next;
-            continue;
-        }
-        points.position[kept] = points.position[i];
-        if (points.hasNormal()) points.normal[kept] = points.normal[i];
-        if (points.hasRadius()) points.radius[kept] = points.radius[i];
-        if (points.hasColour()) points.colour[kept] = points.colour[i];
-        if (points.hasCrease()) points.crease[kept] = points.crease[i];
-        ++kept;
-    }
-    assert(next == drop.size());
-    points.resize(kept);
-}
-
 } // namespace pnsplat

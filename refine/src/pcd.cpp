@@ -28,9 +28,10 @@ namespace pnsplat {
 namespace {
 
 using detail::fail;
+using detail::parseCount;
 using detail::printable;
+using detail::splitWords;
 
-constexpr std::size_t kWriteChunkBytes = std::size_t{1} << 20;
 // LZF cannot expand a byte of input into more than this many bytes of output (a back reference of
 // 264 bytes in 3 bytes), a bound on what a compressed body may claim.
 constexpr std::uint64_t kLzfMaxRatio = 90;
@@ -60,26 +61,6 @@ struct Header {
     std::size_t bodyOffset = 0;
     std::uint64_t bodyLine = 0; // the line number of the body's first line
 };
-
-std::optional<std::uint64_t> parseUnsigned(std::string_view word) {
-    std::uint64_t value = 0;
-    const char* end = word.data() + word.size();
-    const auto [ptr, ec] = std::from_chars(word.data(), end, value);
-    if (ec != std::errc() || ptr != end) return std::nullopt;
-    return value;
-}
-
-std::vector<std::string_view> splitWords(std::string_view line) {
-    std::vector<std::string_view> words;
-    std::size_t i = 0;
-    while (i < line.size()) {
-        while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
-        const std::size_t start = i;
-        while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
-        if (i > start) words.push_back(line.substr(start, i - start));
-    }
-    return words;
-}
 
 int useOf(std::string_view name) {
     static constexpr std::pair<std::string_view, int> kNames[] = {
@@ -135,7 +116,7 @@ Result<Header> parseHeader(std::string_view bytes, std::string_view file) {
         const std::vector<std::string_view> rest(words.begin() + 1, words.end());
         const auto number = [&](std::optional<std::uint64_t>& into) -> bool {
             if (rest.size() != 1) return false;
-            into = parseUnsigned(rest[0]);
+            into = parseCount(rest[0]);
             return into.has_value();
         };
         if (keyword == "VERSION" || keyword == "VIEWPOINT") {
@@ -190,9 +171,8 @@ Result<Header> parseHeader(std::string_view bytes, std::string_view file) {
     header.points = *width * h;
     for (std::size_t f = 0; f < n; ++f) {
         Field& field = header.fields[f];
-        const std::optional<std::uint64_t> size = parseUnsigned(sizes[f]);
-        const std::optional<std::uint64_t> count =
-            counts.empty() ? std::uint64_t{1} : parseUnsigned(counts[f]);
+        const std::optional<std::uint64_t> size = parseCount(sizes[f]);
+        const std::optional<std::uint64_t> count = counts.empty() ? std::uint64_t{1} : parseCount(counts[f]);
         const std::string_view type = types[f];
         const bool validType = type.size() == 1 && (type[0] == 'F' || type[0] == 'I' || type[0] == 'U');
         const bool validSize =
@@ -526,41 +506,29 @@ Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& poi
         fmt::join(std::vector<std::string_view>(names.size(), "1"), " "), points.size(), points.size(),
         ascii ? "ascii" : "binary");
 
-    Result<OutputFile> out = OutputFile::open(path, ascii ? OutputContent::Text : OutputContent::Binary);
-    if (!out) return out.error();
-    buffer.reserve(kWriteChunkBytes + 512);
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const glm::vec3& p = points.position[i];
-        const glm::vec3& n = points.normal[i];
-        float values[10] = {p.x, p.y, p.z, n.x, n.y, n.z};
-        int floats = 6;
-        if (points.hasRadius()) values[floats++] = points.radius[i];
-        const bool crease = points.isCrease(i);
-        if (points.hasCrease())
-            for (int k = 0; k < 3; ++k) values[floats++] = crease ? points.crease[i][k] : n[k];
-        const glm::u8vec3 c = points.hasColour() ? points.colour[i] : glm::u8vec3(0);
-        const std::uint32_t rgb = (std::uint32_t{c.x} << 16) | (std::uint32_t{c.y} << 8) | c.z;
-        if (ascii) {
-            for (int k = 0; k < floats; ++k) {
-                if (k > 0) buffer += ' ';
-                appendFloatText(buffer, values[k]);
+    return detail::writeRows(
+        path, ascii ? OutputContent::Text : OutputContent::Binary, std::move(buffer), points.size(),
+        [&](std::string& rows, std::size_t i) {
+            std::array<float, 10> values{};
+            const int floats = detail::rowFloats(points, i, values);
+            const bool crease = points.isCrease(i);
+            const glm::u8vec3 c = points.hasColour() ? points.colour[i] : glm::u8vec3(0);
+            const std::uint32_t rgb = (std::uint32_t{c.x} << 16) | (std::uint32_t{c.y} << 8) | c.z;
+            if (ascii) {
+                for (int k = 0; k < floats; ++k) {
+                    if (k > 0) rows += ' ';
+                    appendFloatText(rows, values[k]);
+                }
+                if (points.hasCrease()) rows += crease ? " 1" : " 0";
+                if (points.hasColour())
+                    fmt::format_to(std::back_inserter(rows), " {}", rgb); // the bits, as PCL
+                rows += '\n';
+            } else {
+                for (int k = 0; k < floats; ++k) appendBinary(rows, values[k]);
+                if (points.hasCrease()) appendBinary(rows, static_cast<std::uint8_t>(crease ? 1 : 0));
+                if (points.hasColour()) appendBinary(rows, rgb);
             }
-            if (points.hasCrease()) buffer += crease ? " 1" : " 0";
-            if (points.hasColour())
-                fmt::format_to(std::back_inserter(buffer), " {}", rgb); // the bits, as PCL
-            buffer += '\n';
-        } else {
-            for (int k = 0; k < floats; ++k) appendBinary(buffer, values[k]);
-            if (points.hasCrease()) appendBinary(buffer, static_cast<std::uint8_t>(crease ? 1 : 0));
-            if (points.hasColour()) appendBinary(buffer, rgb);
-        }
-        if (buffer.size() >= kWriteChunkBytes) {
-            if (Result<void> written = out->write(buffer); !written) return written;
-            buffer.clear();
-        }
-    }
-    if (Result<void> written = out->write(buffer); !written) return written;
-    return out->commit();
+        });
 }
 
 } // namespace

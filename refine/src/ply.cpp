@@ -36,13 +36,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using detail::fail;
 using detail::FileData;
+using detail::guarded;
 using detail::kMaxHeaderBytes;
+using detail::parseCount;
 using detail::printable;
 using detail::readWholeFile;
+using detail::splitWords;
 using detail::unitDirection; // normals: kept bit for bit within 1e-6 of unit length, else normalised
-
-constexpr std::size_t kWriteChunkBytes = std::size_t{1} << 20;
 
 // ---------------------------------------------------------------------------------------------
 // Header model
@@ -143,29 +145,6 @@ constexpr std::array<std::string_view, kSlotCount> kSlotNames = {
 // Other names of a slot, read where the file has none of the name above: PCL's normals.
 constexpr std::array<std::string_view, kSlotCount> kSlotAliases = {
     "", "", "", "normal_x", "normal_y", "normal_z", "", "", "", "", "", "", "", ""};
-
-Error fail(std::string_view file, std::string_view problem) {
-    return Error{fmt::format("{}: {}", file, problem)};
-}
-
-std::vector<std::string_view> splitWords(std::string_view line) {
-    std::vector<std::string_view> words;
-    std::size_t i = 0;
-    while (i < line.size()) {
-        while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
-        const std::size_t start = i;
-        while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
-        if (i > start) words.push_back(line.substr(start, i - start));
-    }
-    return words;
-}
-
-std::optional<std::uint64_t> parseCount(std::string_view word) {
-    std::uint64_t value = 0;
-    const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), value);
-    if (ec != std::errc() || end != word.data() + word.size()) return std::nullopt;
-    return value;
-}
 
 Result<Header> parseHeader(std::string_view data, std::string_view file) {
     if (data.empty()) return fail(file, "empty file");
@@ -314,44 +293,18 @@ std::uint8_t toColourByte(double value, ScalarType type) {
     return static_cast<std::uint8_t>(std::clamp(value, 0.0, 255.0));
 }
 
-// Whether three values stay finite as floats.
-bool finiteFloats(double x, double y, double z) {
-    return std::isfinite(static_cast<float>(x)) && std::isfinite(static_cast<float>(y)) &&
-           std::isfinite(static_cast<float>(z));
+// The attributes of a vertex row as every reader stores them (point_rows.h).
+detail::RowLayout rowLayout(const VertexLayout& layout) {
+    return {layout.hasNormal, layout.hasRadius, layout.hasCrease, layout.property[kCreaseFlag] >= 0};
 }
 
-// Stores row `i` (values by slot) into `points`; returns the problem, or nullptr when valid.
+// Stores row `i` (values by slot) into `points`: the checks every reader shares (detail::storeRow),
+// then the colour; returns the problem, or nullptr when valid.
 const char* storeVertex(PointSet& points, const VertexLayout& layout, std::size_t i,
                         const std::array<double, kSlotCount>& v) {
-    const auto x = static_cast<float>(v[kX]);
-    const auto y = static_cast<float>(v[kY]);
-    const auto z = static_cast<float>(v[kZ]);
-    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) return "non-finite coordinate";
-    points.position[i] = glm::vec3(x, y, z);
-    if (layout.hasNormal) {
-        if (!finiteFloats(v[kNx], v[kNy], v[kNz])) return "non-finite normal";
-        const auto n = unitDirection(v[kNx], v[kNy], v[kNz]);
-        if (!n) return "zero-length normal";
-        points.normal[i] = *n;
-    }
-    if (layout.hasCrease) {
-        if (!finiteFloats(v[kNx2], v[kNy2], v[kNz2])) return "non-finite crease normal";
-        const auto n = unitDirection(v[kNx2], v[kNy2], v[kNz2]);
-        bool ordinary = false;
-        if (layout.property[kCreaseFlag] >= 0) {
-            if (!std::isfinite(v[kCreaseFlag])) return "non-finite crease flag";
-            ordinary = v[kCreaseFlag] == 0.0;
-        } else {
-            ordinary = (v[kNx2] == 0.0 && v[kNy2] == 0.0 && v[kNz2] == 0.0) || (n && *n == points.normal[i]);
-        }
-        if (!ordinary && !n) return "crease normal of a crease point is not a direction";
-        points.crease[i] = ordinary ? glm::vec3(0.0f) : *n;
-    }
-    if (layout.hasRadius) {
-        const auto r = static_cast<float>(v[kRadius]);
-        if (!std::isfinite(r) || r < 0.0f) return "negative or non-finite radius";
-        points.radius[i] = r;
-    }
+    const std::array<double, detail::kRowSlots> row = {
+        v[kX], v[kY], v[kZ], v[kNx], v[kNy], v[kNz], v[kRadius], v[kNx2], v[kNy2], v[kNz2], v[kCreaseFlag]};
+    if (const char* problem = detail::storeRow(points, rowLayout(layout), i, row)) return problem;
     if (layout.hasColour) {
         if (!std::isfinite(v[kRed]) || !std::isfinite(v[kGreen]) || !std::isfinite(v[kBlue]))
             return "non-finite colour";
@@ -363,11 +316,7 @@ const char* storeVertex(PointSet& points, const VertexLayout& layout, std::size_
 }
 
 void sizePoints(PointSet& points, const VertexLayout& layout, std::size_t n) {
-    points.position.resize(n);
-    if (layout.hasNormal) points.normal.resize(n);
-    if (layout.hasRadius) points.radius.resize(n);
-    if (layout.hasColour) points.colour.resize(n);
-    if (layout.hasCrease) points.crease.resize(n);
+    detail::sizePoints(points, rowLayout(layout), layout.hasColour, n);
 }
 
 // The property of a face element that lists its vertices, or -1.
@@ -812,15 +761,9 @@ void appendFloatAscii(std::string& out, float value, char separator) {
 }
 
 void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyFormat format) {
-    const glm::vec3& p = points.position[i];
-    const glm::vec3& n = points.normal[i];
-    float values[10] = {p.x, p.y, p.z, n.x, n.y, n.z};
-    int floats = 6;
-    if (points.hasRadius()) values[floats++] = points.radius[i];
+    std::array<float, 10> values{};
+    const int floats = detail::rowFloats(points, i, values);
     const bool crease = points.isCrease(i);
-    if (points.hasCrease())
-        for (int k = 0; k < 3; ++k)
-            values[floats++] = crease ? points.crease[i][k] : n[k]; // n2 = n: ordinary
     // The bytes after the floats: the crease flag, then the colour.
     std::uint8_t bytes[4];
     int byteCount = 0;
@@ -850,32 +793,9 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
         return fail(file, fmt::format("the header comments to carry over take {} KiB, more than a header "
                                       "of {} KiB readPly reads",
                                       (buffer.size() + 1023) / 1024, kMaxHeaderBytes / 1024));
-    Result<OutputFile> out =
-        OutputFile::open(path, format == PlyFormat::Ascii ? OutputContent::Text : OutputContent::Binary);
-    if (!out) return out.error();
-    buffer.reserve(kWriteChunkBytes + 256);
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        appendRow(buffer, points, i, format);
-        if (buffer.size() >= kWriteChunkBytes) {
-            if (Result<void> written = out->write(buffer); !written) return written;
-            buffer.clear();
-        }
-    }
-    if (Result<void> written = out->write(buffer); !written) return written;
-    return out->commit();
-}
-
-// run() with allocation failures and other exceptions turned into one-line errors; `doing` is
-// "reading" or "writing".
-template <typename Run>
-auto guarded(std::string_view file, std::string_view doing, const Run& run) -> decltype(run()) {
-    try {
-        return run();
-    } catch (const std::bad_alloc&) {
-        return fail(file, fmt::format("out of memory while {}", doing));
-    } catch (const std::exception& e) {
-        return fail(file, e.what());
-    }
+    return detail::writeRows(path, format == PlyFormat::Ascii ? OutputContent::Text : OutputContent::Binary,
+                             std::move(buffer), points.size(),
+                             [&](std::string& rows, std::size_t i) { appendRow(rows, points, i, format); });
 }
 
 } // namespace

@@ -122,6 +122,37 @@ bool parseFloatField(std::string_view field, float& value) {
     return true;
 }
 
+std::vector<std::string_view> splitWords(std::string_view line) {
+    std::vector<std::string_view> words;
+    std::size_t i = 0;
+    while (i < line.size()) {
+        while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+        const std::size_t start = i;
+        while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+        if (i > start) words.push_back(line.substr(start, i - start));
+    }
+    return words;
+}
+
+std::optional<std::uint64_t> parseCount(std::string_view word) {
+    std::uint64_t value = 0;
+    const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), value);
+    if (ec != std::errc() || end != word.data() + word.size()) return std::nullopt;
+    return value;
+}
+
+int rowFloats(const PointSet& points, std::size_t i, std::array<float, 10>& values) {
+    const glm::vec3 p = points.position[i], n = points.normal[i];
+    values = {p.x, p.y, p.z, n.x, n.y, n.z};
+    int floats = 6;
+    if (points.hasRadius()) values[static_cast<std::size_t>(floats++)] = points.radius[i];
+    if (points.hasCrease()) {
+        const glm::vec3 second = points.isCrease(i) ? points.crease[i] : n;
+        for (int k = 0; k < 3; ++k) values[static_cast<std::size_t>(floats++)] = second[k];
+    }
+    return floats;
+}
+
 void sizePoints(PointSet& points, const RowLayout& layout, bool colour, std::size_t n) {
     points.position.resize(n);
     if (layout.normal) points.normal.resize(n);

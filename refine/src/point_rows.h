@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <exception>
 #include <filesystem>
 #include <memory>
@@ -12,10 +13,12 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <fmt/core.h>
 #include <glm/vec3.hpp>
 
+#include "pnsplat/refine/output_file.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
 
@@ -27,6 +30,11 @@ constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
 inline Error fail(std::string_view file, std::string_view problem) {
     return Error{fmt::format("{}: {}", file, problem)};
 }
+
+// The words of a header line, separated by spaces or tabs.
+std::vector<std::string_view> splitWords(std::string_view line);
+// A whole word as an unsigned integer, or nothing.
+std::optional<std::uint64_t> parseCount(std::string_view word);
 
 // Printable form of a word of a file for messages (bytes may be anything): at most 40 characters,
 // other bytes than printable ASCII as '?'.
@@ -67,11 +75,36 @@ void sizePoints(PointSet& points, const RowLayout& layout, bool colour, std::siz
 const char* storeRow(PointSet& points, const RowLayout& layout, std::size_t i,
                      const std::array<double, kRowSlots>& v);
 
+// The floats a written row carries, in order: x y z nx ny nz, the radius where the set has radii,
+// nx2 ny2 nz2 where it has creases (an ordinary point's second normal repeats its normal, ply.h's
+// convention); returns their count.
+int rowFloats(const PointSet& points, std::size_t i, std::array<float, 10>& values);
+
 // A whole field of text as a float (a leading '+' allowed), false when it is not a number. Values
 // beyond float's range are read as double, then rounded to float (tiny ones to zero or subnormals,
 // huge ones to infinity): std::from_chars, so the shortest representation of a float reads back
 // bit for bit.
 bool parseFloatField(std::string_view field, float& value);
+
+// Writes `path` whole or not at all (OutputFile): `buffer` (the header), then appendRow(buffer, i)
+// for each of `count` rows, in chunks of about a mebibyte.
+inline constexpr std::size_t kWriteChunkBytes = std::size_t{1} << 20;
+template <typename AppendRow>
+Result<void> writeRows(const std::filesystem::path& path, OutputContent content, std::string buffer,
+                       std::size_t count, const AppendRow& appendRow) {
+    Result<OutputFile> out = OutputFile::open(path, content);
+    if (!out) return out.error();
+    buffer.reserve(buffer.size() + kWriteChunkBytes + 512);
+    for (std::size_t i = 0; i < count; ++i) {
+        appendRow(buffer, i);
+        if (buffer.size() >= kWriteChunkBytes) {
+            if (Result<void> written = out->write(buffer); !written) return written;
+            buffer.clear();
+        }
+    }
+    if (Result<void> written = out->write(buffer); !written) return written;
+    return out->commit();
+}
 
 // run() with allocation failures and other exceptions turned into one-line errors; `doing` is
 // "reading" or "writing".

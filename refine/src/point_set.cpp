@@ -36,6 +36,25 @@ void PointSet::resize(std::size_t n) {
     if (withCrease) crease.resize(n);
 }
 
+void removePoints(PointSet& points, std::span<const std::uint32_t> drop) {
+    assert(std::is_sorted(drop.begin(), drop.end()));
+    std::size_t kept = 0, next = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        if (next < drop.size() && drop[next] == i) {
+            ++next;
+            continue;
+        }
+        points.position[kept] = points.position[i];
+        if (points.hasNormal()) points.normal[kept] = points.normal[i];
+        if (points.hasRadius()) points.radius[kept] = points.radius[i];
+        if (points.hasColour()) points.colour[kept] = points.colour[i];
+        if (points.hasCrease()) points.crease[kept] = points.crease[i];
+        ++kept;
+    }
+    assert(next == drop.size());
+    points.resize(kept);
+}
+
 std::vector<std::uint32_t> orderByPosition(const PointSet& points) {
     std::vector<std::uint32_t> order(points.size());
     std::iota(order.begin(), order.end(), 0u);
@@ -84,17 +103,10 @@ CoincidentRemoval removeCoincident(PointSet& points) {
                              (points.hasCrease() && points.crease[i] != points.crease[kept]);
         removal.withOtherAttributes += differs ? 1 : 0;
     }
-    std::size_t kept = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-        if (!keep[i]) continue;
-        points.position[kept] = points.position[i];
-        if (points.hasNormal()) points.normal[kept] = points.normal[i];
-        if (points.hasRadius()) points.radius[kept] = points.radius[i];
-        if (points.hasColour()) points.colour[kept] = points.colour[i];
-        if (points.hasCrease()) points.crease[kept] = points.crease[i];
-        ++kept;
-    }
-    points.resize(kept);
+    std::vector<std::uint32_t> drop;
+    for (std::size_t i = 0; i < n; ++i)
+        if (!keep[i]) drop.push_back(static_cast<std::uint32_t>(i));
+    removePoints(points, drop);
     return removal;
 }
 

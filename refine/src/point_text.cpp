@@ -29,7 +29,6 @@ using detail::fail;
 using detail::printable;
 
 constexpr std::size_t kMaxFields = 256;
-constexpr std::size_t kWriteChunkBytes = std::size_t{1} << 20;
 
 // A column's use: a slot of the row (point_rows.h), a colour channel, or nothing.
 constexpr int kUnused = -1;
@@ -342,37 +341,24 @@ Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& po
     if (!csv) buffer += "//";
     buffer += fmt::format("{}\n", fmt::join(names, std::string_view(&separator, 1)));
 
-    Result<OutputFile> out = OutputFile::open(path, OutputContent::Text);
-    if (!out) return out.error();
-    buffer.reserve(kWriteChunkBytes + 512);
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const glm::vec3& p = points.position[i];
-        const glm::vec3& n = points.normal[i];
-        float values[10] = {p.x, p.y, p.z, n.x, n.y, n.z};
-        int floats = 6;
-        if (points.hasRadius()) values[floats++] = points.radius[i];
-        const bool crease = points.isCrease(i);
-        if (points.hasCrease())
-            for (int k = 0; k < 3; ++k) values[floats++] = crease ? points.crease[i][k] : n[k];
-        for (int k = 0; k < floats; ++k) {
-            if (k > 0) buffer += separator;
-            appendFloat(buffer, values[k]);
-        }
-        if (points.hasCrease()) {
-            buffer += separator;
-            buffer += crease ? '1' : '0';
-        }
-        if (points.hasColour())
-            fmt::format_to(std::back_inserter(buffer), "{}{}{}{}{}{}", separator, points.colour[i].x,
-                           separator, points.colour[i].y, separator, points.colour[i].z);
-        buffer += '\n';
-        if (buffer.size() >= kWriteChunkBytes) {
-            if (Result<void> written = out->write(buffer); !written) return written;
-            buffer.clear();
-        }
-    }
-    if (Result<void> written = out->write(buffer); !written) return written;
-    return out->commit();
+    return detail::writeRows(
+        path, OutputContent::Text, std::move(buffer), points.size(), [&](std::string& rows, std::size_t i) {
+            std::array<float, 10> values{};
+            const int floats = detail::rowFloats(points, i, values);
+            const bool crease = points.isCrease(i);
+            for (int k = 0; k < floats; ++k) {
+                if (k > 0) rows += separator;
+                appendFloat(rows, values[k]);
+            }
+            if (points.hasCrease()) {
+                rows += separator;
+                rows += crease ? '1' : '0';
+            }
+            if (points.hasColour())
+                fmt::format_to(std::back_inserter(rows), "{}{}{}{}{}{}", separator, points.colour[i].x,
+                               separator, points.colour[i].y, separator, points.colour[i].z);
+            rows += '\n';
+        });
 }
 
 } // namespace

@@ -76,8 +76,4 @@ struct OutlierSearch {
 OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned threads = 0,
                            const OutlierParams& params = {});
 
-// Removes the points of the ascending indices `drop` from `points`, keeping the others' order and
-// every attribute. Any thread, one set at a time.
-void removePoints(PointSet& points, std::span<const std::uint32_t> drop);
-
 } // namespace pnsplat

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include <glm/gtc/type_precision.hpp>
@@ -42,6 +43,10 @@ struct PointSet {
     // Resizes every attribute the set carries (normals too, unless a non-empty set has none).
     void resize(std::size_t n);
 };
+
+// Removes the points of the ascending indices `drop` from `points`, keeping the others' order and
+// every attribute. Any thread, one set at a time.
+void removePoints(PointSet& points, std::span<const std::uint32_t> drop);
 
 // The points' indices in lexicographic order of position (x, then y, then z), equal positions by
 // index: coincident points are adjacent, the first of each group its smallest index.

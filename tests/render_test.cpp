@@ -590,6 +590,20 @@ TEST(CameraTest, ViewpointAvoidsAFlatFaceAndDefaultsToYUpFromZ) {
     const engine::Viewpoint b = engine::chooseViewpoint(flatBelow.position, flatBelow.normal);
     EXPECT_EQ(b.front, glm::vec3(0, 0, 1));
     EXPECT_FALSE(b.frontFlipped);
+    // A flat scan, every normal +z or every normal -z (a terrain tile, issue 27): the eye on the side
+    // the normals face, whatever the flat-face rule says (before: on -z for +z normals, a blank
+    // picture of back faces).
+    for (const float side : {1.0f, -1.0f}) {
+        PointSet grid;
+        for (int y = 0; y < 25; ++y)
+            for (int x = 0; x < 25; ++x) {
+                grid.position.push_back({0.1f * float(x), 0.1f * float(y), 0.0f});
+                grid.normal.push_back({0.0f, 0.0f, side});
+            }
+        const engine::Viewpoint flat = engine::chooseViewpoint(grid.position, grid.normal);
+        EXPECT_EQ(flat.front, glm::vec3(0, 0, side)) << side;
+        EXPECT_EQ(flat.frontFlipped, side < 0.0f) << side;
+    }
     // Without normals the side is not chosen; without points, the default.
     EXPECT_EQ(engine::chooseViewpoint(flatOnTop.position, {}).front, glm::vec3(0, 0, 1));
     const engine::Viewpoint none = engine::chooseViewpoint({}, {});

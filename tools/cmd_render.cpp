@@ -62,7 +62,7 @@ std::string viewpointReason(const engine::Viewpoint& view, const RenderArgs& arg
     const char* up =
         args.view.up != "auto" ? "given" : (view.upFromBase ? "the model's base" : "no base stands out");
     return fmt::format("up {}: {}; eye on {}{}", axisName(view.up), up, axisName(view.front),
-                       view.frontFlipped ? " (a flat face fills the other side)" : "");
+                       view.frontFlipped ? " (a flat face fills the other side, or no normal faces it)" : "");
 }
 
 // "23.41 dB" ("identical" for the same pictures).

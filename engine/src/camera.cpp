@@ -141,11 +141,16 @@ Viewpoint chooseViewpoint(std::span<const glm::vec3> positions, std::span<const 
     // 3. The side of the view axis: away from a flat face that fills the + side.
     view.front = axisDirection(viewAxis, 1.0f);
     std::size_t headOn[2] = {0, 0}; // facing + and - within 10 degrees
+    std::size_t facing[2] = {0, 0}; // facing + and - at all: what an eye on that side sees
     for (const glm::vec3& n : normals) {
         headOn[0] += n[viewAxis] >= kHeadOnCosine;
         headOn[1] += n[viewAxis] <= -kHeadOnCosine;
+        facing[0] += n[viewAxis] > 0.0f;
+        facing[1] += n[viewAxis] < 0.0f;
     }
-    if (double(headOn[0]) >= double(kFlatFaceShare) * double(positions.size()) && headOn[0] > 2 * headOn[1]) {
+    const double share = double(kFlatFaceShare) * double(positions.size());
+    const bool flatFace = double(headOn[0]) >= share && headOn[0] > 2 * headOn[1];
+    if (double(facing[1]) >= share && (flatFace || double(facing[0]) < share)) {
         view.front = -view.front;
         view.frontFlipped = true;
     }

@@ -47,7 +47,8 @@ struct Viewpoint {
     glm::vec3 up{0.0f, 1.0f, 0.0f};
     glm::vec3 front{0.0f, 0.0f, 1.0f};
     bool upFromBase = false;   // chooseViewpoint: up chosen as the model's base (else given or the default)
-    bool frontFlipped = false; // chooseViewpoint: the eye moved off a side filled by one flat face
+    bool frontFlipped = false; // chooseViewpoint: the eye moved off a side filled by one flat face, or that
+                               // no normal faces
 };
 
 // The thresholds of chooseViewpoint.
@@ -72,8 +73,12 @@ inline constexpr float kFlatFaceShare = 0.1f;  // of the points facing one side 
 //    so a base is rarely tilted; where no base stands out, the usual +y holds.
 // 3. The eye is on the + side of the view axis unless one flat face fills that side: at least
 //    kFlatFaceShare of the points have a normal within 10 degrees of the axis (kHeadOnCosine) and
-//    more than twice as many as on the - side face it (a CAD part's flat back). `normals` may be
-//    empty (the + side), else has one unit normal per position.
+//    more than twice as many as on the - side face it (a CAD part's flat back), and the - side has
+//    something to show: at least kFlatFaceShare of the normals face it; and on the - side when the
+//    + side has nothing to show. A flat scan (a terrain tile, a façade: every normal on one side)
+//    is seen from the side its normals face; splats are one-sided, and from the other side the
+//    picture was blank. `normals` may be empty (the + side),
+//    else has one unit normal per position.
 // No points: the default viewpoint (+y up, eye on +z). Any thread; O(points).
 Viewpoint chooseViewpoint(std::span<const glm::vec3> positions, std::span<const glm::vec3> normals,
                           std::optional<glm::vec3> up = std::nullopt);

@@ -1358,8 +1358,16 @@ TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
     torus.radius.clear();
     ASSERT_TRUE(writePly(in, torus).ok());
     const RunResult r =
-        run("bench settle " + quote(in) + " --cameras framing,grazing --width 64 --height 48 --validation");
+        run("bench settle " + quote(in) + " --cameras framing,grazing --width 64 --height 48 --validation " +
+            "--pictures " + quote(dir / "pictures"));
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    // The settled picture, the offline one and their difference, side by side over captions.
+    for (const char* camera : {"framing", "grazing"}) {
+        const auto picture = engine::readPng(dir / "pictures" / fmt::format("torus-{}.png", camera));
+        ASSERT_TRUE(picture.ok()) << camera;
+        EXPECT_EQ(picture->width, 3u * 64u) << camera;
+        EXPECT_GT(picture->height, 48u) << camera;
+    }
     const std::vector<std::string> out = lines(r.out);
     ASSERT_EQ(out.size(), 3u) << r.out;
     for (std::size_t k = 0; k < 2; ++k) {

@@ -4,6 +4,7 @@
 // --reference syntax.
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <random>
 
 #include <glm/geometric.hpp>
@@ -250,6 +251,26 @@ TEST(MeshReference, ComputesAreaWeightedNormalsWhenAbsent) {
 
 // ---------------------------------------------------------------------------------------------
 
+// The 99th percentile is the nearest rank: of 1,000 points at k/1000 of the radius off the sphere
+// (k = 1..1000, shuffled), the 990th smallest distance, between the mean and the largest.
+TEST(SphereEval, NinetyNinthPercentileDistanceIsTheNearestRank) {
+    const double R = 1.0;
+    const PointSet sphere = sampleSphereUniform(1000, 1.0f);
+    std::vector<std::size_t> order(sphere.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::mt19937 rng(99);
+    std::ranges::shuffle(order, rng);
+    PointSet refined = sphere;
+    for (std::size_t i = 0; i < order.size(); ++i)
+        refined.position[i] = sphere.position[i] * (1.0f + 0.001f * static_cast<float>(order[i] + 1));
+    const Reference ref = parseReference("sphere:1").value();
+    const QualityReport report =
+        evaluateQuality(refined, ref, nullptr, {.threads = 2, .analyticSamples = 5000});
+    EXPECT_NEAR(report.distanceP99, 0.990 * R, 1e-5);
+    EXPECT_NEAR(report.distanceMax, 1.000 * R, 1e-5);
+    EXPECT_NEAR(report.distanceP99Rel, 0.990 / (2.0 * std::sqrt(3.0)), 1e-5);
+}
+
 TEST(SphereEval, PushedOutByOnePercentGivesRmsOnePercent) {
     const double R = 2.0;
     PointSet refined = sampleSphereUniform(20000, 2.0f);
@@ -495,6 +516,7 @@ TEST(Json, StableKeysAndEscaping) {
     for (const char* key :
          {"\"points\": 12", "\"reference\": \"dir\\\\with \\\"quotes\\\".ply\"", "\"distance\": {",
           "\"mean\":", "\"rms\": 0.5", "\"max\":", "\"mean_rel\":", "\"rms_rel\":", "\"max_rel\":",
+          "\"p99\":", "\"p99_rel\":",
           "\"normal_error_deg\": {", "\"p95\":", "\"uniformity_cv\": null",
           "\"holes\":", "\"input_preserved\": null", "\"input_missing\": null"})
         EXPECT_NE(json.find(key), std::string::npos) << key << " in " << json;

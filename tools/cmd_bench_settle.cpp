@@ -18,6 +18,7 @@
 #include "commands.h"
 #include "engine_setup.h"
 #include "frame_json.h"
+#include "render_compare.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/text.h"
@@ -53,6 +54,7 @@ struct SettleArgs {
     // Below the 4,194,304 splats of lavapipe's largest storage buffer (128 MiB), which a picture drawn
     // without the node tree takes in one.
     std::size_t maxReferencePoints = 4'000'000;
+    std::string pictures; // where to write each case's pictures (empty: nowhere)
     EngineArgs engine;
 };
 
@@ -131,6 +133,12 @@ void runBenchSettle(const SettleArgs& args) {
     for (const SettleView& view : kSettleViews)
         if (args.views.empty() || std::ranges::find(args.views, view.name) != args.views.end())
             views.push_back(&view);
+    if (!args.pictures.empty()) {
+        std::error_code error;
+        std::filesystem::create_directories(args.pictures, error);
+        if (error)
+            throw CommandError(args.pictures + ": cannot create the pictures folder: " + error.message());
+    }
     auto context = createContext(args.engine);
     const engine::EngineSettings adaptive = engineSettings(args.engine, *context, true);
     const engine::EngineSettings drawOnly = engineSettings(args.engine, *context, false);
@@ -174,6 +182,15 @@ void runBenchSettle(const SettleArgs& args) {
                 unwrap(engine::enclosedBackgroundAbsentIn(picture, offlinePicture, background));
             std::size_t holeArea = 0;
             for (const engine::ImageRegion& hole : holes) holeArea += hole.pixels;
+            if (!args.pictures.empty()) {
+                const engine::RgbaImage panels[3] = {picture, offlinePicture, difference.heatmap};
+                const std::string captions[3] = {
+                    fmt::format("settled adaptive, deepest level {}", deepest),
+                    fmt::format("offline, {} levels{}", reference.levels, reference.capped ? " (capped)" : ""),
+                    fmt::format("difference: {:.2f} dB", std::min(difference.psnr, kIdenticalPsnr))};
+                unwrap(engine::writePng(fmt::format("{}/{}-{}.png", args.pictures, name, view->name),
+                                        sideBySide(panels, captions)));
+            }
             const auto covered = static_cast<double>(engine::coveredPixels(picture.pixels, background));
             const double drawnPerPixel = covered > 0.0 ? double(settled.splatsDrawn) / covered : 0.0;
             const double madePerPixel = covered > 0.0 ? double(made) / covered : 0.0;
@@ -226,6 +243,9 @@ void addBenchSettleCommand(CLI::App& bench) {
                      "capped)")
         ->capture_default_str()
         ->check(CLI::PositiveNumber);
+    settle->add_option("--pictures", args->pictures,
+                       "write each case as DIR/MODEL-CAMERA.png: the settled picture, the offline one and "
+                       "their difference side by side");
     settle->add_option("--width", args->engine.width, "image width in pixels")->capture_default_str();
     settle->add_option("--height", args->engine.height, "image height in pixels")->capture_default_str();
     addEngineOptions(*settle, args->engine, true, false);

@@ -468,13 +468,16 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     report.distanceMaxRel = report.distanceMax / report.diagonal;
     report.normalErrorMeanDeg = angleSum / dn;
     report.normalErrorMaxDeg = angleMax;
-    {
-        // Nearest-rank 95th percentile: the smallest value with at least 95 % of the points at or
-        // below it.
-        const auto rank = static_cast<std::size_t>(std::ceil(0.95 * dn)) - 1;
-        std::nth_element(angle.begin(), angle.begin() + static_cast<std::ptrdiff_t>(rank), angle.end());
-        report.normalErrorP95Deg = angle[rank];
-    }
+    // Nearest-rank percentiles: the smallest value with at least that share of the points at or
+    // below it (reorders `values`).
+    const auto percentile = [dn](std::vector<float>& values, double share) {
+        const auto rank = static_cast<std::size_t>(std::ceil(share * dn)) - 1;
+        std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(rank), values.end());
+        return static_cast<double>(values[rank]);
+    };
+    report.normalErrorP95Deg = percentile(angle, 0.95);
+    report.distanceP99 = percentile(distance, 0.99);
+    report.distanceP99Rel = report.distanceP99 / report.diagonal;
 
     // 2. Uniformity: nearest other refined point of each refined point.
     const KdCloud refinedCloud{refined.position};
@@ -591,14 +594,15 @@ std::string toJson(const QualityReport& r) {
     return fmt::format(
         "{{\"points\": {}, \"reference\": {}, \"reference_points\": {}, \"reference_triangles\": {}, "
         "\"diagonal\": {}, "
-        "\"distance\": {{\"mean\": {}, \"rms\": {}, \"max\": {}, \"mean_rel\": {}, \"rms_rel\": {}, "
-        "\"max_rel\": {}}}, "
+        "\"distance\": {{\"mean\": {}, \"rms\": {}, \"p99\": {}, \"max\": {}, \"mean_rel\": {}, "
+        "\"rms_rel\": {}, \"p99_rel\": {}, \"max_rel\": {}}}, "
         "\"normal_error_deg\": {{\"mean\": {}, \"p95\": {}, \"max\": {}}}, "
         "\"spacing_mean\": {}, \"uniformity_cv\": {}, \"holes\": {}, \"holes_tangential\": {}, "
         "\"input_points\": {}, \"input_preserved\": {}, \"input_missing\": {}}}",
         r.points, jsonString(r.reference), r.referencePoints, r.referenceTriangles, jsonNumber(r.diagonal),
-        jsonNumber(r.distanceMean), jsonNumber(r.distanceRms), jsonNumber(r.distanceMax),
-        jsonNumber(r.distanceMeanRel), jsonNumber(r.distanceRmsRel), jsonNumber(r.distanceMaxRel),
+        jsonNumber(r.distanceMean), jsonNumber(r.distanceRms), jsonNumber(r.distanceP99),
+        jsonNumber(r.distanceMax), jsonNumber(r.distanceMeanRel), jsonNumber(r.distanceRmsRel),
+        jsonNumber(r.distanceP99Rel), jsonNumber(r.distanceMaxRel),
         jsonNumber(r.normalErrorMeanDeg), jsonNumber(r.normalErrorP95Deg), jsonNumber(r.normalErrorMaxDeg),
         jsonNumber(r.spacingMean), jsonNumber(r.uniformityCv), jsonNumber(r.holes),
         jsonNumber(r.holesTangential), inputValue(r.inputPoints), inputValue(r.inputPreserved),

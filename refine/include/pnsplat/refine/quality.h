@@ -130,8 +130,9 @@ struct QualityReport {
     std::size_t referenceTriangles = 0;
     double diagonal = 0.0; // bounding-box diagonal of the reference (model units)
 
-    double distanceMean = 0.0, distanceRms = 0.0, distanceMax = 0.0;          // model units
-    double distanceMeanRel = 0.0, distanceRmsRel = 0.0, distanceMaxRel = 0.0; // / diagonal
+    // p99: the nearest-rank 99th percentile (a flap or a stray point shows there before the mean).
+    double distanceMean = 0.0, distanceRms = 0.0, distanceP99 = 0.0, distanceMax = 0.0; // model units
+    double distanceMeanRel = 0.0, distanceRmsRel = 0.0, distanceP99Rel = 0.0, distanceMaxRel = 0.0; // / diagonal
 
     double normalErrorMeanDeg = 0.0, normalErrorP95Deg = 0.0, normalErrorMaxDeg = 0.0;
 
@@ -164,7 +165,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
 
 // The report as one JSON object with stable keys:
 // {"points", "reference", "reference_points", "reference_triangles", "diagonal",
-//  "distance": {"mean", "rms", "max", "mean_rel", "rms_rel", "max_rel"},
+//  "distance": {"mean", "rms", "p99", "max", "mean_rel", "rms_rel", "p99_rel", "max_rel"},
 //  "normal_error_deg": {"mean", "p95", "max"}, "spacing_mean", "uniformity_cv", "holes", "holes_tangential",
 //  "input_points", "input_preserved", "input_missing"}; the input_* values are null without an
 // input. Non-finite numbers are written as null. Ends without a newline.

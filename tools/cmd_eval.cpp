@@ -101,8 +101,8 @@ void addEvalCommand(CLI::App& app) {
         ->capture_default_str();
     cmd->footer(
         "Metrics (JSON keys), one value per refined point reduced over the set:\n"
-        "  distance          to the true surface: mean, rms, p99 (99th percentile), max; *_rel divide by the\n"
-        "                    reference's bbox diagonal\n"
+        "  distance          to the true surface: mean, rms, p99 (99th percentile), max; *_rel\n"
+        "                    divide by the reference's bbox diagonal\n"
         "  normal_error_deg  angle to the true normal at the closest surface point: mean, p95, max\n"
         "  spacing_mean      mean distance from a refined point to its nearest other refined point\n"
         "  uniformity_cv     std / mean of those nearest-neighbour distances (0 = perfectly even)\n"

@@ -18,10 +18,10 @@
 #include "commands.h"
 #include "engine_setup.h"
 #include "frame_json.h"
-#include "render_compare.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/text.h"
+#include "render_compare.h"
 
 namespace pnsplat::tools {
 
@@ -186,7 +186,8 @@ void runBenchSettle(const SettleArgs& args) {
                 const engine::RgbaImage panels[3] = {picture, offlinePicture, difference.heatmap};
                 const std::string captions[3] = {
                     fmt::format("settled adaptive, deepest level {}", deepest),
-                    fmt::format("offline, {} levels{}", reference.levels, reference.capped ? " (capped)" : ""),
+                    fmt::format("offline, {} levels{}", reference.levels,
+                                reference.capped ? " (capped)" : ""),
                     fmt::format("difference: {:.2f} dB", std::min(difference.psnr, kIdenticalPsnr))};
                 unwrap(engine::writePng(fmt::format("{}/{}-{}.png", args.pictures, name, view->name),
                                         sideBySide(panels, captions)));

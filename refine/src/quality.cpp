@@ -602,11 +602,10 @@ std::string toJson(const QualityReport& r) {
         r.points, jsonString(r.reference), r.referencePoints, r.referenceTriangles, jsonNumber(r.diagonal),
         jsonNumber(r.distanceMean), jsonNumber(r.distanceRms), jsonNumber(r.distanceP99),
         jsonNumber(r.distanceMax), jsonNumber(r.distanceMeanRel), jsonNumber(r.distanceRmsRel),
-        jsonNumber(r.distanceP99Rel), jsonNumber(r.distanceMaxRel),
-        jsonNumber(r.normalErrorMeanDeg), jsonNumber(r.normalErrorP95Deg), jsonNumber(r.normalErrorMaxDeg),
-        jsonNumber(r.spacingMean), jsonNumber(r.uniformityCv), jsonNumber(r.holes),
-        jsonNumber(r.holesTangential), inputValue(r.inputPoints), inputValue(r.inputPreserved),
-        inputValue(r.inputMissing));
+        jsonNumber(r.distanceP99Rel), jsonNumber(r.distanceMaxRel), jsonNumber(r.normalErrorMeanDeg),
+        jsonNumber(r.normalErrorP95Deg), jsonNumber(r.normalErrorMaxDeg), jsonNumber(r.spacingMean),
+        jsonNumber(r.uniformityCv), jsonNumber(r.holes), jsonNumber(r.holesTangential),
+        inputValue(r.inputPoints), inputValue(r.inputPreserved), inputValue(r.inputMissing));
 }
 
 } // namespace pnsplat

@@ -132,7 +132,8 @@ struct QualityReport {
 
     // p99: the nearest-rank 99th percentile (a flap or a stray point shows there before the mean).
     double distanceMean = 0.0, distanceRms = 0.0, distanceP99 = 0.0, distanceMax = 0.0; // model units
-    double distanceMeanRel = 0.0, distanceRmsRel = 0.0, distanceP99Rel = 0.0, distanceMaxRel = 0.0; // / diagonal
+    double distanceMeanRel = 0.0, distanceRmsRel = 0.0, distanceP99Rel = 0.0,
+           distanceMaxRel = 0.0; // / diagonal
 
     double normalErrorMeanDeg = 0.0, normalErrorP95Deg = 0.0, normalErrorMaxDeg = 0.0;
 

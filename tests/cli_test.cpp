@@ -204,13 +204,20 @@ TEST(CliRefine, CutNeighbourhoodsWithEstimatedRadiiAdviseNothingUseless) {
 // before the input file). Bad holes are one-line errors that leave no output: not four numbers
 // (also when split over two options), a radius that is not positive, a number that is not one, a
 // ball that reaches no point, a ball that holds points (as the second of two holes).
-TEST(CliRefine, FillHoleSamplesTheHole) {
-    const TempDir dir;
+// A unit sphere of 3,000 points without those within 0.7 of its north pole: a hole about 1.3
+// across, 20 spacings.
+PointSet sphereWithAHole() {
     const PointSet sphere = sampleSphereUniform(3000, 1.0f);
     PointSet holed;
     for (std::size_t i = 0; i < sphere.size(); ++i)
         if (glm::length(sphere.position[i] - glm::vec3(0.0f, 0.0f, 1.0f)) >= 0.7f)
             holed.appendFrom(sphere, i);
+    return holed;
+}
+
+TEST(CliRefine, FillHoleSamplesTheHole) {
+    const TempDir dir;
+    const PointSet holed = sphereWithAHole();
     const fs::path in = dir / "holed.ply", out = dir / "filled.ply";
     ASSERT_TRUE(writePly(in, holed).ok());
     const RunResult r = run("refine --fill-hole 0,0,1,0.7 " + quote(in) + " -l 2 -o " + quote(out));
@@ -237,6 +244,42 @@ TEST(CliRefine, FillHoleSamplesTheHole) {
             run("refine " + quote(in) + " -l 1 --fill-hole " + holes + " -o " + quote(dir / "bad.ply"));
         std::cout << "[refine --fill-hole " << holes << "] exit " << bad.exitCode << ": " << bad.err;
         EXPECT_TRUE(failsCleanly(bad, status));
+        EXPECT_FALSE(fs::exists(dir / "bad.ply"));
+    }
+}
+
+// --fill-holes finds the same hole without being told where it is, fills it up to its size, leaves
+// it open below; a SIZE that is not a positive length or multiple is a usage error.
+TEST(CliRefine, FillHolesFindsTheHoleAndFillsIt) {
+    const TempDir dir;
+    const PointSet holed = sphereWithAHole();
+    const fs::path in = dir / "holed.ply", out = dir / "filled.ply";
+    ASSERT_TRUE(writePly(in, holed).ok());
+    const auto insideOf = [](const fs::path& file) {
+        auto filled = readPly(file);
+        EXPECT_TRUE(filled.ok()) << filled.error().message;
+        std::size_t inside = 0;
+        if (filled)
+            for (const glm::vec3& x : filled->points.position)
+                inside += glm::length(x - glm::vec3(0.0f, 0.0f, 1.0f)) < 0.56f;
+        return inside;
+    };
+    const RunResult r = run("refine --fill-holes 40x " + quote(in) + " -l 2 --json -o " + quote(out));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_EQ(jsonField(r.out, "holes_found"), "1") << r.out;
+    EXPECT_EQ(jsonField(r.out, "holes"), "1") << r.out;
+    EXPECT_NE(r.err.find("1 hole(s) up to"), std::string::npos) << r.err;
+    EXPECT_GT(insideOf(out), 1000u); // as --fill-hole 0,0,1,0.7 (CliRefine.FillHoleSamplesTheHole)
+    const RunResult small = run("refine --fill-holes 0.5 " + quote(in) + " -l 2 --json -o " + quote(out));
+    ASSERT_TRUE(small.exited && small.exitCode == 0) << small.err;
+    EXPECT_EQ(jsonField(small.out, "holes_found"), "0") << small.out;
+    EXPECT_EQ(jsonField(small.out, "holes_left_open"), "1") << small.out;
+    EXPECT_NE(small.err.find("1 wider left open"), std::string::npos) << small.err;
+    EXPECT_EQ(insideOf(out), 0u);
+    for (const char* bad : {"0", "-3", "x", "20y", "nan", "2xx"}) {
+        const RunResult wrong = run("refine --fill-holes " + std::string(bad) + " " + quote(in) + " -o " +
+                                    quote(dir / "bad.ply"));
+        EXPECT_TRUE(failsCleanly(wrong, Exit::Usage)) << bad << ": " << wrong.err;
         EXPECT_FALSE(fs::exists(dir / "bad.ply"));
     }
 }

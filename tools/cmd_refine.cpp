@@ -45,6 +45,7 @@ struct RefineArgs {
     double thetaBDegrees = 165.0;
     float evenOut = 0.0f;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
+    std::string fillHoles;          // --fill-holes SIZE
     std::size_t maxPoints = 0;
     std::vector<std::string> columns; // the input's, when it is text
 };
@@ -104,6 +105,7 @@ void runRefine(const RefineArgs& args) {
     job.keepNormals = args.keepNormals;
     job.keepOutliers = args.keepOutliers;
     job.holes = parseHoles(args.holes);
+    job.fillHolesUpTo = parseHoleSize(args.fillHoles);
     job.maxPoints = args.maxPoints;
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
     const double refineSeconds = run.seconds;
@@ -118,20 +120,20 @@ void runRefine(const RefineArgs& args) {
         fmt::print(
             summary,
             R"({{"input": {}, "output": {}, "points_in": {}, "distinct_in": {}, "points_out": {}, "levels": {}, )"
-            R"("evening_out_levels": {}, "hole_filling_levels": {}, "holes": {}, "rim_points": {}, )"
+            R"("evening_out_levels": {}, "hole_filling_levels": {}, "holes": {}, "holes_found": {}, "holes_left_open": {}, "rim_points": {}, )"
             R"("refine_seconds": {:.4f}, "seconds": {:.4f}, "points_per_second": {:.0f}, "capped_neighbourhoods": {}, "turned_normals": {}, )"
             R"("outliers": {}}})"
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(output)), inputCount,
             run.inputPoints + run.outliers, outputCount, done, run.evenOutLevels, run.holeFillingLevels,
-            job.holes.size(), run.enlargedRadii, refineSeconds, total, rate, run.cappedNeighbourhoods,
-            run.turnedNormals, run.outliers);
+            run.holes, run.holesFound, run.holesLeftOpen, run.enlargedRadii, refineSeconds, total, rate,
+            run.cappedNeighbourhoods, run.turnedNormals, run.outliers);
     } else {
         std::string levelDetail =
             run.evenOutLevels > 0 ? fmt::format(" ({} evening out)", run.evenOutLevels) : "";
-        if (!job.holes.empty())
-            levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them",
-                                       job.holes.size(), run.enlargedRadii, run.holeFillingLevels);
+        if (run.holes > 0)
+            levelDetail += fmt::format(", {} hole(s) filled from {} rim points in {} of them", run.holes,
+                                       run.enlargedRadii, run.holeFillingLevels);
         std::vector<std::string> inputDetail;
         if (run.inputPoints + run.outliers != inputCount)
             inputDetail.push_back(fmt::format("{} distinct", run.inputPoints + run.outliers));
@@ -150,7 +152,7 @@ void runRefine(const RefineArgs& args) {
     if (run.cappedNeighbourhoods > 0) {
         // Estimating the radii again changes nothing when they were estimated already.
         const char* cause =
-            !job.holes.empty() ? "a hole looks too wide for its sampling, and may stay open"
+            run.holes > 0 ? "a hole looks too wide for its sampling, and may stay open"
             : run.radiiEstimated
                 ? "the sampling is very uneven: the estimated radii of some sparse points "
                   "reach many dense ones"
@@ -224,7 +226,7 @@ void addRefineCommand(CLI::App& app) {
             },
             "0 or [1, 100]"))
         ->capture_default_str();
-    addFillHoleOption(*cmd, args->holes);
+    addFillHoleOptions(*cmd, args->holes, args->fillHoles);
     addMaxPointsOption(*cmd, args->maxPoints);
     cmd->add_flag("--estimate-radii", args->estimateRadii, "estimate radii even when the input has them");
     addKeepNormalsOption(*cmd, args->keepNormals);

@@ -32,6 +32,7 @@ struct RenderArgs {
     std::string frame; // choose the camera for this file's points instead of the input's
     unsigned refineLevels = 0;
     std::vector<std::string> holes; // "X,Y,Z,R", one per --fill-hole
+    std::string fillHoles;          // --fill-holes SIZE
     std::size_t maxPoints = 0;
     std::vector<float> background{1.0f, 1.0f, 1.0f};
     bool flipNormals = false;
@@ -181,10 +182,11 @@ void runRender(const RenderArgs& args) {
 
     const std::size_t inputCount = points.size();
     unsigned levels = 0;
-    if (args.refineLevels > 0 || !args.holes.empty()) {
+    if (args.refineLevels > 0 || !args.holes.empty() || !args.fillHoles.empty()) {
         RefineJob job;
         job.levels = args.refineLevels;
         job.holes = parseHoles(args.holes);
+        job.fillHolesUpTo = parseHoleSize(args.fillHoles);
         job.keepNormals = args.keepNormals;
         job.keepOutliers = true; // loadForRendering has left them out (or was asked to keep them)
         job.maxPoints = args.maxPoints;
@@ -285,7 +287,7 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--refine-levels", args->refineLevels,
                     "refine this many levels first (the paper's method)")
         ->check(CLI::Range(0u, 16u));
-    addFillHoleOption(*cmd, args->holes);
+    addFillHoleOptions(*cmd, args->holes, args->fillHoles);
     addMaxPointsOption(*cmd, args->maxPoints);
     addBackgroundOption(*cmd, args->background);
     cmd->add_flag("--flip-normals", args->flipNormals, "negate every normal (shows why orientation matters)");
@@ -301,6 +303,7 @@ void addRenderCommand(CLI::App& app) {
     compare->excludes(adaptive)
         ->excludes("--refine-levels")
         ->excludes("--fill-hole")
+        ->excludes("--fill-holes")
         ->excludes("--flip-normals");
     cmd->add_option("--reference", args->reference,
                     "with --compare: a dense PLY of the same surface, rendered from the same camera as the "

@@ -8,6 +8,7 @@
 #include <fmt/ranges.h>
 
 #include "commands.h"
+#include "pnsplat/refine/hole_detection.h"
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/memory_budget.h"
 #include "pnsplat/refine/normal_estimation.h"
@@ -128,24 +129,48 @@ void checkFits(const PointSet& points, const RefineJob& job, const std::string& 
             would, budget.source, bytesText(budget.bytes), approximately(static_cast<double>(fits))));
 }
 
+HoleSize parseHoleSize(std::string_view text) {
+    if (text.empty()) return {};
+    HoleSize size;
+    std::string_view number = text;
+    if (number.ends_with('x')) {
+        number.remove_suffix(1);
+        size.relative = true;
+    }
+    const std::optional<float> value = parseFloat(number);
+    if (!value || !(*value > 0.0f))
+        throw CommandError(
+            fmt::format(
+                "--fill-holes {}: expected a positive length, or a multiple of the spacing such as 20x",
+                text),
+            kExitUsage);
+    size.value = *value;
+    return size;
+}
+
 std::vector<Hole> parseHoles(const std::vector<std::string>& texts) {
     std::vector<Hole> holes;
     for (const std::string& text : texts) holes.push_back(parseHole(text));
     return holes;
 }
 
-void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes) {
+void addFillHoleOptions(CLI::App& cmd, std::vector<std::string>& holes, std::string& upTo) {
     cmd.add_option(
            "--fill-hole", holes,
-           "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the levels: "
-           "the "
-           "radii of the points around it are enlarged to span it, and they and the points they insert are "
-           "refined until they match their surroundings (paper figure 9; holes of a radius up to about 20 "
-           "spacings)")
+           "fill the hole inside the ball X,Y,Z,R (no input point within it; repeatable) before the "
+           "levels: the radii of the points around it are enlarged to span it, and they and the points "
+           "they insert are refined until they match their surroundings (paper figure 9; holes of a "
+           "radius up to about 20 spacings)")
         ->type_name("X,Y,Z,R")
         ->expected(1)
         ->allow_extra_args(false)
         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+    cmd.add_option(
+           "--fill-holes", upTo,
+           "find the input's holes (empty regions surrounded by points, several spacings wide) and fill "
+           "those up to SIZE across as --fill-hole does: a length, or a multiple of the median spacing "
+           "such as 30x; open boundaries and wider holes stay open")
+        ->type_name("SIZE");
 }
 
 void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints) {
@@ -261,6 +286,23 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     run.outliers = completed.outliers;
     if (auto valid = validateForRefinement(points); !valid)
         throw CommandError(inputName + ": " + valid.error().message);
+    if (job.fillHolesUpTo.value > 0.0f) {
+        const HoleSearch found =
+            findHoles(points, job.fillHolesUpTo.value, job.fillHolesUpTo.relative, job.options.threads);
+        for (const FoundHole& hole : found.holes) job.holes.push_back(hole.ball);
+        run.holesFound = found.holes.size();
+        run.holesLeftOpen = found.tooLarge.size();
+        const float limit =
+            job.fillHolesUpTo.relative ? job.fillHolesUpTo.value * found.spacing : job.fillHolesUpTo.value;
+        std::string detail;
+        for (const FoundHole& hole : found.holes)
+            detail += fmt::format("{}{:.4g} across at {:.4g},{:.4g},{:.4g}", detail.empty() ? ": " : "; ",
+                                  hole.size, hole.ball.centre.x, hole.ball.centre.y, hole.ball.centre.z);
+        fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}\n", inputName,
+                   found.holes.size(), limit, detail,
+                   found.tooLarge.empty() ? "" : fmt::format("; {} wider left open", found.tooLarge.size()));
+    }
+    run.holes = job.holes.size();
     HoleRims rims;
     if (!job.holes.empty()) {
         auto enlarged = enlargeAroundHoles(points, job.holes);

@@ -25,31 +25,47 @@ struct RefineRun {
     double seconds = 0.0;                 // time spent refining (not estimating radii)
     std::size_t cappedNeighbourhoods = 0; // over all levels (LevelStats), a sign of radii too large
     std::size_t enlargedRadii = 0;        // rim points of the holes to fill (enlargeAroundHole)
+    std::size_t holes = 0;                // holes filled: given, and found (`holesFound` of them)
+    std::size_t holesFound = 0;           // by findHoles (RefineJob::fillHolesUpTo)
+    std::size_t holesLeftOpen = 0;        // closed rims findHoles found wider than the size asked
     std::size_t maxNeighbours = 0;        // the bound the neighbourhoods were cut to (RefineOptions)
     bool radiiEstimated = false;          // the input's radii were estimated (completeInput)
     std::size_t turnedNormals = 0;        // flipped input normals turned back (completeInput)
     std::size_t outliers = 0;             // isolated input points left out (completeInput, findOutliers)
 };
 
-// What to refine and how far: `holes` are filled first (enlargeAroundHoles, fillHoles; paper
-// figure 9); then `levels` uniform levels, stopping early once `targetPoints` (0: no target) is
-// reached or a level inserts nothing; then the points above `evenOutFactor` times the median
-// radius are evened out (evenOut; 0: not at all). A job whose estimated output (memory_budget.h)
-// exceeds `maxPoints`, or with 0 what memoryBudget() leaves room for, is refused before it starts.
+// The largest hole `--fill-holes` fills: a length in model units, or (relative) a multiple of the
+// input's median nearest-point distance; 0: none.
+struct HoleSize {
+    float value = 0.0f;
+    bool relative = false;
+};
+
+// What to refine and how far: `holes`, and those findHoles finds up to `fillHolesUpTo`, are
+// filled first (enlargeAroundHoles, fillHoles; paper figure 9); then `levels` uniform levels, stopping early
+// once `targetPoints` (0: no target) is reached or a level inserts nothing; then the points above
+// `evenOutFactor` times the median radius are evened out (evenOut; 0: not at all). A job whose estimated
+// output (memory_budget.h) exceeds `maxPoints`, or with 0 what memoryBudget() leaves room for, is refused
+// before it starts.
 struct RefineJob {
     RefineOptions options;
     unsigned levels = 0;
     std::size_t targetPoints = 0;
     float evenOutFactor = 0.0f;
     std::vector<Hole> holes;
+    HoleSize fillHolesUpTo;
     bool estimateRadii = false; // replace the input's radii by estimated ones
     bool keepNormals = false;   // refuse flipped input normals instead of turning them back
     bool keepOutliers = false;  // refine isolated input points too instead of leaving them out
     std::size_t maxPoints = 0;
 };
 
-// `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`.
-void addFillHoleOption(CLI::App& cmd, std::vector<std::string>& holes);
+// `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`,
+// and `--fill-holes SIZE` into `upTo` (parseHoleSize).
+void addFillHoleOptions(CLI::App& cmd, std::vector<std::string>& holes, std::string& upTo);
+// `--fill-holes`'s SIZE: a positive finite length ("0.05"), or a multiple of the spacing ("20x");
+// empty: none. Anything else is a CommandError (a usage error) naming the option and the text.
+HoleSize parseHoleSize(std::string_view text);
 // `--max-points N` on `cmd`, into `maxPoints` (RefineJob::maxPoints).
 void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints);
 // The holes of the option's texts; a text that is not four finite numbers with R > 0 is a

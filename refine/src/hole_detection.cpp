@@ -1,0 +1,178 @@
+// Holes found from the input's rims (ALGORITHM.md §9.8; hole_detection.h has the rules).
+#include "pnsplat/refine/hole_detection.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <span>
+#include <utility>
+
+#include <glm/geometric.hpp>
+
+#include "kd_tree.h"
+#include "pnsplat/refine/worker_pool.h"
+
+namespace pnsplat {
+namespace {
+
+constexpr std::size_t kBatch = 256; // points per task
+
+// Two unit vectors spanning the plane orthogonal to unit `n`.
+std::pair<glm::vec3, glm::vec3> tangentBasis(glm::vec3 n) {
+    const glm::vec3 u = glm::normalize(std::abs(n.x) < 0.9f ? glm::cross(n, glm::vec3(1.0f, 0.0f, 0.0f))
+                                                            : glm::cross(n, glm::vec3(0.0f, 1.0f, 0.0f)));
+    return {u, glm::cross(n, u)};
+}
+
+// The widest angle that `angles` (radians in [-π, π], sorted) leave free around the circle, and
+// its bisector (the whole circle when there is none).
+std::pair<float, float> widestGap(std::span<const float> angles) {
+    constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
+    if (angles.empty()) return {kTwoPi, 0.0f};
+    float gap = kTwoPi - (angles.back() - angles.front());
+    float bisector = angles.back() + 0.5f * gap;
+    for (std::size_t k = 1; k < angles.size(); ++k)
+        if (angles[k] - angles[k - 1] > gap) {
+            gap = angles[k] - angles[k - 1];
+            bisector = angles[k - 1] + 0.5f * gap;
+        }
+    return {gap, bisector};
+}
+
+struct Proposal {
+    std::uint32_t point = 0;
+    glm::vec3 centre{0.0f};
+    float radius = 0.0f;
+};
+
+std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+}
+
+} // namespace
+
+HoleSearch findHoles(const PointSet& points, float maxSize, bool relative, unsigned threads) {
+    HoleSearch search;
+    const std::size_t n = points.size();
+    if (n < kHoleNearest + 1 || !points.hasNormal() || !(maxSize > 0.0f) || !std::isfinite(maxSize))
+        return search;
+    const KdCloud cloud{points.position};
+    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    tree.buildIndex();
+    WorkerPool pool(threads);
+
+    // The nearest points of each (itself first), and the distance to the nearest other.
+    constexpr std::size_t kCount = kHoleNearest + 1;
+    std::vector<std::uint32_t> nearest(n * kCount);
+    std::vector<float> spacing(n);
+    parallelForRanges(pool, n, kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
+        std::array<float, kCount> distance2;
+        for (std::size_t i = begin; i < end; ++i) {
+            tree.knnSearch(&points.position[i].x, kCount, &nearest[i * kCount], distance2.data());
+            spacing[i] = std::sqrt(distance2[1]);
+        }
+    });
+    {
+        std::vector<float> sorted = spacing;
+        const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(n / 2);
+        std::nth_element(sorted.begin(), middle, sorted.end());
+        search.spacing = *middle;
+    }
+    const float size = relative ? maxSize * search.spacing : maxSize;
+    if (!(size > 0.0f) || !std::isfinite(size)) return search;
+    const float cap = 0.5f * size;
+
+    // 1. Rim points and the empty balls they propose.
+    std::vector<Proposal> proposal(n);
+    std::vector<std::uint8_t> proposes(n, 0);
+    parallelForRanges(pool, n, kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
+        std::array<float, kCount> angle;
+        std::array<float, kCount> local;
+        std::vector<std::pair<std::uint32_t, float>> inBall;
+        for (std::size_t i = begin; i < end; ++i) {
+            if (points.isCrease(i)) continue; // its neighbours across the crease lie off its plane
+            const glm::vec3 p = points.position[i];
+            const auto [u, v] = tangentBasis(points.normal[i]);
+            std::size_t count = 0;
+            for (std::size_t k = 1; k < kCount; ++k) {
+                const glm::vec3 e = points.position[nearest[i * kCount + k]] - p;
+                angle[count++] = std::atan2(glm::dot(e, v), glm::dot(e, u));
+            }
+            std::sort(angle.begin(), angle.begin() + static_cast<std::ptrdiff_t>(count));
+            const auto [gap, bisector] = widestGap({angle.data(), count});
+            if (gap < kHoleRimAngle) continue;
+            const glm::vec3 d = std::cos(bisector) * u + std::sin(bisector) * v;
+            // The largest ball through p centred at p + t·d that holds no point: a point q with
+            // e = q - p lies outside it while |e|² >= 2 t (e · d). The ball of t = cap holds
+            // every ball of smaller t along d, so the points in it are all that can bound t.
+            float t = cap;
+            const glm::vec3 far = p + cap * d;
+            tree.radiusSearch(&far.x, cap * cap, inBall, nanoflann::SearchParams(32, 0.0f, false));
+            for (const auto& [q, distance2] : inBall) {
+                const glm::vec3 e = points.position[q] - p;
+                const float along = glm::dot(e, d);
+                if (q != i && along > 0.0f) t = std::min(t, glm::dot(e, e) / (2.0f * along));
+            }
+            for (std::size_t k = 0; k < kCount; ++k) local[k] = spacing[nearest[i * kCount + k]];
+            std::nth_element(local.begin(), local.begin() + kCount / 2, local.end());
+            if (t <= kHoleEmptySpacings * local[kCount / 2]) continue;
+            proposes[i] = 1;
+            proposal[i] = {static_cast<std::uint32_t>(i), p + t * d, t};
+        }
+    });
+    std::vector<Proposal> kept;
+    for (std::size_t i = 0; i < n; ++i)
+        if (proposes[i]) kept.push_back(proposal[i]);
+
+    // 2. Proposals whose balls overlap are one hole.
+    std::vector<std::uint32_t> parent(kept.size());
+    std::iota(parent.begin(), parent.end(), 0u);
+    for (std::uint32_t a = 0; a < kept.size(); ++a)
+        for (std::uint32_t b = a + 1; b < kept.size(); ++b)
+            if (glm::distance(kept[a].centre, kept[b].centre) < kept[a].radius + kept[b].radius)
+                parent[findRoot(parent, a)] = findRoot(parent, b);
+    std::vector<std::vector<std::uint32_t>> groups(kept.size());
+    for (std::uint32_t a = 0; a < kept.size(); ++a) groups[findRoot(parent, a)].push_back(kept[a].point);
+    // In order of their first rim point (a group's list is in point order).
+    std::ranges::sort(groups, [](const auto& x, const auto& y) {
+        return !x.empty() && (y.empty() || x.front() < y.front());
+    });
+
+    // 3. Surrounded rims, their balls and sizes.
+    for (const std::vector<std::uint32_t>& rim : groups) {
+        if (rim.size() < kHoleMinRimPoints) continue;
+        glm::dvec3 centroid(0.0), normal(0.0);
+        for (const std::uint32_t i : rim) {
+            centroid += glm::dvec3(points.position[i]);
+            normal += glm::dvec3(points.normal[i]);
+        }
+        const glm::vec3 centre(centroid / static_cast<double>(rim.size()));
+        if (glm::length(normal) < kHoleRimAlignment * static_cast<double>(rim.size())) continue;
+        const auto [u, v] = tangentBasis(glm::vec3(glm::normalize(normal)));
+        std::vector<float> around;
+        float rimRadius = 0.0f;
+        for (const std::uint32_t i : rim) {
+            const glm::vec3 e = points.position[i] - centre;
+            around.push_back(std::atan2(glm::dot(e, v), glm::dot(e, u)));
+            rimRadius = std::max(rimRadius, glm::length(e));
+        }
+        std::ranges::sort(around);
+        if (widestGap(around).first > kHoleSurroundAngle) continue;
+        std::uint32_t index = 0;
+        float distance2 = 0.0f;
+        tree.knnSearch(&centre.x, 1, &index, &distance2);
+        // Just under the nearest point's distance: the ball holds no input point. A rim around a
+        // fold or a tip has input points near its centroid: not a hole.
+        const float radius = std::sqrt(distance2) * (1.0f - 1e-4f);
+        if (!(radius > kHoleEmptyShare * rimRadius)) continue;
+        const FoundHole hole{{centre, radius}, 2.0f * rimRadius, rim.size()};
+        (hole.size <= size ? search.holes : search.tooLarge).push_back(hole);
+    }
+    return search;
+}
+
+} // namespace pnsplat

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <iostream>
+#include <numeric>
 #include <random>
 #include <string>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
@@ -183,9 +186,141 @@ TEST(NormalEstimation, ThreadCountDoesNotChangeTheNormals) {
     EXPECT_TRUE(std::equal(one.normal.begin(), one.normal.end(), two.normal.begin()));
 }
 
+// Random points on the surface of the box [lo, hi] (each face as likely as its area), with their
+// outward normals, those inside `skip` left out.
+template <typename Skip>
+void sampleBoxSurface(PointSet& points, glm::vec3 lo, glm::vec3 hi, int count, std::mt19937_64& rng,
+                      const Skip& skip) {
+    const glm::vec3 e = hi - lo;
+    const double area[3] = {e.y * e.z, e.x * e.z, e.x * e.y}, total = 2.0 * (area[0] + area[1] + area[2]);
+    for (int k = 0; k < count; ++k) {
+        double pick = test::uniform01(rng) * total;
+        int face = 0;
+        while (face < 5 && pick >= area[face % 3]) pick -= area[face++ % 3];
+        const int axis = face % 3;
+        const bool high = face >= 3;
+        glm::vec3 x =
+            lo + glm::vec3(test::uniform(rng, 0, 1), test::uniform(rng, 0, 1), test::uniform(rng, 0, 1)) * e;
+        x[axis] = high ? hi[axis] : lo[axis];
+        if (skip(x)) continue;
+        glm::vec3 n(0.0f);
+        n[axis] = high ? 1.0f : -1.0f;
+        points.position.push_back(x);
+        points.normal.push_back(n);
+    }
+}
+
+// A unit sphere with a fin thinner than the spacing standing on its top: a box 0.06 thick and 1
+// wide up to z = 1.8 (about 1,500 points on each). The fin's top, where the propagation starts,
+// has a horizontal normal and its two faces mix in every neighbourhood, so the start's +z said
+// nothing: the old orientation turned the whole sphere inside out for 3 of these 5 seeds, and 32
+// to 58 % of the fin's normals faced inward. Visibility decides the sphere now: at most 1 % of its
+// normals face inward (the few where the fin meets it). The fin's faces come out right for most
+// of their points (5 to 22 % inward): a sheet thinner than the spacing is where the estimate
+// stays weakest.
+TEST(NormalEstimation, AThinFinDoesNotTurnItsBodyInsideOut) {
+    const glm::vec3 lo(-0.03f, -0.5f, 0.5f), hi(0.03f, 0.5f, 1.8f);
+    const auto inFin = [&](glm::vec3 x) {
+        return glm::all(glm::greaterThan(x, lo)) && glm::all(glm::lessThan(x, hi));
+    };
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+        std::mt19937_64 rng(seed);
+        PointSet given;
+        sampleBoxSurface(given, lo, hi, 1500, rng, [](glm::vec3 x) { return glm::length(x) <= 1.0f; });
+        const std::size_t fin = given.size();
+        while (given.size() < fin + 1500) {
+            const glm::vec3 x = test::randomUnit(rng);
+            if (inFin(x)) continue;
+            given.position.push_back(x);
+            given.normal.push_back(x);
+        }
+        PointSet points = withoutNormals(given);
+        const auto estimate = estimateNormals(points, 2);
+        ASSERT_TRUE(estimate.ok()) << estimate.error().message;
+        std::size_t finInward = 0, sphereInward = 0;
+        for (std::size_t i = 0; i < points.size(); ++i)
+            if (glm::dot(points.normal[i], given.normal[i]) < 0.0f) ++(i < fin ? finInward : sphereInward);
+        std::cout << "[finned sphere, seed " << seed << "] inward: sphere " << sphereInward << " of "
+                  << points.size() - fin << ", fin " << finInward << " of " << fin << "\n";
+        EXPECT_LE(sphereInward, 15u) << "seed " << seed;
+        EXPECT_LT(finInward, fin / 4) << "seed " << seed;
+    }
+}
+
+// The same shape on 1 and 2 threads: the rays run on the workers.
+TEST(NormalEstimation, ThreadCountDoesNotChangeTheVisibilityVote) {
+    std::mt19937_64 rng(3);
+    PointSet one;
+    sampleBoxSurface(one, glm::vec3(-0.03f, -0.5f, 0.5f), glm::vec3(0.03f, 0.5f, 1.8f), 1500, rng,
+                     [](glm::vec3 x) { return glm::length(x) <= 1.0f; });
+    for (const glm::vec3& x : sampleSphereRandom(1500, 1.0f, 3).position)
+        if (!(std::abs(x.x) < 0.03f && std::abs(x.y) < 0.5f && x.z > 0.5f)) one.position.push_back(x);
+    one = withoutNormals(one);
+    PointSet two = one;
+    ASSERT_TRUE(estimateNormals(one, 1).ok());
+    ASSERT_TRUE(estimateNormals(two, 2).ok());
+    EXPECT_TRUE(std::equal(one.normal.begin(), one.normal.end(), two.normal.begin()));
+}
+
+// Every reference of ../shared/data with positions only, and 3 random 3,500-point subsets of each
+// (seeds 1 to 3; compared with the subset's own reference normals), as given and turned over
+// (180 degrees about x, exact in floating point): at most 1 % of the estimated normals face
+// inward (issue 27). Before the visibility vote, the turned-over lion and fandisk subsets came out
+// 98 and 100 % inward, and 5 of the 21 subsets as given above 1 %. Prints the share and the mean
+// angle to the reference normal, unsigned (of the line) and signed.
+TEST(NormalEstimation, ReferenceModelsAndTheirSubsetsFaceOutward) {
+    const char* models[] = {"igea", "nefertiti", "bunny", "lion", "fandisk", "rockerarm", "banana"};
+    for (const char* model : models) {
+        const std::string file = std::string(model) + "-reference.ply";
+        PNSPLAT_REQUIRE_DATA(file);
+        auto data = readPly(test::dataDir() / file);
+        ASSERT_TRUE(data.ok()) << data.error().message;
+        const PointSet reference = std::move(data).value().points;
+        for (const bool turned : {false, true}) {
+            for (std::uint64_t seed = 0; seed <= 3; ++seed) {
+                if (seed == 0 && turned) continue; // the whole reference once: it takes seconds
+                PointSet given;
+                std::vector<std::uint32_t> pick(reference.size());
+                std::iota(pick.begin(), pick.end(), 0u);
+                if (seed > 0) {
+                    std::mt19937_64 rng(seed);
+                    for (std::size_t i = 0; i < 3500; ++i)
+                        std::swap(pick[i], pick[i + rng() % (pick.size() - i)]);
+                    pick.resize(3500);
+                    std::sort(pick.begin(), pick.end());
+                }
+                for (const std::uint32_t i : pick) {
+                    const glm::vec3 x = reference.position[i], n = reference.normal[i];
+                    given.position.push_back(turned ? glm::vec3(x.x, -x.y, -x.z) : x);
+                    given.normal.push_back(turned ? glm::vec3(n.x, -n.y, -n.z) : n);
+                }
+                PointSet points = withoutNormals(given);
+                const auto estimate = estimateNormals(points, 2);
+                ASSERT_TRUE(estimate.ok()) << estimate.error().message;
+                const Agreement a = compare(points, given.normal);
+                double signedDegrees = 0.0;
+                for (std::size_t i = 0; i < points.size(); ++i)
+                    signedDegrees += degrees(std::acos(std::clamp(
+                        static_cast<double>(glm::dot(points.normal[i], given.normal[i])), -1.0, 1.0)));
+                signedDegrees /= static_cast<double>(points.size());
+                const double share = static_cast<double>(a.flipped) / static_cast<double>(points.size());
+                const std::string name = std::string(model) +
+                                         (seed == 0 ? " reference" : " 3500 seed " + std::to_string(seed)) +
+                                         (turned ? ", turned over" : "");
+                std::cout << "[" << name << "] inward " << a.flipped << " of " << points.size() << " ("
+                          << share * 100.0 << " %), mean error " << a.meanDegrees << " deg (line), "
+                          << signedDegrees << " deg (signed)\n";
+                EXPECT_LE(share, 0.01) << name;
+            }
+        }
+    }
+}
+
 // Sparse real models against their given (mesh) normals. The rockerarm's thin walls and the
 // fandisk's sharp creases are where Hoppe's weight alone crosses early: 18 % and 42 % of the
-// normals came out flipped; with the tangent-plane term of orientationWeight, 0 and 0.13 %.
+// normals came out flipped; with the tangent-plane term of orientationWeight, 0 and 0.13 %. With
+// the visibility vote and the neighbours' agreement: 0 and 0.4 % (6 points); the bunny 0.26 % (was
+// 0.54 %) and the lion 0.54 % (was 1.2 %).
 TEST(NormalEstimation, DataModelsAgreeWithTheirNormals) {
     const struct {
         const char* file;
@@ -193,7 +328,7 @@ TEST(NormalEstimation, DataModelsAgreeWithTheirNormals) {
     } cases[] = {
         {"rockerarm-2000-uniform.ply", 0.0}, {"fandisk-1500-uniform.ply", 0.005},
         {"bunny-3500-random.ply", 0.01},     {"igea-600-uniform.ply", 0.0},
-        {"lion-3500-random.ply", 0.02},
+        {"lion-3500-random.ply", 0.01},
     };
     for (const auto& c : cases) {
         PNSPLAT_REQUIRE_DATA(c.file);

@@ -259,8 +259,8 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
     if (done->normalComponents > 0)
         fmt::print(stderr,
                    "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented "
-                   "along a "
-                   "spanning tree ({} connected part(s), each facing +z at its top)\n",
+                   "along a spanning tree and outward where rays along them leave the surface ({} connected "
+                   "part(s))\n",
                    inputName, kNormalNearest, done->normalComponents);
     if (done->turnedNormals > 0)
         fmt::print(stderr,

@@ -284,6 +284,41 @@ TEST(CliRefine, FillHolesFindsTheHoleAndFillsIt) {
     }
 }
 
+// Flat and open scans (issue 27): a flat 25 × 25 grid and a gently rolling terrain-like patch,
+// normals up (+z), render their lit side by default, offline and adaptive: the picture covers most
+// of what the patch fills, not the blank of back faces (before the camera rule of camera.cpp, the
+// flat grid put the eye on -z: 0 pixels covered).
+TEST(CliRender, FlatAndTerrainScansShowTheSideTheirNormalsFace) {
+    const TempDir dir;
+    const auto height = [](float x, float y, float amplitude) {
+        return amplitude * std::sin(3.0f * x) * std::cos(2.0f * y);
+    };
+    for (const float amplitude : {0.0f, 0.08f}) {
+        PointSet patch;
+        for (int j = 0; j < 25; ++j)
+            for (int i = 0; i < 25; ++i) {
+                const float x = 0.08f * float(i), y = 0.08f * float(j);
+                patch.position.push_back({x, y, height(x, y, amplitude)});
+                // The upward normal of z = h(x, y): (-h_x, -h_y, 1), normalised.
+                const glm::vec3 up(-3.0f * amplitude * std::cos(3.0f * x) * std::cos(2.0f * y),
+                                   2.0f * amplitude * std::sin(3.0f * x) * std::sin(2.0f * y), 1.0f);
+                patch.normal.push_back(glm::normalize(up));
+            }
+        const fs::path in = dir / fmt::format("patch-{}.ply", amplitude);
+        ASSERT_TRUE(writePly(in, patch).ok());
+        for (const std::string mode : {"", " --adaptive"}) {
+            SCOPED_TRACE(fmt::format("amplitude {}{}", amplitude, mode));
+            const RunResult r = run("render " + quote(in) + mode + " --width 120 --height 90 --json -o " +
+                                    quote(dir / "patch.png"));
+            ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+            EXPECT_EQ(jsonField(r.out, "eye_side"), "+z") << r.out;
+            // Seen from above, framed by its bounding sphere: the square covers about a third of the
+            // picture (measured 3,420 to 4,084 of 10,800 pixels).
+            EXPECT_GT(std::stod(jsonField(r.out, "covered_px")), 0.25 * 120 * 90) << r.out;
+        }
+    }
+}
+
 // A scan of positions only: normals estimated (ALGORITHM.md §9.2), said on stderr, and the refinement runs.
 TEST(CliRefine, EstimatesMissingNormals) {
     const TempDir dir;

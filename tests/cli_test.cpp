@@ -270,6 +270,13 @@ TEST(CliRefine, FillHolesFindsTheHoleAndFillsIt) {
     EXPECT_EQ(jsonField(r.out, "holes"), "1") << r.out;
     EXPECT_NE(r.err.find("1 hole(s) up to"), std::string::npos) << r.err;
     EXPECT_GT(insideOf(out), 1000u); // as --fill-hole 0,0,1,0.7 (CliRefine.FillHoleSamplesTheHole)
+    // Given by --fill-hole too: filled once, from the ball given.
+    const RunResult both =
+        run("refine --fill-holes 40x --fill-hole 0,0,1,0.7 " + quote(in) + " -l 1 --json -o " + quote(out));
+    ASSERT_TRUE(both.exited && both.exitCode == 0) << both.err;
+    EXPECT_EQ(jsonField(both.out, "holes"), "1") << both.out;
+    EXPECT_EQ(jsonField(both.out, "holes_found"), "0") << both.out;
+    EXPECT_NE(both.err.find("1 of them given by --fill-hole too"), std::string::npos) << both.err;
     const RunResult small = run("refine --fill-holes 0.5 " + quote(in) + " -l 2 --json -o " + quote(out));
     ASSERT_TRUE(small.exited && small.exitCode == 0) << small.err;
     EXPECT_EQ(jsonField(small.out, "holes_found"), "0") << small.out;

@@ -1,11 +1,13 @@
 #include "refine_run.h"
 
+#include <algorithm>
 #include <new>
 #include <optional>
 #include <string_view>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <glm/geometric.hpp>
 
 #include "commands.h"
 #include "pnsplat/refine/hole_detection.h"
@@ -289,8 +291,18 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     if (job.fillHolesUpTo.value > 0.0f) {
         const HoleSearch found =
             findHoles(points, job.fillHolesUpTo.value, job.fillHolesUpTo.relative, job.options.threads);
-        for (const FoundHole& hole : found.holes) job.holes.push_back(hole.ball);
-        run.holesFound = found.holes.size();
+        // A hole also given by --fill-hole (their balls meet) is filled once, from the ball given.
+        const std::size_t given = job.holes.size();
+        const auto meetsGiven = [&](const Hole& ball) {
+            return std::any_of(job.holes.begin(), job.holes.begin() + static_cast<std::ptrdiff_t>(given),
+                               [&](const Hole& other) {
+                                   return glm::distance(ball.centre, other.centre) <
+                                          ball.radius + other.radius;
+                               });
+        };
+        for (const FoundHole& hole : found.holes)
+            if (!meetsGiven(hole.ball)) job.holes.push_back(hole.ball);
+        run.holesFound = job.holes.size() - given;
         run.holesLeftOpen = found.tooLarge.size();
         const float limit =
             job.fillHolesUpTo.relative ? job.fillHolesUpTo.value * found.spacing : job.fillHolesUpTo.value;
@@ -298,8 +310,10 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
         for (const FoundHole& hole : found.holes)
             detail += fmt::format("{}{:.4g} across at {:.4g},{:.4g},{:.4g}", detail.empty() ? ": " : "; ",
                                   hole.size, hole.ball.centre.x, hole.ball.centre.y, hole.ball.centre.z);
-        fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}\n", inputName,
+        const std::size_t alsoGiven = found.holes.size() - run.holesFound;
+        fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}{}\n", inputName,
                    found.holes.size(), limit, detail,
+                   alsoGiven == 0 ? "" : fmt::format("; {} of them given by --fill-hole too", alsoGiven),
                    found.tooLarge.empty() ? "" : fmt::format("; {} wider left open", found.tooLarge.size()));
     }
     run.holes = job.holes.size();

@@ -13,19 +13,13 @@
 #include <glm/geometric.hpp>
 
 #include "kd_tree.h"
+#include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/worker_pool.h"
 
 namespace pnsplat {
 namespace {
 
 constexpr std::size_t kBatch = 256; // points per task
-
-// Two unit vectors spanning the plane orthogonal to unit `n`.
-std::pair<glm::vec3, glm::vec3> tangentBasis(glm::vec3 n) {
-    const glm::vec3 u = glm::normalize(std::abs(n.x) < 0.9f ? glm::cross(n, glm::vec3(1.0f, 0.0f, 0.0f))
-                                                            : glm::cross(n, glm::vec3(0.0f, 1.0f, 0.0f)));
-    return {u, glm::cross(n, u)};
-}
 
 // The widest angle that `angles` (radians in [-π, π], sorted) leave free around the circle, and
 // its bisector (the whole circle when there is none).
@@ -96,16 +90,14 @@ HoleSearch findHoles(const PointSet& points, float maxSize, bool relative, unsig
         for (std::size_t i = begin; i < end; ++i) {
             if (points.isCrease(i)) continue; // its neighbours across the crease lie off its plane
             const glm::vec3 p = points.position[i];
-            const auto [u, v] = tangentBasis(points.normal[i]);
+            const TangentFrame frame(points.normal[i]);
             std::size_t count = 0;
-            for (std::size_t k = 1; k < kCount; ++k) {
-                const glm::vec3 e = points.position[nearest[i * kCount + k]] - p;
-                angle[count++] = std::atan2(glm::dot(e, v), glm::dot(e, u));
-            }
+            for (std::size_t k = 1; k < kCount; ++k)
+                angle[count++] = frame.angleOf(points.position[nearest[i * kCount + k]] - p);
             std::sort(angle.begin(), angle.begin() + static_cast<std::ptrdiff_t>(count));
             const auto [gap, bisector] = widestGap({angle.data(), count});
             if (gap < kHoleRimAngle) continue;
-            const glm::vec3 d = std::cos(bisector) * u + std::sin(bisector) * v;
+            const glm::vec3 d = std::cos(bisector) * frame.u + std::sin(bisector) * frame.v;
             // The largest ball through p centred at p + t·d that holds no point: a point q with
             // e = q - p lies outside it while |e|² >= 2 t (e · d). The ball of t = cap holds
             // every ball of smaller t along d, so the points in it are all that can bound t.
@@ -152,12 +144,12 @@ HoleSearch findHoles(const PointSet& points, float maxSize, bool relative, unsig
         }
         const glm::vec3 centre(centroid / static_cast<double>(rim.size()));
         if (glm::length(normal) < kHoleRimAlignment * static_cast<double>(rim.size())) continue;
-        const auto [u, v] = tangentBasis(glm::vec3(glm::normalize(normal)));
+        const TangentFrame frame{glm::vec3(glm::normalize(normal))};
         std::vector<float> around;
         float rimRadius = 0.0f;
         for (const std::uint32_t i : rim) {
             const glm::vec3 e = points.position[i] - centre;
-            around.push_back(std::atan2(glm::dot(e, v), glm::dot(e, u)));
+            around.push_back(frame.angleOf(e));
             rimRadius = std::max(rimRadius, glm::length(e));
         }
         std::ranges::sort(around);

@@ -277,6 +277,12 @@ TEST(CliRefine, FillHolesFindsTheHoleAndFillsIt) {
     EXPECT_EQ(jsonField(both.out, "holes"), "1") << both.out;
     EXPECT_EQ(jsonField(both.out, "holes_found"), "0") << both.out;
     EXPECT_NE(both.err.find("1 of them given by --fill-hole too"), std::string::npos) << both.err;
+    // The real-time engine's commands fill the same hole before they refine (withHolesFilled).
+    const RunResult view =
+        run("bench view " + quote(in) + " --fill-holes 40x --frames 2 --width 64 --height 48");
+    ASSERT_TRUE(view.exited && view.exitCode == 0) << view.err;
+    EXPECT_NE(view.err.find("1 hole(s) up to"), std::string::npos) << view.err;
+    EXPECT_EQ(view.err.find(fmt::format("({} points)", holed.size())), std::string::npos) << view.err;
     const RunResult small = run("refine --fill-holes 0.5 " + quote(in) + " -l 2 --json -o " + quote(out));
     ASSERT_TRUE(small.exited && small.exitCode == 0) << small.err;
     EXPECT_EQ(jsonField(small.out, "holes_found"), "0") << small.out;

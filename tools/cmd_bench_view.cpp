@@ -33,6 +33,7 @@ struct BenchViewArgs {
     EngineArgs engine;
     std::vector<std::string> columns; // the input's, when it is text
     bool keepOutliers = false;
+    std::string fillHoles; // --fill-holes SIZE
 };
 
 constexpr std::size_t kDefaultFrames = 240;
@@ -40,7 +41,9 @@ constexpr std::size_t kDefaultFrames = 240;
 void runBenchView(BenchViewArgs args) {
     using Clock = std::chrono::steady_clock;
     std::string name;
+    const HoleSize holes = parseHoleSize(args.fillHoles);
     PointSet points = loadForRendering(args.input, {.keepOutliers = args.keepOutliers}, name, args.columns);
+    points = withHolesFilled(std::move(points), holes, name);
     const std::size_t inputPoints = points.size();
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
@@ -186,6 +189,7 @@ void addBenchViewCommand(CLI::App& bench) {
                    "skip measuring each splat drawn (max_splat_px, over_threshold: a pass on the CPU)");
     addEngineOptions(*view, args->engine, true, false);
     addKeepOutliersOption(*view, args->keepOutliers);
+    addFillHolesOption(*view, args->fillHoles);
     view->callback([args] { runBenchView(*args); });
 }
 

@@ -29,13 +29,17 @@ struct ViewArgs {
     bool keepNormals = false;
     std::vector<std::string> columns; // the input's (and dropped files'), when text
     bool keepOutliers = false;
+    std::string fillHoles; // --fill-holes SIZE
 };
 
-// The model of `path` (empty: the embedded default model) framed as `render` frames it.
+// The model of `path` (empty: the embedded default model), its holes up to `holes` filled, framed
+// as `render` frames it.
 viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float aspect,
-                        const InputOptions& input, const std::vector<std::string>& columns) {
+                        const InputOptions& input, const std::vector<std::string>& columns,
+                        const HoleSize& holes) {
     viewer::Model model;
-    model.points = loadForRendering(path, input, model.name, columns);
+    PointSet points = loadForRendering(path, input, model.name, columns);
+    model.points = withHolesFilled(std::move(points), holes, model.name);
     std::optional<engine::Viewpoint> view;
     model.camera = chooseCamera(camera, model.points, aspect, view);
     model.bounds = engine::boundingSphere(model.points.position);
@@ -51,8 +55,10 @@ void runView(const ViewArgs& args) {
     std::optional<OutputFile> stats;
     if (!args.stats.empty()) stats.emplace(unwrap(OutputFile::open(args.stats, OutputContent::Text)));
     const InputOptions input{.keepNormals = args.keepNormals, .keepOutliers = args.keepOutliers};
-    viewer::Model model = loadModel(
-        args.input, args.camera, float(args.engine.width) / float(args.engine.height), input, args.columns);
+    const HoleSize holes = parseHoleSize(args.fillHoles);
+    viewer::Model model =
+        loadModel(args.input, args.camera, float(args.engine.width) / float(args.engine.height), input,
+                  args.columns, holes);
 
     engine::ContextOptions contextOptions;
     for (const std::string& name : (*windows)->instanceExtensions())
@@ -75,9 +81,9 @@ void runView(const ViewArgs& args) {
     CameraArgs framing;
     framing.fovDegrees = args.camera.fovDegrees;
     // Dropped files are read as the input is: any point file, text columns named by --columns.
-    const viewer::ModelLoader loader = [framing, input, columns = args.columns](const std::string& path,
-                                                                                float aspect) {
-        return loadModel(path, framing, aspect, input, columns);
+    const viewer::ModelLoader loader = [framing, input, columns = args.columns,
+                                        holes](const std::string& path, float aspect) {
+        return loadModel(path, framing, aspect, input, columns, holes);
     };
     FrameSeries series;
     viewer::FrameSink sink;
@@ -134,6 +140,7 @@ void addViewCommand(CLI::App& app) {
                     "write one JSON line per frame to FILE, then a summary line (the fields of bench view)");
     addKeepNormalsOption(*cmd, args->keepNormals);
     addKeepOutliersOption(*cmd, args->keepOutliers);
+    addFillHolesOption(*cmd, args->fillHoles);
 }
 
 } // namespace pnsplat::tools

@@ -167,12 +167,25 @@ void addFillHoleOptions(CLI::App& cmd, std::vector<std::string>& holes, std::str
         ->expected(1)
         ->allow_extra_args(false)
         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+    addFillHolesOption(cmd, upTo);
+}
+
+void addFillHolesOption(CLI::App& cmd, std::string& upTo) {
     cmd.add_option(
            "--fill-holes", upTo,
            "find the input's holes (empty regions surrounded by points, several spacings wide) and fill "
            "those up to SIZE across as --fill-hole does: a length, or a multiple of the median spacing "
            "such as 30x; open boundaries and wider holes stay open")
         ->type_name("SIZE");
+}
+
+PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::string& inputName) {
+    if (!(upTo.value > 0.0f)) return points;
+    RefineJob job;
+    job.fillHolesUpTo = upTo;
+    job.keepNormals = true;  // completed already: nothing is left to turn
+    job.keepOutliers = true; // left out already, or kept as asked
+    return refineWithProgress(std::move(points), job, inputName).points;
 }
 
 void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints) {

@@ -63,6 +63,12 @@ struct RefineJob {
 // `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`,
 // and `--fill-holes SIZE` into `upTo` (parseHoleSize).
 void addFillHoleOptions(CLI::App& cmd, std::vector<std::string>& holes, std::string& upTo);
+// `--fill-holes SIZE` alone, for the real-time engine's commands (withHolesFilled).
+void addFillHolesOption(CLI::App& cmd, std::string& upTo);
+// `points` (completed: completeInput) with the holes findHoles finds up to `upTo` filled as
+// `refine --fill-holes` fills them (fillHoles; no uniform level), for the real-time engine, which
+// refines from there; unchanged when upTo.value is 0. Says what it found on stderr, as refine does.
+PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::string& inputName);
 // `--fill-holes`'s SIZE: a positive finite length ("0.05"), or a multiple of the spacing ("20x");
 // empty: none. Anything else is a CommandError (a usage error) naming the option and the text.
 HoleSize parseHoleSize(std::string_view text);

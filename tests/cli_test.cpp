@@ -954,6 +954,14 @@ TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
     EXPECT_EQ(toFile.out, "");
     EXPECT_EQ(readText(report), eval.out);
 
+    // The refinement written as text (x y z nx ny nz ...) reports the same: bit-exact round trips.
+    const fs::path text = dir / "refined.xyz";
+    const RunResult asText = run("refine " + quote(in) + " -l 3 -o " + quote(text));
+    ASSERT_TRUE(asText.exited && asText.exitCode == 0) << asText.err;
+    const RunResult evalText = run("eval " + quote(text) + " --reference sphere:1 --input " + quote(in));
+    ASSERT_TRUE(evalText.exited && evalText.exitCode == 0) << evalText.err;
+    EXPECT_EQ(evalText.out, eval.out);
+
     // Oracle for the check itself: another sampling is not preserved.
     const RunResult wrong = run("eval " + quote(out) + " --reference sphere:1 --input " + quote(other));
     ASSERT_TRUE(wrong.exited && wrong.exitCode == 0) << wrong.err;

@@ -8,6 +8,7 @@
 
 #include "commands.h"
 #include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/point_file.h"
 #include "pnsplat/refine/quality.h"
 #include "refine_run.h"
 
@@ -53,7 +54,7 @@ void runEval(const EvalArgs& args) {
         throw CommandError(parsed.error().message, spec ? kExitUsage : kExitFailure);
     }
     Reference reference = std::move(parsed).value();
-    PointSet refined = unwrap(readPly(args.refined)).points;
+    PointSet refined = unwrap(readPointFile(args.refined)).data.points; // any point file, with normals
     if (refined.size() < 2)
         throw CommandError(fmt::format("{}: needs at least 2 points to measure spacing", args.refined));
 
@@ -78,7 +79,8 @@ void runEval(const EvalArgs& args) {
 void addEvalCommand(CLI::App& app) {
     const auto [cmd, args] = addSubcommand(
         app, "eval", "Measure a refined point set against the true surface; print JSON", runEval);
-    cmd->add_option("REFINED", args->refined, "Refined point set (PLY)")->required();
+    cmd->add_option("REFINED", args->refined, "Refined point set (PLY, PCD or text, with normals)")
+        ->required();
     cmd->add_option("--reference", args->reference,
                     "True surface: sphere:R | torus:R,r (centred at the origin, torus axis z) | "
                     "DENSE.ply (with faces: a mesh, exact distances; without: reference points)")

@@ -1108,6 +1108,12 @@ TEST(CliBench, RefineInputErrorsAndMissingModels) {
     EXPECT_NE(r.err.find("--max-points 1000"), std::string::npos) << r.err;
     r = run("bench refine --input " + quote(sphere) + " --target-points 200 --repeat 1");
     EXPECT_TRUE(failsCleanly(r, Exit::Usage)) << "a target the input reaches";
+    // With a target and no --levels, levels go on past the default 4 until it is reached (200 points
+    // reach about 16,000 in 4 levels).
+    r = run("bench refine --input " + quote(sphere) + " --target-points 20000 --threads 1 --repeat 1");
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.out.find("\"levels\": 16, \"target_points\": 20000"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("{\"level\": 5,"), std::string::npos) << "stopped before the target: " << r.out;
     r = runShell("cd " + quote(dir.path()) + " && " + program() +
                  " bench refine --models default --sphere-points 100 --levels 1 --threads 1 --repeat 1");
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;

@@ -18,6 +18,7 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include "bench_pcl.h"
 #include "commands.h"
 #include "frame_json.h"
 #include "pnsplat/engine/context.h"
@@ -44,10 +45,13 @@ struct BenchArgs {
     unsigned levels = 0;           // with inputs; 0: kDefaultBenchLevels
     std::vector<unsigned> threads; // with inputs; empty: 1 and 2
     std::size_t maxPoints = 0;     // with inputs: RefineJob::maxPoints
+    std::string pclMlsOutput;      // with inputs and PCL: a folder for PCL's output, NAME-pcl-mls.ply
 };
 
 inline constexpr std::size_t kSweepTargetPoints = 150000;
 inline constexpr unsigned kDefaultBenchLevels = 4;
+// With --target-points and no --levels: as many levels as --levels allows (refine's target runs 64).
+inline constexpr unsigned kTargetBenchLevels = 16;
 // `--models default`: the sparse real models of ../shared/data, relative to the working directory
 // (the project's root), after the sphere.
 inline constexpr const char* kDefaultModels[] = {
@@ -197,8 +201,9 @@ void runBenchInputs(const BenchArgs& args);
 
 void runBenchRefine(const BenchArgs& given) {
     if (!given.inputs.empty() || !given.models.empty()) return runBenchInputs(given);
-    if (given.levels != 0 || !given.threads.empty() || given.maxPoints != 0)
-        throw CommandError("bench refine: --levels, --threads and --max-points apply to --input and --models",
+    if (given.levels != 0 || !given.threads.empty() || given.maxPoints != 0 || !given.pclMlsOutput.empty())
+        throw CommandError("bench refine: --levels, --threads, --max-points and --pcl-mls-output apply to "
+                           "--input and --models",
                            kExitUsage);
     BenchArgs args = given;
     if (args.targetPoints == 0) args.targetPoints = kSweepTargetPoints;
@@ -338,6 +343,48 @@ std::string levelJson(const LevelStats& counted, const std::vector<unsigned>& th
         p.neighbourhood / sum, p.filtering / sum, p.selection / sum, p.interpolation / sum);
 }
 
+// With PCL (PNSPLAT_HAS_PCL): PCL's MLS upsampling of the same input to about `pointsOut` points
+// (the step searched for first, untimed), one warm-up and args.repeat timed runs of process() per
+// thread count, as JSON members ending in ", "; without PCL, nothing. `pnsplatRates` are pnsplat's
+// medians per thread count, generated points per second; PCL's rate counts every output point (it
+// keeps no input point), which favours PCL by the input's share of the output.
+std::string pclMlsJson(const BenchInput& input, std::size_t pointsOut, const std::vector<unsigned>& threads,
+                       const std::vector<double>& pnsplatRates, const BenchArgs& args) {
+#ifdef PNSPLAT_HAS_PCL
+    const unsigned most = *std::max_element(threads.begin(), threads.end());
+    const PclMlsSettings settings = choosePclMlsSettings(input.points, pointsOut, most);
+    std::size_t points = 0;
+    std::vector<std::string> seconds, rates, ratios;
+    for (std::size_t t = 0; t < threads.size(); ++t) {
+        std::vector<double> times;
+        for (unsigned k = 0; k <= args.repeat; ++k) { // k = 0: warm-up
+            PclMlsRun run = runPclMls(input.points, settings, threads[t]);
+            points = run.output.size();
+            if (k > 0) times.push_back(run.seconds);
+            if (k == 0 && t == 0 && !args.pclMlsOutput.empty())
+                unwrap(writePly(std::filesystem::path(args.pclMlsOutput) / (input.name + "-pcl-mls.ply"),
+                                run.output));
+        }
+        if (points == 0) throw CommandError(input.name + ": PCL's MLS upsampling made no point");
+        const double rate = static_cast<double>(points) / median(times);
+        seconds.push_back(fmt::format(R"("{}": {:.4f})", threads[t], median(times)));
+        rates.push_back(fmt::format(R"("{}": {:.0f})", threads[t], rate));
+        ratios.push_back(fmt::format(R"("{}": {:.3f})", threads[t], pnsplatRates[t] / rate));
+        fmt::print(stderr,
+                   "  {:<24} PCL MLS, {} thread(s): {:>10.0f} points/s ({} points), pnsplat / PCL {:.2f}\n",
+                   input.name, threads[t], rate, points, pnsplatRates[t] / rate);
+    }
+    return fmt::format(
+        R"("pcl_mls_method": {}, "pcl_mls_points": {}, "pcl_mls_seconds": {{{}}}, "pcl_mls_points_per_second": {{{}}}, )"
+        R"("pnsplat_over_pcl_mls": {{{}}}, )",
+        jsonString(describePclMls(settings)), points, fmt::join(seconds, ", "), fmt::join(rates, ", "),
+        fmt::join(ratios, ", "));
+#else
+    (void)input, (void)pointsOut, (void)threads, (void)pnsplatRates, (void)args;
+    return "";
+#endif
+}
+
 // One input's JSON record: per thread count one warm-up run and args.repeat timed ones (medians per
 // level), then one profiled run on the first thread count for the phase split and the counters.
 std::string benchInputJson(const BenchInput& input, const std::vector<unsigned>& threads, unsigned levels,
@@ -376,17 +423,24 @@ std::string benchInputJson(const BenchInput& input, const std::vector<unsigned>&
     for (std::size_t t = 0; t < threads.size(); ++t)
         byThreads.push_back(fmt::format(R"("{}": {:.0f})", threads[t], median(totals[t])));
     const LevelStats& last = profiled.back().stats;
+    const std::size_t pointsOut = last.pointsBefore + last.inserted;
+    std::vector<double> pnsplatRates;
+    for (const std::vector<double>& runs : totals) pnsplatRates.push_back(median(runs));
     return fmt::format(
-        R"({{"name": {}, "file": {}, "points_in": {}, "points_out": {}, "points_per_second": {{{}}}, "levels": [
+        R"({{"name": {}, "file": {}, "points_in": {}, "points_out": {}, "points_per_second": {{{}}}, {}"levels": [
     {}
   ]}})",
         jsonString(input.name), input.file.empty() ? "null" : jsonString(input.file), input.points.size(),
-        last.pointsBefore + last.inserted, fmt::join(byThreads, ", "), fmt::join(levelRecords, ",\n    "));
+        pointsOut, fmt::join(byThreads, ", "), pclMlsJson(input, pointsOut, threads, pnsplatRates, args),
+        fmt::join(levelRecords, ",\n    "));
 }
 
 void runBenchInputs(const BenchArgs& args) {
     const std::vector<unsigned> threads = args.threads.empty() ? std::vector<unsigned>{1, 2} : args.threads;
-    const unsigned levels = args.levels != 0 ? args.levels : kDefaultBenchLevels;
+    const unsigned levels =
+        args.levels != 0 ? args.levels : (args.targetPoints != 0 ? kTargetBenchLevels : kDefaultBenchLevels);
+    if (!args.pclMlsOutput.empty() && !std::filesystem::is_directory(args.pclMlsOutput))
+        throw CommandError(fmt::format("--pcl-mls-output {}: not a folder", args.pclMlsOutput), kExitUsage);
     const std::vector<BenchInput> inputs = benchInputs(args);
     if (inputs.empty()) throw CommandError("bench refine: no input found");
     for (const BenchInput& input : inputs) {
@@ -566,12 +620,20 @@ void addBenchCommand(CLI::App& app) {
                      "../shared/data/*.ply from the working directory (the project's root; a missing "
                      "one is skipped), before any --input files")
         ->check(CLI::IsMember({"default"}));
-    refine->add_option("--levels", args->levels, "with inputs: levels to refine each (default 4)")
+    refine
+        ->add_option("--levels", args->levels,
+                     "with inputs: levels to refine each (default 4; 16 with --target-points)")
         ->check(CLI::Range(1u, 16u));
     refine->add_option("--threads", args->threads, "with inputs: thread counts to time (default 1,2)")
         ->delimiter(',')
         ->check(CLI::Range(1u, 256u));
     addMaxPointsOption(*refine, args->maxPoints);
+#ifdef PNSPLAT_HAS_PCL
+    refine
+        ->add_option("--pcl-mls-output", args->pclMlsOutput,
+                     "with inputs: write PCL's MLS upsampling of each into this folder as NAME-pcl-mls.ply")
+        ->type_name("DIR");
+#endif
     refine->add_option("-o,--output", args->output, "write the JSON here instead of standard output");
     addBenchViewCommand(*bench);
     addBenchSettleCommand(*bench);

@@ -29,6 +29,7 @@
 #include "pnsplat/refine/shapes.h"
 #include "pnsplat/refine/text.h"
 #include "refine_run.h"
+#include "shared_models.h"
 
 namespace pnsplat::tools {
 
@@ -41,7 +42,7 @@ struct BenchArgs {
     std::string output;
     // Inputs (--input, --models): a report per input and level instead of the sweep of variants.
     std::vector<std::string> inputs;
-    std::string models;            // "default": the sphere and kDefaultModels
+    std::string models;            // "default": the sphere and kSparseModels
     unsigned levels = 0;           // with inputs; 0: kDefaultBenchLevels
     std::vector<unsigned> threads; // with inputs; empty: 1 and 2
     std::size_t maxPoints = 0;     // with inputs: RefineJob::maxPoints
@@ -54,10 +55,6 @@ inline constexpr unsigned kDefaultBenchLevels = 4;
 inline constexpr unsigned kTargetBenchLevels = 16;
 // `--models default`: the sparse real models of ../shared/data, relative to the working directory
 // (the project's root), after the sphere.
-inline constexpr const char* kDefaultModels[] = {
-    "bunny-3500-random",      "lion-3500-random",   "nefertiti-3500-random", "igea-600-uniform",
-    "rockerarm-2000-uniform", "banana-1500-random", "fandisk-1500-uniform",
-};
 
 struct RunResult {
     std::size_t generated = 0;
@@ -295,16 +292,8 @@ std::vector<BenchInput> benchInputs(const BenchArgs& args) {
         PointSet sphere = sampleSphereUniform(args.spherePoints, 1.0f);
         estimateRadii(sphere, 1);
         inputs.push_back({fmt::format("sphere-{}-uniform", args.spherePoints), "", std::move(sphere)});
-        for (const char* model : kDefaultModels) {
-            const std::string file = fmt::format("../shared/data/{}.ply", model);
-            if (!std::filesystem::exists(file)) {
-                fmt::print(stderr,
-                           "pnsplat: bench refine: {} not found (run from the project's root); skipped\n",
-                           file);
-                continue;
-            }
+        for (const std::string& file : sharedModelFiles(kSparseModels, "bench refine"))
             inputs.push_back(loadBenchInput(file));
-        }
     }
     for (const std::string& file : args.inputs) inputs.push_back(loadBenchInput(file));
     return inputs;

@@ -22,15 +22,11 @@
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/text.h"
 #include "render_compare.h"
+#include "shared_models.h"
 
 namespace pnsplat::tools {
 
 namespace {
-
-// The sparse real models of ../shared/data that issue 26 measures.
-constexpr const char* kSettleModels[] = {"bunny-3500-random",  "igea-600-uniform",
-                                         "lion-3500-random",   "nefertiti-3500-random",
-                                         "banana-1500-random", "rockerarm-2000-uniform"};
 
 // A camera about the model's bounding sphere (centre c, radius R): the eye at
 // c + distance · R · normalize(direction), looking at c + lookOffset · R; or, for "framing", the
@@ -49,7 +45,7 @@ constexpr SettleView kSettleViews[] = {
 };
 
 struct SettleArgs {
-    std::vector<std::string> inputs; // empty: kSettleModels from ../shared/data
+    std::vector<std::string> inputs; // empty: the first kSettleModelCount of kSparseModels
     std::vector<std::string> views;  // empty: all of kSettleViews
     // Below the 4,194,304 splats of lavapipe's largest storage buffer (128 MiB), which a picture drawn
     // without the node tree takes in one.
@@ -108,14 +104,7 @@ engine::Camera settleCamera(const SettleView& view, const PointSet& points, cons
 void runBenchSettle(const SettleArgs& args) {
     std::vector<std::string> files = args.inputs;
     if (files.empty()) {
-        for (const char* model : kSettleModels) {
-            const std::string file = fmt::format("../shared/data/{}.ply", model);
-            if (std::filesystem::exists(file)) {
-                files.push_back(file);
-            } else {
-                fmt::print(stderr, "bench settle: {} is absent (run from the project root): skipped\n", file);
-            }
-        }
+        files = sharedModelFiles(std::span(kSparseModels).first(kSettleModelCount), "bench settle");
         if (files.empty()) throw CommandError("bench settle: none of the default models found");
     }
     // Every model loaded first: a bad file fails before any work, in one line.

@@ -110,6 +110,8 @@ void checkFits(const PointSet& points, const RefineJob& job, const std::string& 
     plan.evenOutFactor = job.evenOutFactor;
     plan.colour = points.hasColour();
     plan.crease = points.hasCrease();
+    plan.attributes = points.attributes.size();
+    for (const Attribute& a : points.attributes) plan.attributeFileBytes += scalarTypeBytes(a.type);
     plan.threads = job.options.threads;
     const RefinementEstimate estimate = estimateRefinement(plan);
     const std::string would = fmt::format(
@@ -259,10 +261,10 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
             stderr,
             "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first){}\n",
             inputName, removed.points,
-            removed.withOtherAttributes > 0
-                ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
-                              removed.withOtherAttributes)
-                : "");
+            removed.withOtherAttributes > 0 ? fmt::format("; {} of the repeats had another normal, radius, "
+                                                          "colour, crease or attribute value, now lost",
+                                                          removed.withOtherAttributes)
+                                            : "");
     if (done->outliers > 0)
         fmt::print(stderr,
                    "pnsplat: {}: {} outlier(s) left out: points far from their {} nearest (a mean distance "

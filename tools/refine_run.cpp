@@ -208,8 +208,9 @@ void addKeepNormalsOption(CLI::App& cmd, bool& keep) {
 void addColumnsOption(CLI::App& cmd, std::vector<std::string>& columns) {
     cmd.add_option("--columns", columns,
                    "text input (.xyz .txt .pts .csv): the names of its columns, left to right, e.g. "
-                   "x,y,z,nx,ny,nz,r,g,b (names: x y z nx ny nz r g b rf gf bf radius; others are skipped); "
-                   "default: the file's header line, else by their number (README, Use)")
+                   "x,y,z,nx,ny,nz,r,g,b (names: x y z nx ny nz r g b rf gf bf radius; other names are "
+                   "carried through as attributes); default: the file's header line, else by their "
+                   "number (README, Use)")
         ->delimiter(',')
         ->type_name("NAME,...");
 }

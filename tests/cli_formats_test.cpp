@@ -1,6 +1,8 @@
 // The `pnsplat` program on point files besides PLY: `refine` reads text and PCD and writes the
 // kind `-o` names, bit for bit the same refinement as from PLY; `render` reads PCD; a malformed
 // file is one line naming its line.
+#include <algorithm>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -9,6 +11,7 @@
 
 #include "oracles.h"
 #include "pnsplat/engine/image.h"
+#include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/point_file.h"
 #include "pnsplat/refine/shapes.h"
 #include "program.h"
@@ -56,18 +59,26 @@ TEST(CliFormats, EveryInputKindRefinesBitForBitTheSame) {
     EXPECT_TRUE(readText(dir / "ascii-out.pcd").find("\nDATA ascii\n") != std::string::npos);
 }
 
-// Positions only in a text file with an unused column named by --columns: normals estimated, the
-// column named in the warning.
+// Positions only in a text file with another column named by --columns: normals estimated, the
+// column carried through as an attribute; a partial colour is named in the warning.
 TEST(CliFormats, ColumnsOptionNamesATextFilesColumns) {
     const TempDir dir;
     const PointSet sphere = sampleSphereUniform(300, 1.0f);
     std::string text;
-    for (const glm::vec3& x : sphere.position) text += fmt::format("7 {} {} {}\n", x.x, x.y, x.z);
+    for (const glm::vec3& x : sphere.position) text += fmt::format("7 {} {} {} 5\n", x.x, x.y, x.z);
     writeText(dir / "scan.txt", text);
-    const RunResult r = run("refine " + quote(dir / "scan.txt") + " --columns intensity,x,y,z -l 1 -o " +
+    const RunResult r = run("refine " + quote(dir / "scan.txt") + " --columns intensity,x,y,z,r -l 1 -o " +
                             quote(dir / "out.ply"));
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
-    EXPECT_NE(r.err.find("not used, dropped: column intensity"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("not used, dropped: column r"), std::string::npos) << r.err; // a partial colour
+    const Result<PlyData> out = readPly(dir / "out.ply");
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    ASSERT_EQ(out->points.attributes.size(), 1u);
+    EXPECT_EQ(out->points.attributes[0].name, "intensity");
+    EXPECT_EQ(out->points.attributes[0].type, ScalarType::Float32);
+    EXPECT_EQ(
+        std::count(out->points.attributes[0].values.begin(), out->points.attributes[0].values.end(), 7.0),
+        static_cast<std::ptrdiff_t>(out->points.size()));
     EXPECT_NE(r.err.find("has no normals"), std::string::npos) << r.err;
 }
 

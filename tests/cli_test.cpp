@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <csignal>
@@ -436,22 +437,24 @@ TEST(CliRefine, BunnyWithFlippedNormalsRefinesAndRenders) {
     EXPECT_TRUE(fs::exists(png));
 }
 
-// What refine does not use is named in one warning (properties, in file order; other elements);
-// PCL's normals are read (no note of normals estimated); the header's comments are carried on to
-// the output.
-TEST(CliRefine, UnusedPropertiesAreNamedAndCommentsCarriedOn) {
+// Extra scalar vertex properties are carried through to the output with their names and types
+// (every new point the mean of its corners: here all equal); what refine does not use is named in
+// one warning (a partial colour, list properties, other elements); PCL's normals are read (no
+// note of normals estimated); the header's comments are carried on to the output.
+TEST(CliRefine, ExtraPropertiesAreCarriedUnusedOnesNamedAndCommentsCarriedOn) {
     const TempDir dir;
     const PointSet sphere = sampleSphereUniform(600, 1.0f);
     std::ostringstream text;
     text << "ply\nformat ascii 1.0\ncomment scanned by hand\nelement vertex 600\n"
          << "property float x\nproperty float y\nproperty float z\nproperty float confidence\n"
          << "property float normal_x\nproperty float normal_y\nproperty float normal_z\n"
-         << "property float scalar_Intensity\nproperty uchar alpha\n"
+         << "property float scalar_Intensity\nproperty uchar alpha\nproperty uchar green\n"
          << "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
          << std::setprecision(9);
     for (std::size_t i = 0; i < sphere.size(); ++i) {
         const glm::vec3 x = sphere.position[i], n = sphere.normal[i];
-        text << x.x << " " << x.y << " " << x.z << " 0.5 " << n.x << " " << n.y << " " << n.z << " 12 255\n";
+        text << x.x << " " << x.y << " " << x.z << " 0.5 " << n.x << " " << n.y << " " << n.z
+             << " 12 255 9\n";
     }
     text << "3 0 1 2\n";
     const fs::path in = dir / "extras.ply", out = dir / "out.ply";
@@ -459,12 +462,25 @@ TEST(CliRefine, UnusedPropertiesAreNamedAndCommentsCarriedOn) {
     const RunResult r = run("refine " + quote(in) + " -l 1 -o " + quote(out));
     std::cout << "[refine, extra properties] " << r.err;
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
-    EXPECT_EQ(r.err,
-              "pnsplat: warning: " + in.string() +
-                  ": not used, dropped: vertex properties confidence, scalar_Intensity, alpha; element "
-                  "face (1 item(s))\n");
+    EXPECT_EQ(r.err, "pnsplat: warning: " + in.string() +
+                         ": not used, dropped: vertex property green; element face (1 item(s))\n");
     const auto refined = readPly(out);
     ASSERT_TRUE(refined.ok()) << refined.error().message;
+    const PointSet& points = refined->points;
+    ASSERT_GT(points.size(), sphere.size());
+    ASSERT_EQ(points.attributes.size(), 3u);
+    const std::array<std::pair<const char*, ScalarType>, 3> kept{{{"confidence", ScalarType::Float32},
+                                                                  {"scalar_Intensity", ScalarType::Float32},
+                                                                  {"alpha", ScalarType::UInt8}}};
+    const std::array<double, 3> value{0.5, 12.0, 255.0};
+    for (std::size_t a = 0; a < 3; ++a) {
+        EXPECT_EQ(points.attributes[a].name, kept[a].first);
+        EXPECT_EQ(points.attributes[a].type, kept[a].second);
+        EXPECT_EQ(
+            std::count(points.attributes[a].values.begin(), points.attributes[a].values.end(), value[a]),
+            static_cast<std::ptrdiff_t>(points.size()))
+            << points.attributes[a].name;
+    }
     EXPECT_EQ(refined->comments,
               (std::vector<std::string>{"comment scanned by hand", "comment written by pnsplat"}));
 }

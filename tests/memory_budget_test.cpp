@@ -64,6 +64,12 @@ TEST(MemoryBudget, TargetAndEvenOutAndThreads) {
     EXPECT_EQ(pointsWithin(kMemoryPerThread, plan), 0u);
     plan.colour = plan.crease = true;
     EXPECT_DOUBLE_EQ(estimateRefinement(plan).fileBytes, 9000.0 * 44.0);
+    // Attributes, a float and a uchar: 5 bytes in the file, a double each in memory.
+    plan.colour = plan.crease = false;
+    plan.attributes = 2;
+    plan.attributeFileBytes = 5;
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).fileBytes, 9000.0 * 33.0);
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).memoryBytes, 9000.0 * 5.0 * 44.0 + 2.0 * kMemoryPerThread);
 }
 
 TEST(MemoryBudget, BudgetIsPositiveAndNamesItsSource) {

@@ -187,6 +187,43 @@ TEST(NodeTree, RefiningEverywhereApproachesTheUniformLevels) {
     }
 }
 
+// Attributes (PointSet::attributes) go through the node tree's copies (roots, contexts, regions,
+// children): every node carries them for each point; input points keep their values, a constant
+// stays constant, and every mean stays within the input's range.
+TEST(NodeTree, NodesCarryAttributes) {
+    PointSet input = withRadii(sampleSphereRandom(2000, 1.0f, 3));
+    input.attributes = {Attribute{"intensity", ScalarType::Float32, {}},
+                        Attribute{"quality", ScalarType::UInt8, {}}};
+    std::map<Key, double> inputValue;
+    for (std::size_t i = 0; i < input.size(); ++i) {
+        const double value = double(float(1.0 + 999.0 * double(i) / double(input.size())));
+        input.attributes[0].values.push_back(value);
+        input.attributes[1].values.push_back(9.0);
+        inputValue[keyOf(input.position[i])] = value;
+    }
+    auto tree = NodeTree::create(input, smallNodes());
+    ASSERT_TRUE(tree);
+    refineEverywhere(*tree, 2);
+    std::size_t points = 0, kept = 0;
+    for (NodeId id = 0; id < tree->slotCount(); ++id) {
+        if (!tree->isLive(id)) continue;
+        const PointSet& p = tree->node(id).points;
+        ASSERT_TRUE(sameAttributes(p, input));
+        ASSERT_EQ(test::pointSetDefect(p), "");
+        for (std::size_t i = 0; i < p.size(); ++i, ++points) {
+            const double value = p.attributes[0].values[i];
+            EXPECT_EQ(p.attributes[1].values[i], 9.0);
+            EXPECT_TRUE(value >= 1.0 && value <= 1000.0) << value;
+            const auto found = inputValue.find(keyOf(p.position[i]));
+            if (found == inputValue.end()) continue;
+            ++kept;
+            EXPECT_EQ(value, found->second) << "an input point's value changed";
+        }
+    }
+    EXPECT_GT(points, 3u * input.size());
+    EXPECT_GE(kept, input.size()); // every input point, in its nodes of each level
+}
+
 // A node's children are a function of P(l) alone: whatever order the nodes are refined in, and
 // after children are released and made again, every level holds the same points bit for bit.
 TEST(NodeTree, ChildrenDoNotDependOnHistory) {

@@ -34,7 +34,7 @@ bool sameBits(const std::vector<T, Allocator>& a, const std::vector<T, Allocator
 }
 
 // P0 points of the output that differ from their input twin (position, normal, colour, second
-// normal) in any bit; all of them when P0 is not a permutation of the input.
+// normal, attributes) in any bit; all of them when P0 is not a permutation of the input.
 inline std::size_t inputMismatches(const Refiner& refiner, const PointSet& input) {
     const PointSet& out = refiner.points();
     const auto order = refiner.inputOrder();
@@ -46,6 +46,9 @@ inline std::size_t inputMismatches(const Refiner& refiner, const PointSet& input
         bool same = sameBits(out.position[k], input.position[i]) && sameBits(out.normal[k], input.normal[i]);
         if (input.hasColour()) same = same && out.hasColour() && sameBits(out.colour[k], input.colour[i]);
         if (input.hasCrease()) same = same && out.hasCrease() && sameBits(out.crease[k], input.crease[i]);
+        same = same && out.attributes.size() == input.attributes.size();
+        for (std::size_t a = 0; same && a < input.attributes.size(); ++a)
+            same = sameBits(out.attributes[a].values[k], input.attributes[a].values[i]);
         bad += !same;
     }
     return bad;
@@ -68,6 +71,8 @@ inline std::string pointSetDefect(const PointSet& points, const Consistency& exp
     if (!sized(points.normal.size()) || !sized(points.radius.size()) || !sized(points.colour.size()) ||
         !sized(points.crease.size()))
         return "an attribute array does not match the positions";
+    for (const Attribute& a : points.attributes)
+        if (a.values.size() != n) return "the values of attribute " + a.name + " do not match the positions";
     if (expect.refined && n > 0 && (!points.hasNormal() || !points.hasRadius()))
         return "no normals or no radii";
     const auto unit = [&](glm::vec3 v) { return std::abs(glm::length(v) - 1.0f) <= expect.normalTolerance; };

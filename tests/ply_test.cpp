@@ -436,7 +436,9 @@ TEST_F(PlyTest, PclNormalsAreRead) {
     ASSERT_TRUE(read.ok()) << read.error().message;
     EXPECT_EQ(read->points.normal[0], glm::vec3(0, 0, 1));
     EXPECT_EQ(read->points.normal[1], glm::vec3(0, -1, 0));
-    EXPECT_EQ(read->unusedProperties, std::vector<std::string>{"curvature"});
+    EXPECT_TRUE(read->unusedProperties.empty()); // curvature: an attribute
+    ASSERT_EQ(read->points.attributes.size(), 1u);
+    EXPECT_EQ(read->points.attributes[0].name, "curvature");
 
     const fs::path both =
         writeFile("both.ply", asciiHeaderWith(1, {"normal_x", "normal_y", "normal_z", "nx", "ny", "nz"}) +
@@ -454,9 +456,9 @@ TEST_F(PlyTest, PclNormalsAreRead) {
         << partialRead.error().message;
 }
 
-// What a file holds beyond the points is named (unused vertex properties in file order, a partial
-// colour among them; other elements with their counts; a face element only when faces are not
-// read), and header comments are kept as written.
+// What a file holds beyond the points is named (unused vertex properties in file order: a partial
+// colour; other elements with their counts; a face element only when faces are not read), other
+// scalar properties are attributes, and header comments are kept as written.
 TEST_F(PlyTest, UnusedPropertiesElementsAndCommentsAreReported) {
     const fs::path path = writeFile("extras.ply", "ply\nformat ascii 1.0\n"
                                                   "comment scanned 2024\n"
@@ -474,8 +476,11 @@ TEST_F(PlyTest, UnusedPropertiesElementsAndCommentsAreReported) {
                                                   "0 1 0 0.9 0 0 1 7 255 128\n3 0 1 2\n1\n2\n");
     const Result<PlyData> read = readPly(path);
     ASSERT_TRUE(read.ok()) << read.error().message;
-    EXPECT_EQ(read->unusedProperties,
-              (std::vector<std::string>{"confidence", "scalar_Intensity", "red", "alpha"}));
+    EXPECT_EQ(read->unusedProperties, std::vector<std::string>{"red"});
+    ASSERT_EQ(read->points.attributes.size(), 3u);
+    EXPECT_EQ(read->points.attributes[0].name, "confidence");
+    EXPECT_EQ(read->points.attributes[1].name, "scalar_Intensity");
+    EXPECT_EQ(read->points.attributes[2].name, "alpha");
     ASSERT_EQ(read->unusedElements.size(), 2u);
     EXPECT_EQ(read->unusedElements[0].name, "face");
     EXPECT_EQ(read->unusedElements[0].count, 1u);

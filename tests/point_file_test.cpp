@@ -99,7 +99,12 @@ TEST(PointText, HeaderNamesColumnsInAnyOrder) {
     EXPECT_EQ(p.normal[0], glm::vec3(0, 0, 1));
     EXPECT_EQ(p.normal[1], glm::vec3(1, 0, 0));
     EXPECT_EQ(p.colour[1], glm::u8vec3(40, 50, 60));
-    EXPECT_EQ(read->data.unusedProperties, std::vector<std::string>{"intensity"});
+    // Another named column is an attribute, a float (PointSet::attributes).
+    EXPECT_TRUE(read->data.unusedProperties.empty());
+    ASSERT_EQ(p.attributes.size(), 1u);
+    EXPECT_EQ(p.attributes[0].name, "intensity");
+    EXPECT_EQ(p.attributes[0].type, ScalarType::Float32);
+    EXPECT_EQ(p.attributes[0].values[1], 78.0);
 }
 
 TEST(PointText, CloudCompareHeaderAfterSlashes) {
@@ -128,7 +133,11 @@ TEST(PointText, PtsCountLinesAndSevenColumns) {
     EXPECT_EQ(p.position[2], glm::vec3(7, 8, 9));
     EXPECT_EQ(p.colour[0], glm::u8vec3(255, 0, 0));
     EXPECT_EQ(p.colour[2], glm::u8vec3(0, 0, 255));
-    EXPECT_EQ(read->data.unusedProperties, std::vector<std::string>{"intensity"});
+    EXPECT_TRUE(read->data.unusedProperties.empty());
+    ASSERT_EQ(p.attributes.size(), 1u);
+    EXPECT_EQ(p.attributes[0].name, "intensity");
+    EXPECT_EQ(p.attributes[0].values[0], -1200.0);
+    EXPECT_EQ(p.attributes[0].values[2], 0.0);
 }
 
 TEST(PointText, ColumnsByTheirNumber) {
@@ -151,7 +160,9 @@ TEST(PointText, ColumnsFromTheOptions) {
     const Result<PointFileData> read = parseText("a b c d\n1 2 3 4\n", {"i", "x", "y", "z"});
     ASSERT_TRUE(read.ok()) << read.error().message;
     EXPECT_EQ(read->data.points.position[0], glm::vec3(2, 3, 4));
-    EXPECT_EQ(read->data.unusedProperties, std::vector<std::string>{"i"});
+    ASSERT_EQ(read->data.points.attributes.size(), 1u);
+    EXPECT_EQ(read->data.points.attributes[0].name, "i");
+    EXPECT_EQ(read->data.points.attributes[0].values[0], 1.0);
     const Result<PointFileData> six = parseText("1 2 3 10 20 30\n", {"x", "y", "z", "r", "g", "b"});
     ASSERT_TRUE(six.ok()) << six.error().message;
     EXPECT_FALSE(six->data.points.hasNormal());
@@ -256,7 +267,12 @@ TEST(Pcd, AsciiFieldsPackedColourAndNaNPoints) {
     EXPECT_EQ(p.normal[1], glm::vec3(1, 0, 0));
     EXPECT_EQ(p.colour[0], glm::u8vec3(0xff, 0x80, 0x10));
     EXPECT_EQ(p.colour[1], glm::u8vec3(0x01, 0x02, 0x00)); // 0xFF010200
-    EXPECT_EQ(read->data.unusedProperties, std::vector<std::string>{"curvature"});
+    EXPECT_TRUE(read->data.unusedProperties.empty());
+    ASSERT_EQ(p.attributes.size(), 1u); // the NaN point's value left out with it
+    EXPECT_EQ(p.attributes[0].name, "curvature");
+    EXPECT_EQ(p.attributes[0].type, ScalarType::Float32);
+    EXPECT_EQ(p.attributes[0].values[0], 0.5);
+    EXPECT_EQ(p.attributes[0].values[1], 0.25);
 }
 
 TEST(Pcd, BinaryRowsWithPaddingAndOtherTypes) {
@@ -276,7 +292,11 @@ TEST(Pcd, BinaryRowsWithPaddingAndOtherTypes) {
     EXPECT_FALSE(p.hasNormal());
     EXPECT_EQ(p.position[1], glm::vec3(float(0.1), 2.5f, -4.0f));
     EXPECT_EQ(p.colour[1], glm::u8vec3(0x10, 0x20, 0x30));
-    EXPECT_EQ(read->data.unusedProperties, std::vector<std::string>{"intensity"}); // not the padding
+    EXPECT_TRUE(read->data.unusedProperties.empty()); // the padding is not named
+    ASSERT_EQ(p.attributes.size(), 1u);
+    EXPECT_EQ(p.attributes[0].name, "intensity");
+    EXPECT_EQ(p.attributes[0].type, ScalarType::UInt8);
+    EXPECT_EQ(p.attributes[0].values[1], 9.0);
 }
 
 // binary_compressed: each field's values in turn, LZF-coded: literal runs and a back reference.

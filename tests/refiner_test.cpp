@@ -963,13 +963,21 @@ TEST(RefinerLocal, FirstPointTakesTheCandidatesOfTheSelectionLoop) {
 // boundary segments) is cog + φ, with the exact-derivative normal, of a triangle (p, a, b) of its
 // parent p and two points a, b of P(1) within the wider second look (1.5 r_p). A fan that took in
 // a point of P(2), or a candidate computed otherwise, leaves points unexplained. Its colour is the
-// mean of the three corners' (ALGORITHM.md §2.6, rounded to nearest). Also for the faster variants, whose
-// centroid candidates are smoothed when inserted (variant 4).
+// mean of the three corners' (ALGORITHM.md §2.6, rounded to nearest), and so are its attributes: a
+// float's the mean rounded to float, a uchar's rounded to nearest as colour. Also for the faster
+// variants, whose centroid candidates are smoothed when inserted (variant 4).
 TEST(RefinerLocal, EveryNewPointIsThePnCentreOfATriangleOfItsParentsLevel) {
     PointSet input = withRadii(sampleTorusRandom(1500, 1.0f, 0.4f, 11));
     std::mt19937_64 rng(1125);
-    for (std::size_t i = 0; i < input.size(); ++i)
+    // Floats in [1, 1000): any three sum exactly in double, in any order.
+    std::uniform_real_distribution<float> intensity(1.0f, 1000.0f);
+    input.attributes = {Attribute{"intensity", ScalarType::Float32, {}},
+                        Attribute{"quality", ScalarType::UInt8, {}}};
+    for (std::size_t i = 0; i < input.size(); ++i) {
         input.colour.emplace_back(rng() % 256, rng() % 256, rng() % 256);
+        input.attributes[0].values.push_back(intensity(rng));
+        input.attributes[1].values.push_back(double(rng() % 256));
+    }
     for (const RefineOptions& variant : {RefineOptions{}, RefineOptions::fast()}) {
         Refiner refiner(input, options(variant));
         ASSERT_EQ(refiner.refineLevel().boundarySegments, 0u);
@@ -997,10 +1005,15 @@ TEST(RefinerLocal, EveryNewPointIsThePnCentreOfATriangleOfItsParentsLevel) {
                             centreOfGravity(x, out.position[i], out.position[j]) + smoothingDisplacement(t);
                         const glm::uvec3 colourSum =
                             glm::uvec3(out.colour[p]) + glm::uvec3(out.colour[i]) + glm::uvec3(out.colour[j]);
+                        const auto& v = out.attributes[0].values;
+                        const auto& q = out.attributes[1].values;
+                        const auto qualitySum = unsigned(q[p]) + unsigned(q[i]) + unsigned(q[j]);
                         found = glm::length(e - out.position[c]) < 1e-5f * radius[p] &&
                                 glm::dot(centreNormal(t, out.normal[p], out.normal[i], out.normal[j]),
                                          out.normal[c]) > 1.0f - 1e-5f &&
-                                out.colour[c] == glm::u8vec3((colourSum + glm::uvec3(1)) / 3u);
+                                out.colour[c] == glm::u8vec3((colourSum + glm::uvec3(1)) / 3u) &&
+                                v[c] == double(float((v[p] + v[i] + v[j]) / 3.0)) &&
+                                q[c] == double((qualitySum + 1) / 3);
                     }
                 }
                 explained += found;

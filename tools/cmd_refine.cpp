@@ -170,11 +170,13 @@ void runRefine(const RefineArgs& args) {
 void addRefineCommand(CLI::App& app) {
     const auto [cmd, args] = addSubcommand(
         app, "refine", "Refine an oriented point set (interpolatory sqrt(3)-like refinement)", runRefine);
-    cmd->add_option("input", args->input,
-                    "input point file: PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 "
-                    "[crease]]: crease points), PCD, or text (.xyz .txt .pts .csv: x y z [nx ny nz] [r g b], "
-                    "README, Use); normals and radii estimated when absent; - for standard input; "
-                    "omitted: the embedded default model");
+    cmd->add_option(
+        "input", args->input,
+        "input point file: PLY (x y z [nx ny nz] [radius] [red green blue] [nx2 ny2 nz2 "
+        "[crease]]: crease points), PCD, or text (.xyz .txt .pts .csv: x y z [nx ny nz] [r g b], "
+        "README, Use); other scalar properties are carried through (new points: the mean of "
+        "their triangle's corners); normals and radii estimated when absent; - for standard input; "
+        "omitted: the embedded default model");
     addColumnsOption(*cmd, args->columns);
     cmd->add_option("-o,--output", args->output,
                     "output file, - for standard output (default: <input>-refined.ply; standard output for "

@@ -20,6 +20,8 @@ PointSet loadForRendering(const std::string& input, const InputOptions& options,
         name = inputName(input);
         points = readInput(input, nullptr, columns);
     }
+    // The engine draws no attributes (PointSet::attributes): its node tree need not copy them.
+    points.attributes.clear();
     const InputCompletion done = completeInput(points, 0, name, options);
     if (completion) *completion = done;
     return points;

@@ -110,6 +110,8 @@ void checkFits(const PointSet& points, const RefineJob& job, const std::string& 
     plan.evenOutFactor = job.evenOutFactor;
     plan.colour = points.hasColour();
     plan.crease = points.hasCrease();
+    plan.attributes = points.attributes.size();
+    for (const Attribute& a : points.attributes) plan.attributeFileBytes += scalarTypeBytes(a.type);
     plan.threads = job.options.threads;
     const RefinementEstimate estimate = estimateRefinement(plan);
     const std::string would = fmt::format(
@@ -206,8 +208,9 @@ void addKeepNormalsOption(CLI::App& cmd, bool& keep) {
 void addColumnsOption(CLI::App& cmd, std::vector<std::string>& columns) {
     cmd.add_option("--columns", columns,
                    "text input (.xyz .txt .pts .csv): the names of its columns, left to right, e.g. "
-                   "x,y,z,nx,ny,nz,r,g,b (names: x y z nx ny nz r g b rf gf bf radius; others are skipped); "
-                   "default: the file's header line, else by their number (README, Use)")
+                   "x,y,z,nx,ny,nz,r,g,b (names: x y z nx ny nz r g b rf gf bf radius; other names are "
+                   "carried through as attributes); default: the file's header line, else by their "
+                   "number (README, Use)")
         ->delimiter(',')
         ->type_name("NAME,...");
 }
@@ -259,10 +262,10 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
             stderr,
             "pnsplat: {}: {} point(s) repeat the position of an earlier one: each kept once (the first){}\n",
             inputName, removed.points,
-            removed.withOtherAttributes > 0
-                ? fmt::format("; {} of the repeats had another normal, radius, colour or crease, now lost",
-                              removed.withOtherAttributes)
-                : "");
+            removed.withOtherAttributes > 0 ? fmt::format("; {} of the repeats had another normal, radius, "
+                                                          "colour, crease or attribute value, now lost",
+                                                          removed.withOtherAttributes)
+                                            : "");
     if (done->outliers > 0)
         fmt::print(stderr,
                    "pnsplat: {}: {} outlier(s) left out: points far from their {} nearest (a mean distance "

@@ -15,9 +15,17 @@ namespace pnsplat {
 namespace {
 
 // Bytes of one point in the binary PLY that writePly makes: x y z nx ny nz radius as floats, then
-// nx2 ny2 nz2 and the crease flag, then red green blue.
+// nx2 ny2 nz2 and the crease flag, then red green blue, then the attributes.
 double pointFileBytes(const RefinementPlan& plan) {
-    return 28.0 + (plan.crease ? 13.0 : 0.0) + (plan.colour ? 3.0 : 0.0);
+    return 28.0 + (plan.crease ? 13.0 : 0.0) + (plan.colour ? 3.0 : 0.0) +
+           static_cast<double>(plan.attributeFileBytes);
+}
+
+// The bytes of the file that stand for a point's memory (kMemoryPerFileByte times them): an
+// attribute's as the 8 bytes of its double.
+double pointMemoryBytes(const RefinementPlan& plan) {
+    return pointFileBytes(plan) - static_cast<double>(plan.attributeFileBytes) +
+           8.0 * static_cast<double>(plan.attributes);
 }
 
 double threadCount(const RefinementPlan& plan) {
@@ -47,7 +55,7 @@ RefinementEstimate estimateRefinement(const RefinementPlan& plan) {
     estimate.points = points;
     estimate.fileBytes = points * pointFileBytes(plan);
     estimate.memoryBytes =
-        kMemoryPerFileByte * pointFileBytes(plan) * points + kMemoryPerThread * threadCount(plan);
+        kMemoryPerFileByte * pointMemoryBytes(plan) * points + kMemoryPerThread * threadCount(plan);
     return estimate;
 }
 
@@ -71,7 +79,7 @@ MemoryBudget memoryBudget() {
 
 std::size_t pointsWithin(double bytes, const RefinementPlan& plan) {
     const double points =
-        (bytes - kMemoryPerThread * threadCount(plan)) / (kMemoryPerFileByte * pointFileBytes(plan));
+        (bytes - kMemoryPerThread * threadCount(plan)) / (kMemoryPerFileByte * pointMemoryBytes(plan));
     return points > 0.0 ? static_cast<std::size_t>(points) : 0;
 }
 

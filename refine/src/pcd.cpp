@@ -36,9 +36,10 @@ using detail::splitWords;
 // 264 bytes in 3 bytes), a bound on what a compressed body may claim.
 constexpr std::uint64_t kLzfMaxRatio = 90;
 
-// A field's use: a slot of the row, the packed colour, or nothing.
+// A field's use: a slot of the row, the packed colour, an attribute, or nothing.
 constexpr int kUnused = -1;
 constexpr int kRgb = 100;
+constexpr int kAttribute = 1000; // kAttribute + a: PointSet::attributes[a]
 
 struct Field {
     std::string name;
@@ -194,9 +195,36 @@ Result<Header> parseHeader(std::string_view bytes, std::string_view file) {
     return header;
 }
 
-// Maps the fields to the row's slots; names the others in `unused`.
+// The scalar type of a field of one value, or nothing: 64-bit integers, which a double does not
+// hold exactly (PointSet::attributes), stay unused.
+std::optional<ScalarType> scalarTypeOf(const Field& field) {
+    if (field.type == 'F') return field.size == 4 ? ScalarType::Float32 : ScalarType::Float64;
+    const bool isSigned = field.type == 'I';
+    switch (field.size) {
+    case 1:
+        return isSigned ? ScalarType::Int8 : ScalarType::UInt8;
+    case 2:
+        return isSigned ? ScalarType::Int16 : ScalarType::UInt16;
+    case 4:
+        return isSigned ? ScalarType::Int32 : ScalarType::UInt32;
+    default:
+        return std::nullopt;
+    }
+}
+
+// The SIZE and TYPE of a field written for an attribute of `type`.
+std::pair<std::string_view, std::string_view> fieldOf(ScalarType type) {
+    static constexpr std::pair<std::string_view, std::string_view> kFields[] = {
+        {"1", "I"}, {"1", "U"}, {"2", "I"}, {"2", "U"}, {"4", "I"}, {"4", "U"}, {"4", "F"}, {"8", "F"}};
+    return kFields[static_cast<std::size_t>(type)];
+}
+
+// Maps the fields to the row's slots and to `attributes` (every other field of one value, of a
+// type a double holds, of a detail::attributeName; the first of a name; not PCL's padding `_`);
+// names the others, but padding, in `unused`.
 Result<detail::RowLayout> layoutOf(Header& header, std::string_view file, const PointFileOptions& options,
-                                   bool& colour, std::vector<std::string>& unused) {
+                                   bool& colour, std::vector<Attribute>& attributes,
+                                   std::vector<std::string>& unused) {
     std::array<int, detail::kRowSlots> fieldOf;
     fieldOf.fill(-1);
     int rgb = -1;
@@ -236,9 +264,33 @@ Result<detail::RowLayout> layoutOf(Header& header, std::string_view file, const 
             !layout.crease)
             field.use = kUnused;
         if (field.use == detail::kCreaseFlag && !layout.creaseFlag) field.use = kUnused;
+        const std::optional<ScalarType> type = scalarTypeOf(field);
+        const auto named = [&](const Attribute& a) { return a.name == field.name; };
+        if (field.use == kUnused && field.count == 1 && type && field.name != "_" && // "_": padding
+            detail::attributeName(field.name) && std::none_of(attributes.begin(), attributes.end(), named)) {
+            field.use = kAttribute + static_cast<int>(attributes.size());
+            attributes.push_back(Attribute{field.name, *type, {}});
+        }
         if (field.use == kUnused && field.name != "_") unused.push_back(printable(field.name));
     }
     return layout;
+}
+
+// A word of an ascii body as the value of an attribute field of `type`: a float's read as a float
+// (as the other fields), others' as a double, then representable; false when it is not a number.
+bool parseAttributeValue(std::string_view word, ScalarType type, double& value) {
+    if (type == ScalarType::Float32) {
+        float single = 0.0f;
+        if (!detail::parseFloatField(word, single)) return false;
+        value = single;
+        return true;
+    }
+    if (word.size() > 1 && word[0] == '+' && word[1] != '-') word.remove_prefix(1);
+    const char* end = word.data() + word.size();
+    const auto [ptr, ec] = std::from_chars(word.data(), end, value);
+    if (word.empty() || ptr != end || ec != std::errc()) return false;
+    value = representable(type, value);
+    return true;
 }
 
 glm::u8vec3 unpackRgb(std::uint32_t bits) {
@@ -318,7 +370,8 @@ class PcdReader {
         if (!header) return header.error();
         header_ = std::move(*header);
         PlyData out;
-        Result<detail::RowLayout> layout = layoutOf(header_, file_, options_, colour_, out.unusedProperties);
+        Result<detail::RowLayout> layout =
+            layoutOf(header_, file_, options_, colour_, out.points.attributes, out.unusedProperties);
         if (!layout) return layout.error();
         layout_ = *layout;
         if (header_.points == 0) return fail(file_, "no points");
@@ -349,6 +402,13 @@ class PcdReader {
 
     void size(PlyData& out, std::uint64_t points) {
         detail::sizePoints(out.points, layout_, colour_, static_cast<std::size_t>(points));
+        for (Attribute& a : out.points.attributes) a.values.resize(static_cast<std::size_t>(points));
+    }
+
+    // The value of attribute field `use` of the point being read (that of the next point stored;
+    // a point left out is overwritten by the next).
+    double& attributeValue(PlyData& out, int use) {
+        return out.points.attributes[static_cast<std::size_t>(use - kAttribute)].values[n_];
     }
 
     Result<void> readAscii(std::string_view body, PlyData& out) {
@@ -404,6 +464,12 @@ class PcdReader {
                                                      printable(field->name)));
                     continue;
                 }
+                if (field->use >= kAttribute) {
+                    if (!parseAttributeValue(word, *scalarTypeOf(*field), attributeValue(out, field->use)))
+                        return lineError(fmt::format("'{}' is not a number (field {})", printable(word),
+                                                     printable(field->name)));
+                    continue;
+                }
                 float value = 0.0f;
                 if (!detail::parseFloatField(word, value))
                     return lineError(fmt::format("'{}' is not a number (field {})", printable(word),
@@ -452,6 +518,8 @@ class PcdReader {
                                              : data + i * header_.rowBytes + field->offset;
                 if (field->use == kRgb)
                     std::memcpy(&rgb, p, 4);
+                else if (field->use >= kAttribute)
+                    attributeValue(out, field->use) = loadValue(p, *field);
                 else
                     values[static_cast<std::size_t>(field->use)] = loadValue(p, *field);
             }
@@ -488,8 +556,11 @@ void appendBinary(std::string& out, T value) {
     out.append(bytes, sizeof(T));
 }
 
-Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& points, bool ascii) {
+Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& points, bool ascii,
+                          std::string_view file) {
     assert(points.normal.size() == points.size());
+    if (const std::optional<std::string> problem = detail::attributeNameProblem(points))
+        return fail(file, *problem);
     std::vector<std::string_view> names = {"x", "y", "z", "normal_x", "normal_y", "normal_z"};
     std::vector<std::string_view> sizes(6, "4"), types(6, "F");
     if (points.hasRadius()) names.push_back("radius"), sizes.push_back("4"), types.push_back("F");
@@ -499,6 +570,11 @@ Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& poi
         types.insert(types.end(), {"F", "F", "F", "U"});
     }
     if (points.hasColour()) names.push_back("rgb"), sizes.push_back("4"), types.push_back("F");
+    for (const Attribute& a : points.attributes) {
+        names.emplace_back(a.name);
+        sizes.push_back(fieldOf(a.type).first);
+        types.push_back(fieldOf(a.type).second);
+    }
     std::string buffer = fmt::format(
         "# .PCD v0.7 - Point Cloud Data file format (written by pnsplat)\nVERSION 0.7\nFIELDS {}\nSIZE {}\n"
         "TYPE {}\nCOUNT {}\nWIDTH {}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA {}\n",
@@ -522,11 +598,17 @@ Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& poi
                 if (points.hasCrease()) rows += crease ? " 1" : " 0";
                 if (points.hasColour())
                     fmt::format_to(std::back_inserter(rows), " {}", rgb); // the bits, as PCL
+                for (const Attribute& a : points.attributes) {
+                    rows += ' ';
+                    detail::appendScalarText(rows, a.type, a.values[i]);
+                }
                 rows += '\n';
             } else {
                 for (int k = 0; k < floats; ++k) appendBinary(rows, values[k]);
                 if (points.hasCrease()) appendBinary(rows, static_cast<std::uint8_t>(crease ? 1 : 0));
                 if (points.hasColour()) appendBinary(rows, rgb);
+                for (const Attribute& a : points.attributes)
+                    detail::appendScalarBinary(rows, a.type, a.values[i]);
             }
         });
 }
@@ -541,7 +623,7 @@ Result<PlyData> parsePcd(std::string_view bytes, std::string_view name, const Po
 
 Result<void> writePcd(const std::filesystem::path& path, const PointSet& points, bool ascii) {
     const std::string file = outputName(path);
-    return detail::guarded(file, "writing", [&] { return writePcdFile(path, points, ascii); });
+    return detail::guarded(file, "writing", [&] { return writePcdFile(path, points, ascii, file); });
 }
 
 } // namespace pnsplat

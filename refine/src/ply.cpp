@@ -49,24 +49,8 @@ using detail::unitDirection; // normals: kept bit for bit within 1e-6 of unit le
 // ---------------------------------------------------------------------------------------------
 // Header model
 
-enum class ScalarType : std::uint8_t { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
-
 std::size_t sizeOf(ScalarType type) {
-    switch (type) {
-    case ScalarType::Int8:
-    case ScalarType::UInt8:
-        return 1;
-    case ScalarType::Int16:
-    case ScalarType::UInt16:
-        return 2;
-    case ScalarType::Int32:
-    case ScalarType::UInt32:
-    case ScalarType::Float32:
-        return 4;
-    case ScalarType::Float64:
-        return 8;
-    }
-    return 1;
+    return scalarTypeBytes(type);
 }
 
 bool isFloating(ScalarType type) {
@@ -85,6 +69,13 @@ std::optional<ScalarType> parseScalarType(std::string_view name) {
     for (const auto& [spelling, type] : kNames)
         if (spelling == name) return type;
     return std::nullopt;
+}
+
+// The name a header gives a type (writing).
+std::string_view scalarTypeName(ScalarType type) {
+    static constexpr std::string_view kNames[] = {"char", "uchar", "short", "ushort",
+                                                  "int",  "uint",  "float", "double"};
+    return kNames[static_cast<std::size_t>(type)];
 }
 
 struct Property {
@@ -241,9 +232,16 @@ Result<Header> parseHeader(std::string_view data, std::string_view file) {
 // ---------------------------------------------------------------------------------------------
 // Storing and checking one vertex
 
+// A vertex row's values: the slots, then one per attribute (slot kSlotCount + a).
+using RowValues = std::vector<double>;
+
 struct VertexLayout {
     std::array<int, kSlotCount> property{}; // index of the property of each slot, or -1
     std::array<ScalarType, kSlotCount> type{};
+    // The scalar properties that become attributes (PointSet::attributes), in file order: every
+    // one of a detail::attributeName (not reserved: not a slot's name, so that a partial colour or
+    // crease normal stays unused, nor another format's such name; printable, no space or comma).
+    std::vector<int> attributeProperty;
     bool hasNormal = false;
     bool hasColour = false;
     bool hasRadius = false;
@@ -285,6 +283,9 @@ Result<VertexLayout> vertexLayout(const Element& vertex, const PlyReadOptions& o
             -1;
     if (!layout.hasNormal) layout.property[kNx] = layout.property[kNy] = layout.property[kNz] = -1;
     if (!layout.hasColour) layout.property[kRed] = layout.property[kGreen] = layout.property[kBlue] = -1;
+    for (std::size_t p = 0; p < vertex.properties.size(); ++p)
+        if (!vertex.properties[p].isList && detail::attributeName(vertex.properties[p].name))
+            layout.attributeProperty.push_back(static_cast<int>(p));
     return layout;
 }
 
@@ -299,9 +300,8 @@ detail::RowLayout rowLayout(const VertexLayout& layout) {
 }
 
 // Stores row `i` (values by slot) into `points`: the checks every reader shares (detail::storeRow),
-// then the colour; returns the problem, or nullptr when valid.
-const char* storeVertex(PointSet& points, const VertexLayout& layout, std::size_t i,
-                        const std::array<double, kSlotCount>& v) {
+// then the colour and the attributes (any value, NaN too); returns the problem, or nullptr when valid.
+const char* storeVertex(PointSet& points, const VertexLayout& layout, std::size_t i, const RowValues& v) {
     const std::array<double, detail::kRowSlots> row = {
         v[kX], v[kY], v[kZ], v[kNx], v[kNy], v[kNz], v[kRadius], v[kNx2], v[kNy2], v[kNz2], v[kCreaseFlag]};
     if (const char* problem = detail::storeRow(points, rowLayout(layout), i, row)) return problem;
@@ -312,11 +312,24 @@ const char* storeVertex(PointSet& points, const VertexLayout& layout, std::size_
                                        toColourByte(v[kGreen], layout.type[kGreen]),
                                        toColourByte(v[kBlue], layout.type[kBlue]));
     }
+    for (std::size_t a = 0; a < points.attributes.size(); ++a)
+        points.attributes[a].values[i] = v[kSlotCount + a];
     return nullptr;
 }
 
-void sizePoints(PointSet& points, const VertexLayout& layout, std::size_t n) {
+// Sizes `points` for n vertices of `vertex` read through `layout`, attributes included.
+void sizePoints(PointSet& points, const Element& vertex, const VertexLayout& layout, std::size_t n) {
     detail::sizePoints(points, rowLayout(layout), layout.hasColour, n);
+    points.attributes.clear();
+    for (const int p : layout.attributeProperty)
+        points.attributes.push_back(
+            Attribute{std::string(vertex.properties[p].name), vertex.properties[p].type, {}});
+    for (Attribute& a : points.attributes) a.values.resize(n);
+}
+
+// The values of a row of `layout`.
+RowValues rowValues(const VertexLayout& layout) {
+    return RowValues(kSlotCount + layout.attributeProperty.size(), 0.0);
 }
 
 // The property of a face element that lists its vertices, or -1.
@@ -348,12 +361,15 @@ Result<Rows> prepareRows(std::string_view file, std::string_view encoding, const
     rows.count = static_cast<std::size_t>(element.count);
     rows.faceList = isFace ? faceListIndex(element) : -1;
     if (isFace && rows.faceList < 0) return fail(file, "face element has no vertex_indices list");
-    if (isVertex) sizePoints(out.points, layout, rows.count);
+    if (isVertex) sizePoints(out.points, element, layout, rows.count);
     if (isFace) out.triangles.reserve(out.triangles.size() + rows.count);
     rows.slotOf.assign(element.properties.size(), -1);
-    if (isVertex)
+    if (isVertex) {
         for (int s = 0; s < kSlotCount; ++s)
             if (layout.property[s] >= 0) rows.slotOf[layout.property[s]] = s;
+        for (std::size_t a = 0; a < layout.attributeProperty.size(); ++a)
+            rows.slotOf[layout.attributeProperty[a]] = kSlotCount + static_cast<int>(a);
+    }
     return rows;
 }
 
@@ -468,8 +484,12 @@ class BinaryReader {
             for (int s = 0; s < kSlotCount; ++s)
                 if (layout.property[s] >= 0)
                     fields.push_back({s, offsets[layout.property[s]], layout.type[s]});
-            sizePoints(out.points, layout, count);
-            std::array<double, kSlotCount> values{};
+            for (std::size_t a = 0; a < layout.attributeProperty.size(); ++a) {
+                const int p = layout.attributeProperty[a];
+                fields.push_back({kSlotCount + static_cast<int>(a), offsets[p], element.properties[p].type});
+            }
+            sizePoints(out.points, element, layout, count);
+            RowValues values = rowValues(layout);
             for (std::size_t i = 0; i < count; ++i) {
                 const unsigned char* row = data_ + pos_ + i * stride;
                 for (const Field& f : fields) values[f.slot] = loadScalar<kSwap>(row + f.offset, f.type);
@@ -492,7 +512,7 @@ class BinaryReader {
             prepareRows(file_, "binary", element, remaining() / minRow, isVertex, isFace, layout, out);
         if (!rows) return rows.error();
         const auto& [count, faceList, slotOf] = *rows;
-        std::array<double, kSlotCount> values{};
+        RowValues values = rowValues(layout);
         for (std::size_t i = 0; i < count; ++i) {
             for (std::size_t p = 0; p < element.properties.size(); ++p) {
                 const Property& property = element.properties[p];
@@ -628,7 +648,7 @@ class AsciiReader {
             prepareRows(file_, "ascii", element, available, isVertex, isFace, layout, out);
         if (!rows) return rows.error();
         const auto& [count, faceList, slotOf] = *rows;
-        std::array<double, kSlotCount> values{};
+        RowValues values = rowValues(layout);
         double scratch = 0.0;
         for (std::size_t i = 0; i < count; ++i) {
             for (std::size_t p = 0; p < element.properties.size(); ++p) {
@@ -689,7 +709,9 @@ Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options
     out.comments = std::move(header->comments);
     for (std::size_t p = 0; p < vertex->properties.size(); ++p)
         if (std::find(layout->property.begin(), layout->property.end(), static_cast<int>(p)) ==
-            layout->property.end())
+                layout->property.end() &&
+            std::find(layout->attributeProperty.begin(), layout->attributeProperty.end(),
+                      static_cast<int>(p)) == layout->attributeProperty.end())
             out.unusedProperties.push_back(printable(vertex->properties[p].name));
     for (const Element& e : header->elements)
         if (e.name != "vertex" && !(e.name == "face" && options.readFaces))
@@ -741,6 +763,8 @@ std::string plyHeader(const PointSet& points, PlyFormat format, std::span<const 
     if (points.hasCrease())
         header += "property float nx2\nproperty float ny2\nproperty float nz2\nproperty uchar crease\n";
     if (points.hasColour()) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    for (const Attribute& a : points.attributes)
+        header += fmt::format("property {} {}\n", scalarTypeName(a.type), a.name);
     header += "end_header\n";
     return header;
 }
@@ -773,12 +797,19 @@ void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyForma
     if (format == PlyFormat::BinaryLittleEndian) {
         for (int k = 0; k < floats; ++k) appendFloatBinary(out, values[k]);
         out.append(reinterpret_cast<const char*>(bytes), static_cast<std::size_t>(byteCount));
+        for (const Attribute& a : points.attributes) detail::appendScalarBinary(out, a.type, a.values[i]);
         return;
     }
+    const bool more = !points.attributes.empty();
     for (int k = 0; k < floats; ++k)
-        appendFloatAscii(out, values[k], (k + 1 < floats || byteCount > 0) ? ' ' : '\n');
+        appendFloatAscii(out, values[k], (k + 1 < floats || byteCount > 0 || more) ? ' ' : '\n');
     for (int k = 0; k < byteCount; ++k)
-        fmt::format_to(std::back_inserter(out), "{}{}", bytes[k], k + 1 < byteCount ? ' ' : '\n');
+        fmt::format_to(std::back_inserter(out), "{}{}", bytes[k], k + 1 < byteCount || more ? ' ' : '\n');
+    for (std::size_t a = 0; a < points.attributes.size(); ++a) {
+        if (a > 0) out += ' ';
+        detail::appendScalarText(out, points.attributes[a].type, points.attributes[a].values[i]);
+    }
+    if (more) out += '\n';
 }
 
 Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyFormat format,
@@ -787,6 +818,9 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
     assert(!points.hasRadius() || points.radius.size() == points.size());
     assert(!points.hasColour() || points.colour.size() == points.size());
     assert(!points.hasCrease() || points.crease.size() == points.size());
+    for ([[maybe_unused]] const Attribute& a : points.attributes) assert(a.values.size() == points.size());
+    if (const std::optional<std::string> problem = detail::attributeNameProblem(points))
+        return fail(file, *problem);
 
     std::string buffer = plyHeader(points, format, comments);
     if (buffer.size() > kMaxHeaderBytes)

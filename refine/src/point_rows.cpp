@@ -3,12 +3,15 @@
 #include "point_rows.h"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <system_error>
 
@@ -151,6 +154,86 @@ int rowFloats(const PointSet& points, std::size_t i, std::array<float, 10>& valu
         for (int k = 0; k < 3; ++k) values[static_cast<std::size_t>(floats++)] = second[k];
     }
     return floats;
+}
+
+void appendScalarText(std::string& out, ScalarType type, double value) {
+    value = representable(type, value); // integers: no conversion out of range
+    char buffer[32];
+    std::to_chars_result written{};
+    if (type == ScalarType::Float32)
+        written = std::to_chars(buffer, buffer + sizeof buffer, static_cast<float>(value));
+    else if (type == ScalarType::Float64)
+        written = std::to_chars(buffer, buffer + sizeof buffer, value);
+    else
+        written = std::to_chars(buffer, buffer + sizeof buffer, static_cast<std::int64_t>(value));
+    out.append(buffer, written.ptr);
+}
+
+bool reservedName(std::string_view name) {
+    static constexpr std::string_view kReserved[] = {
+        "x", "y", "z",  "nx", "ny", "nz",  "normal_x", "normal_y", "normal_z", "red", "green", "blue",  "r",
+        "g", "b", "rf", "gf", "bf", "rgb", "rgba",     "radius",   "nx2",      "ny2", "nz2",   "crease"};
+    const auto lower = [](char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c; };
+    return std::any_of(std::begin(kReserved), std::end(kReserved), [&](std::string_view reserved) {
+        return reserved.size() == name.size() && std::equal(reserved.begin(), reserved.end(), name.begin(),
+                                                            [&](char a, char b) { return a == lower(b); });
+    });
+}
+
+namespace {
+bool writableName(std::string_view name) {
+    return !name.empty() &&
+           std::none_of(name.begin(), name.end(), [](char c) { return c <= 0x20 || c >= 0x7f || c == ','; });
+}
+} // namespace
+
+bool attributeName(std::string_view name) {
+    return writableName(name) && !reservedName(name);
+}
+
+void appendScalarBinary(std::string& out, ScalarType type, double value) {
+    value = representable(type, value); // integers: no conversion out of range
+    const auto put = [&](auto typed) {
+        auto bits = std::bit_cast<std::array<char, sizeof typed>>(typed);
+        if constexpr (std::endian::native == std::endian::big) std::reverse(bits.begin(), bits.end());
+        out.append(bits.data(), bits.size());
+    };
+    switch (type) {
+    case ScalarType::Int8:
+        return put(static_cast<std::int8_t>(value));
+    case ScalarType::UInt8:
+        return put(static_cast<std::uint8_t>(value));
+    case ScalarType::Int16:
+        return put(static_cast<std::int16_t>(value));
+    case ScalarType::UInt16:
+        return put(static_cast<std::uint16_t>(value));
+    case ScalarType::Int32:
+        return put(static_cast<std::int32_t>(value));
+    case ScalarType::UInt32:
+        return put(static_cast<std::uint32_t>(value));
+    case ScalarType::Float32:
+        return put(static_cast<float>(value));
+    case ScalarType::Float64:
+        return put(value);
+    }
+}
+
+std::optional<std::string> attributeNameProblem(const PointSet& points) {
+    for (std::size_t a = 0; a < points.attributes.size(); ++a) {
+        const std::string& name = points.attributes[a].name;
+        if (name.empty()) return std::string("an attribute has no name");
+        if (!writableName(name))
+            return fmt::format(
+                "attribute '{}': a name of spaces, commas or bytes that are not printable ASCII",
+                printable(name));
+        if (reservedName(name))
+            return fmt::format("attribute '{}': the name of a position, normal, radius, colour or crease",
+                               printable(name));
+        for (std::size_t b = 0; b < a; ++b)
+            if (points.attributes[b].name == name)
+                return fmt::format("attribute '{}' twice", printable(name));
+    }
+    return std::nullopt;
 }
 
 void sizePoints(PointSet& points, const RowLayout& layout, bool colour, std::size_t n) {

@@ -80,6 +80,28 @@ const char* storeRow(PointSet& points, const RowLayout& layout, std::size_t i,
 // convention); returns their count.
 int rowFloats(const PointSet& points, std::size_t i, std::array<float, 10>& values);
 
+// An attribute's value (PointSet::attributes), representable() first, as text: an integer type's as an
+// integer, a float's and a double's in the shortest form that reads back exactly as that type.
+void appendScalarText(std::string& out, ScalarType type, double value);
+
+// Whether `name` (case ignored) is one that some format reads or writes as a point's position,
+// normal, radius, colour or crease (x, nx, normal_x, red, r, rf, rgb, radius, nx2, crease, ...): a
+// property of such a name is never an attribute (PointSet::attributes), so that every writer can
+// write every attribute and every reader reads it back as one.
+bool reservedName(std::string_view name);
+
+// Whether a property, field or column of this name becomes an attribute: a name that is not
+// reserved and that every writer can write (see attributeNameProblem).
+bool attributeName(std::string_view name);
+
+// An attribute's value (representable() first) as its type's bytes, little-endian.
+void appendScalarBinary(std::string& out, ScalarType type, double value);
+
+// Why the attributes of `points` cannot stand in a file's header: a name empty, holding a space, a
+// comma or another byte that is not printable ASCII, twice there or reserved (reservedName);
+// nothing when they can.
+std::optional<std::string> attributeNameProblem(const PointSet& points);
+
 // A whole field of text as a float (a leading '+' allowed), false when it is not a number. Values
 // beyond float's range are read as double, then rounded to float (tiny ones to zero or subnormals,
 // huge ones to infinity): std::from_chars, so the shortest representation of a float reads back

@@ -2,13 +2,61 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
+#include <cstring>
+#include <limits>
 #include <numeric>
 #include <vector>
 
 namespace pnsplat {
 
-void PointSet::appendFrom(const PointSet& other, std::size_t i) {
+std::size_t scalarTypeBytes(ScalarType type) {
+    static constexpr std::size_t kBytes[] = {1, 1, 2, 2, 4, 4, 4, 8};
+    return kBytes[static_cast<std::size_t>(type)];
+}
+
+double representable(ScalarType type, double value) {
+    // The range of each integer type, in the order of ScalarType.
+    static constexpr std::pair<double, double> kRange[] = {
+        {-128.0, 127.0},    {0.0, 255.0}, {-32768.0, 32767.0}, {0.0, 65535.0}, {-2147483648.0, 2147483647.0},
+        {0.0, 4294967295.0}};
+    switch (type) {
+    case ScalarType::Float32:
+        return static_cast<float>(value);
+    case ScalarType::Float64:
+        return value;
+    default: {
+        if (std::isnan(value)) return 0.0;
+        const auto [lo, hi] = kRange[static_cast<std::size_t>(type)];
+        return std::clamp(std::round(value), lo, hi);
+    }
+    }
+}
+
+bool sameAttributes(const PointSet& a, const PointSet& b) {
+    return std::equal(
+        a.attributes.begin(), a.attributes.end(), b.attributes.begin(), b.attributes.end(),
+        [](const Attribute& u, const Attribute& v) { return u.name == v.name && u.type == v.type; });
+}
+
+std::vector<Attribute> emptyAttributesLike(const PointSet& model) {
+    std::vector<Attribute> attributes;
+    attributes.reserve(model.attributes.size());
+    for (const Attribute& a : model.attributes) attributes.push_back(Attribute{a.name, a.type, {}});
+    return attributes;
+}
+
+void PointSet::appendAttributesFrom(const PointSet& other, std::size_t i) {
+    // The position is appended already: a set that was empty has one point now.
+    if (attributes.empty() && size() == 1) attributes = emptyAttributesLike(other);
+    assert(sameAttributes(*this, other));
+    for (std::size_t a = 0; a < attributes.size(); ++a)
+        attributes[a].values.push_back(other.attributes[a].values[i]);
+}
+
+void PointSet::appendCoreFrom(const PointSet& other, std::size_t i) {
     assert(hasRadius() == other.hasRadius() || empty());
+    assert(other.hasAttributes() || !hasAttributes());
     position.push_back(other.position[i]);
     normal.push_back(other.normal[i]);
     if (other.hasRadius()) radius.push_back(other.radius[i]);
@@ -22,6 +70,7 @@ void PointSet::reserve(std::size_t n) {
     radius.reserve(n);
     colour.reserve(n);
     if (hasCrease()) crease.reserve(n);
+    for (Attribute& a : attributes) a.values.reserve(n);
 }
 
 void PointSet::resize(std::size_t n) {
@@ -34,6 +83,7 @@ void PointSet::resize(std::size_t n) {
     if (withRadius) radius.resize(n);
     if (withColour) colour.resize(n);
     if (withCrease) crease.resize(n);
+    for (Attribute& a : attributes) a.values.resize(n);
 }
 
 void removePoints(PointSet& points, std::span<const std::uint32_t> drop) {
@@ -49,11 +99,18 @@ void removePoints(PointSet& points, std::span<const std::uint32_t> drop) {
         if (points.hasRadius()) points.radius[kept] = points.radius[i];
         if (points.hasColour()) points.colour[kept] = points.colour[i];
         if (points.hasCrease()) points.crease[kept] = points.crease[i];
+        for (Attribute& a : points.attributes) a.values[kept] = a.values[i];
         ++kept;
     }
     assert(next == drop.size());
     points.resize(kept);
 }
+
+namespace {
+bool sameBits(double a, double b) {
+    return std::memcmp(&a, &b, sizeof a) == 0;
+}
+} // namespace
 
 std::vector<std::uint32_t> orderByPosition(const PointSet& points) {
     std::vector<std::uint32_t> order(points.size());
@@ -86,6 +143,7 @@ CoincidentRemoval removeCoincident(PointSet& points) {
     assert(!points.hasRadius() || points.radius.size() == n);
     assert(!points.hasColour() || points.colour.size() == n);
     assert(!points.hasCrease() || points.crease.size() == n);
+    for ([[maybe_unused]] const Attribute& a : points.attributes) assert(a.values.size() == n);
     const std::vector<std::uint32_t> order = orderByPosition(points);
     CoincidentRemoval removal;
     std::vector<std::uint8_t> keep(n, 1);
@@ -97,10 +155,13 @@ CoincidentRemoval removeCoincident(PointSet& points) {
         const std::uint32_t i = order[k], kept = order[first];
         keep[i] = 0;
         ++removal.points;
-        const bool differs = (points.hasNormal() && points.normal[i] != points.normal[kept]) ||
-                             (points.hasRadius() && points.radius[i] != points.radius[kept]) ||
-                             (points.hasColour() && points.colour[i] != points.colour[kept]) ||
-                             (points.hasCrease() && points.crease[i] != points.crease[kept]);
+        const bool differs =
+            (points.hasNormal() && points.normal[i] != points.normal[kept]) ||
+            (points.hasRadius() && points.radius[i] != points.radius[kept]) ||
+            (points.hasColour() && points.colour[i] != points.colour[kept]) ||
+            (points.hasCrease() && points.crease[i] != points.crease[kept]) ||
+            std::any_of(points.attributes.begin(), points.attributes.end(),
+                        [&](const Attribute& a) { return !sameBits(a.values[i], a.values[kept]); });
         removal.withOtherAttributes += differs ? 1 : 0;
     }
     std::vector<std::uint32_t> drop;

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstring>
 #include <iterator>
+#include <optional>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -30,9 +31,10 @@ using detail::printable;
 
 constexpr std::size_t kMaxFields = 256;
 
-// A column's use: a slot of the row (point_rows.h), a colour channel, or nothing.
+// A column's use: a slot of the row (point_rows.h), a colour channel, an attribute, or nothing.
 constexpr int kUnused = -1;
-constexpr int kColour = 100; // kColour + 0, 1, 2: red, green, blue
+constexpr int kColour = 100;     // kColour + 0, 1, 2: red, green, blue
+constexpr int kAttribute = 1000; // kAttribute + a: PointSet::attributes[a]
 
 struct ColumnName {
     std::string_view name;
@@ -105,8 +107,9 @@ struct Columns {
     std::vector<std::pair<int, int>> reading; // (column, use) of the columns read, left to right
     detail::RowLayout layout;
     bool colour = false;
-    bool unitColour = false; // named rf gf bf
-    std::string byCount;     // "(the 6 columns taken as ...)" when named by their count, else ""
+    bool unitColour = false;             // named rf gf bf
+    std::string byCount;                 // "(the 6 columns taken as ...)" when named by their count, else ""
+    std::vector<std::string> attributes; // the names of the columns read as attributes (floats)
 };
 
 Result<Columns> columnsFromNames(const std::vector<std::string>& names, std::string_view file,
@@ -163,6 +166,13 @@ Result<Columns> columnsFromNames(const std::vector<std::string>& names, std::str
             ((use == detail::kNx2 || use == detail::kNy2 || use == detail::kNz2) && !columns.layout.crease) ||
             (use == detail::kCreaseFlag && !columns.layout.creaseFlag))
             use = kUnused;
+        // Any other named column is an attribute (the first of a name; point_rows.h, attributeName).
+        const auto& attributes = columns.attributes;
+        if (use == kUnused && detail::attributeName(names[c]) &&
+            std::find(attributes.begin(), attributes.end(), names[c]) == attributes.end()) {
+            use = kAttribute + static_cast<int>(attributes.size());
+            columns.attributes.push_back(names[c]);
+        }
         if (use == kUnused)
             unused.push_back(names[c].empty() ? fmt::format("column {}", c + 1) : printable(names[c]));
         else
@@ -238,7 +248,10 @@ class TextReader {
                 Result<void> named = nameColumns(headerNames, count, lineNumber, out);
                 if (!named) return named.error();
                 haveColumns = true;
+                for (const std::string& name : columns_.attributes)
+                    out.points.attributes.push_back(Attribute{name, ScalarType::Float32, {}});
                 detail::sizePoints(out.points, columns_.layout, false, lines);
+                for (Attribute& a : out.points.attributes) a.values.resize(lines);
                 if (columns_.colour) colours_.resize(lines);
             }
             if (count != columns_.use.size())
@@ -252,7 +265,9 @@ class TextReader {
                 if (!std::isfinite(value))
                     return lineError(
                         fmt::format("non-finite value '{}' (column {})", printable(field), column + 1));
-                if (use >= kColour) {
+                if (use >= kAttribute) {
+                    out.points.attributes[static_cast<std::size_t>(use - kAttribute)].values[n] = value;
+                } else if (use >= kColour) {
                     colours_[n][use - kColour] = value;
                     maxColour_ = std::max(maxColour_, value);
                     fraction_ = fraction_ || field.find_first_of(".eE") != std::string_view::npos;
@@ -326,8 +341,10 @@ void appendFloat(std::string& out, float value) {
     out.append(buffer, end);
 }
 
-Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& points) {
+Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& points, std::string_view file) {
     assert(points.normal.size() == points.size());
+    if (const std::optional<std::string> problem = detail::attributeNameProblem(points))
+        return fail(file, *problem);
     std::string extension = path.extension().string();
     for (char& c : extension) c = lower(c);
     const bool csv = extension == ".csv";
@@ -336,6 +353,7 @@ Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& po
     if (points.hasRadius()) names.push_back("radius");
     if (points.hasCrease()) names.insert(names.end(), {"nx2", "ny2", "nz2", "crease"});
     if (points.hasColour()) names.insert(names.end(), {"red", "green", "blue"});
+    for (const Attribute& a : points.attributes) names.emplace_back(a.name);
     std::string buffer;
     if (extension == ".pts") buffer = fmt::format("{}\n", points.size());
     if (!csv) buffer += "//";
@@ -357,6 +375,10 @@ Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& po
             if (points.hasColour())
                 fmt::format_to(std::back_inserter(rows), "{}{}{}{}{}{}", separator, points.colour[i].x,
                                separator, points.colour[i].y, separator, points.colour[i].z);
+            for (const Attribute& a : points.attributes) {
+                rows += separator;
+                detail::appendScalarText(rows, a.type, a.values[i]);
+            }
             rows += '\n';
         });
 }
@@ -370,7 +392,7 @@ Result<PlyData> parsePointText(std::string_view bytes, std::string_view name,
 
 Result<void> writePointText(const std::filesystem::path& path, const PointSet& points) {
     const std::string file = outputName(path);
-    return detail::guarded(file, "writing", [&] { return writeTextFile(path, points); });
+    return detail::guarded(file, "writing", [&] { return writeTextFile(path, points, file); });
 }
 
 } // namespace pnsplat

@@ -130,11 +130,13 @@ struct Candidate {
     glm::vec3 b021, b012;
 };
 
-// The points of P(l) a new point was made from (refineRegion's recordParents): the refined point
-// and the other two corners of its fan triangle, or a segment's ends (a, b, b); indices of P(l).
-struct ParentRecord {
-    std::uint32_t cell, local;
+// The points of P(l) a new point was made from, stored beside it when the set has attributes
+// (PointSet::attributes) or refineRegion records parents: the refined point and the other two
+// corners of its fan triangle (t < 0), or a segment's ends (a, b, b) and the curve parameter t of
+// the point on it; indices of P(l).
+struct PointSource {
     std::array<std::uint32_t, 3> corners;
+    float t = -1.0f;
 };
 
 struct NearbyPoint {
@@ -231,11 +233,11 @@ struct alignas(64) WorkerScratch {          // one cache line apart: workers wri
     std::size_t reachable = 0;                  // the entries of inReach in use
     std::vector<NearbyPoint> nearest;           // the maxNeighbours nearest, for an oversized neighbourhood
     BlockArena<NewPoint> arena;                 // the points this worker inserts, cell after cell
+    BlockArena<PointSource> sources;            // beside `arena` when recordSources
     std::size_t inserted = 0, discarded = 0, retried = 0, beyondBound = 0, coincident = 0,
                 boundaryInserted = 0, capped = 0, outsideRegion = 0;
     // LevelStats::scannedCandidates and neighbourhoodPoints
     std::size_t scanned = 0, neighbours = 0;
-    std::vector<ParentRecord> parents; // refineRegion with recordParents: one per inserted point
 };
 
 // Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
@@ -329,6 +331,16 @@ inline glm::u8vec3 meanColour(glm::u8vec3 a, glm::u8vec3 b, glm::u8vec3 c) {
     return glm::u8vec3((sum + glm::uvec3(1)) / 3u);
 }
 
+// The value of an attribute at a new point (ALGORITHM.md §2.6): the mean of its triangle's corners,
+// or on a segment (a, b) the interpolation at t, as for colour; rounded to the attribute's type.
+inline double sourcedValue(const Attribute& attribute, const PointSource& source) {
+    const auto& v = attribute.values;
+    const std::array<std::uint32_t, 3>& c = source.corners;
+    const double value = source.t < 0.0f ? (v[c[0]] + v[c[1]] + v[c[2]]) / 3.0
+                                         : v[c[0]] * (1.0 - double(source.t)) + v[c[1]] * double(source.t);
+    return representable(attribute.type, value);
+}
+
 // Colour cells (see the top of this file): integer coordinates of 21 bits each, packed x, y, z from
 // the most significant bits, so that keys sort by x, then y, then z.
 constexpr std::uint64_t kCellCoordinateMask = (1u << 21) - 1;
@@ -377,6 +389,8 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     sorted.radius.resize(count);
     if (input.hasColour()) sorted.colour.resize(count);
     if (input.hasCrease()) sorted.crease.resize(count);
+    sorted.attributes = emptyAttributesLike(input);
+    for (Attribute& a : sorted.attributes) a.values.resize(count);
     for (std::uint32_t k = 0; k < count; ++k) {
         const std::uint32_t i = keyed[k].second;
         order[k] = i;
@@ -386,6 +400,9 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
         if (input.hasColour()) sorted.colour[k] = input.colour[i];
         if (input.hasCrease()) sorted.crease[k] = input.crease[i];
     }
+    for (std::size_t a = 0; a < sorted.attributes.size(); ++a)
+        for (std::uint32_t k = 0; k < count; ++k)
+            sorted.attributes[a].values[k] = input.attributes[a].values[order[k]];
     return sorted;
 }
 
@@ -395,7 +412,7 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
 void growInParallel(PointSet& points, PointHierarchy& hierarchy, std::uint32_t n, WorkerPool& pool) {
     const bool withRadius = points.hasRadius(), withColour = points.hasColour(),
                withCrease = points.hasCrease();
-    pool.parallelFor(6, [&](std::size_t array, unsigned) {
+    pool.parallelFor(6 + points.attributes.size(), [&](std::size_t array, unsigned) {
         switch (array) {
         case 0:
             points.position.resize(n);
@@ -412,8 +429,11 @@ void growInParallel(PointSet& points, PointHierarchy& hierarchy, std::uint32_t n
         case 4:
             if (withCrease) points.crease.resize(n);
             break;
-        default:
+        case 5:
             hierarchy.growTo(n);
+            break;
+        default:
+            points.attributes[array - 6].values.resize(n);
             break;
         }
     });
@@ -625,13 +645,13 @@ struct Refiner::State {
         std::vector<std::uint8_t> frozen; // per point of P0: a context point that is not refined
     };
     std::optional<RegionRun> regionRun;
-    std::vector<std::array<std::uint32_t, 3>> newPointParents; // recordParents: per new point (ParentRecord)
+    std::vector<std::array<std::uint32_t, 3>> newPointParents; // recordParents: per new point (PointSource)
     Region scaledRegion;                                       // regionRun's region during the level
     bool outsideRegion(glm::vec3 q) const { return regionRun && !scaledRegion.contains(q); }
-    void recordParent(WorkerScratch& s, std::uint32_t cell, std::uint32_t local, std::uint32_t p,
-                      std::uint32_t b, std::uint32_t c) const {
-        if (regionRun && regionRun->recordParents) s.parents.push_back(ParentRecord{cell, local, {p, b, c}});
-    }
+    // Whether this level stores the source of every new point (cellSources): for the attributes'
+    // values, or refineRegion's recordParents.
+    bool recordSources = false;
+    HugePageVector<PointSource*> cellSources; // beside cellBase: cellSources[c][0, cellCount[c])
 
     State(PointSet input, const RefineOptions& o)
         : options(o), pool(o.threads), points(spatialOrder(std::move(input), inputOrder)),
@@ -704,9 +724,11 @@ struct Refiner::State {
         return std::any_of(s.ring.begin(), s.ring.end(), at) ||
                std::any_of(s.outer.begin(), s.outer.end(), at);
     }
-    // Appends np to `cell`, refined by the worker of `s`; returns its index in the cell.
-    std::uint32_t store(std::uint32_t cell, const NewPoint& np, WorkerScratch& s) {
+    // Appends np, made from `source`, to `cell`, refined by the worker of `s`; returns its index in
+    // the cell.
+    std::uint32_t store(std::uint32_t cell, const NewPoint& np, const PointSource& source, WorkerScratch& s) {
         s.arena.append(cellBase[cell], cellCount[cell], np);
+        if (recordSources) s.sources.append(cellSources[cell], cellCount[cell], source);
         return cellCount[cell]++;
     }
 };
@@ -1092,8 +1114,7 @@ void Refiner::State::splitSegments(std::uint32_t p, std::uint32_t cell, std::uin
             if (points.hasColour())
                 np.colour = glm::u8vec3(
                     glm::round(glm::mix(glm::vec3(points.colour[p]), glm::vec3(points.colour[b]), t)));
-            const std::uint32_t local = store(cell, np, s);
-            recordParent(s, cell, local, p, b, b);
+            const std::uint32_t local = store(cell, np, PointSource{{p, b, b}, t}, s);
             ++s.inserted;
             ++s.boundaryInserted;
             // The first point joins N'_p (it fills the gap along the segment), unless it lies
@@ -1372,8 +1393,7 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
                                             frame.angleOf(np.position - x)});
             continue;
         }
-        const std::uint32_t local = store(cell, np, s);
-        recordParent(s, cell, local, p, s.fan.index[c.a], s.fan.index[c.b]);
+        const std::uint32_t local = store(cell, np, PointSource{{p, s.fan.index[c.a], s.fan.index[c.b]}}, s);
         ++s.inserted;
         RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
         insertIntoRing(ring, m);
@@ -1510,14 +1530,16 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const Tiles largeTiles = makeTiles(keyed, cells, smallCells, static_cast<std::uint32_t>(cells.size()), 0);
     cellBase.assign(cells.size(), nullptr);
     cellCount.assign(cells.size(), 0);
+    recordSources = points.hasAttributes() || (regionRun && regionRun->recordParents);
+    if (recordSources) cellSources.assign(cells.size(), nullptr);
     stats.largePoints = large.size();
 
     for (WorkerScratch& s : scratch) {
         s.arena.clear();
+        s.sources.clear();
         s.times = {};
         s.inserted = s.discarded = s.retried = s.beyondBound = s.coincident = s.boundaryInserted = s.capped =
             s.outsideRegion = s.scanned = s.neighbours = 0;
-        s.parents.clear();
         s.columnsOf = kNoCell;
     }
     // A cell's points find their surroundings together, from the grid; a large point alone,
@@ -1525,6 +1547,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     const auto refineCell = [&](std::uint32_t c, bool largeCell, WorkerScratch& s) {
         const Cell cell = cells[c];
         cellBase[c] = s.arena.open();
+        if (recordSources) cellSources[c] = s.sources.open();
         if (largeCell) {
             s.groupCell.reset();
             for (std::uint32_t k = cell.begin; k < cell.end; ++k) {
@@ -1581,24 +1604,19 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
                 if (points.hasColour()) points.colour[o] = np.colour;
                 if (points.hasCrease()) points.crease[o] = np.crease;
             }
+            // The attributes from the points of P(l) (below `count`, read only here).
+            for (Attribute& attribute : points.attributes)
+                for (std::uint32_t k = 0; k < range.count; ++k)
+                    attribute.values[childBegin[i] + k] =
+                        sourcedValue(attribute, cellSources[range.cell][range.begin + k]);
         }
     });
     if (regionRun && regionRun->recordParents) {
-        std::vector<ParentRecord> records;
-        for (const WorkerScratch& s : scratch)
-            records.insert(records.end(), s.parents.begin(), s.parents.end());
-        const auto before = [](const ParentRecord& u, const ParentRecord& v) {
-            return u.cell != v.cell ? u.cell < v.cell : u.local < v.local;
-        };
-        std::sort(records.begin(), records.end(), before);
         newPointParents.assign(offset - count, {});
         for (std::uint32_t i = 0; i < count; ++i) {
             const ChildRange range = childRange[i];
-            if (range.count == 0) continue;
-            const auto first = std::lower_bound(records.begin(), records.end(),
-                                                ParentRecord{range.cell, range.begin, {}}, before);
             for (std::uint32_t k = 0; k < range.count; ++k)
-                newPointParents[childBegin[i] + k - count] = first[k].corners;
+                newPointParents[childBegin[i] + k - count] = cellSources[range.cell][range.begin + k].corners;
         }
     }
     if (splitsSegments()) {

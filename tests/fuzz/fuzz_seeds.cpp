@@ -1,6 +1,6 @@
 // Writes the fuzz targets' starting corpora (scripts/fuzz.sh): small valid files of every kind the
-// reader takes — ascii and binary, with and without radii, colours, second normals and faces,
-// positions only — made here rather than stored. fuzz_ply's folder gets the files; fuzz_refine's
+// reader takes — ascii and binary, with and without radii, colours, second normals, attributes and
+// faces, positions only — made here rather than stored. fuzz_ply's folder gets the files; fuzz_refine's
 // gets each one several times behind the byte that picks the variant (refine_fuzz.cpp); fuzz_points's
 // gets text and PCD files (point_file.h) of the same sets, and a few hand-written ones.
 #include <cstdio>
@@ -42,6 +42,13 @@ int main(int argc, char** argv) {
     PointSet cylinder = sampleCappedCylinder(12, 1.0f, 1.5f);
     PointSet withRadii = sphere;
     withRadii.radius.assign(withRadii.size(), 0.4f);
+    PointSet withAttributes = torus; // an extra float and an extra uchar (PointSet::attributes)
+    withAttributes.attributes = {Attribute{"intensity", ScalarType::Float32, {}},
+                                 Attribute{"quality", ScalarType::UInt8, {}}};
+    for (std::size_t i = 0; i < withAttributes.size(); ++i) {
+        withAttributes.attributes[0].values.push_back(0.5 * static_cast<double>(i));
+        withAttributes.attributes[1].values.push_back(static_cast<double>(i * 7 % 256));
+    }
     PointSet positionsOnly = torus;
     positionsOnly.normal.clear();
     bool ok = true;
@@ -51,7 +58,8 @@ int main(int argc, char** argv) {
              write(folder / ("torus" + suffix), torus, format) &&
              write(folder / ("coloured" + suffix), model, format) &&
              write(folder / ("creases" + suffix), cylinder, format) &&
-             write(folder / ("radii" + suffix), withRadii, format);
+             write(folder / ("radii" + suffix), withRadii, format) &&
+             write(folder / ("attributes" + suffix), withAttributes, format);
     }
     // Positions only and a small mesh: writePly needs normals and writes no faces.
     std::ofstream bare(folder / "positions-ascii.ply");
@@ -79,11 +87,12 @@ int main(int argc, char** argv) {
     }
     // Text and PCD files (fuzz_points): every attribute, in each flavour and encoding.
     for (const char* name : {"coloured.xyz", "coloured.csv", "coloured.pts", "coloured.pcd", "creases.txt",
-                             "creases.pcd", "radii.pcd"}) {
+                             "creases.pcd", "radii.pcd", "attributes.xyz", "attributes.pcd"}) {
         const std::string file = name;
-        const PointSet& points = file.starts_with("coloured")  ? model
-                                 : file.starts_with("creases") ? cylinder
-                                                               : withRadii;
+        const PointSet& points = file.starts_with("coloured")     ? model
+                                 : file.starts_with("creases")    ? cylinder
+                                 : file.starts_with("attributes") ? withAttributes
+                                                                  : withRadii;
         for (const bool ascii : {false, true}) {
             const Result<void> written =
                 writePointFile(pointsFolder / ((ascii ? "ascii-" : "") + file), points, ascii);

@@ -76,7 +76,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const PointSet one = refine(points, knob, 1), two = refine(points, knob, 2);
     check(sameBits(one.position, two.position) && sameBits(one.normal, two.normal) &&
               sameBits(one.radius, two.radius) && sameBits(one.colour, two.colour) &&
-              sameBits(one.crease, two.crease),
+              sameBits(one.crease, two.crease) && one.attributes.size() == two.attributes.size(),
           "the same output for one and two threads");
+    for (std::size_t a = 0; a < one.attributes.size(); ++a)
+        check(sameBits(one.attributes[a].values, two.attributes[a].values),
+              "the same attributes for one and two threads");
     return 0;
 }

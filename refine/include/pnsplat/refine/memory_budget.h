@@ -38,6 +38,10 @@ struct RefinementPlan {
     std::size_t targetPoints = 0;
     float evenOutFactor = 0.0f;
     bool colour = false, crease = false; // the points carry colours, crease normals
+    // Attributes (PointSet::attributes): how many, and their bytes in the file. In memory each is a
+    // double, counted as 8 bytes of the file (kMemoryPerFileByte times that: rather above what the
+    // values, their growth and the level's record of each new point's corners take).
+    std::size_t attributes = 0, attributeFileBytes = 0;
     unsigned threads = 0;
 };
 

@@ -31,6 +31,7 @@ PointSet sphereWithHole() {
 TEST(HoleDetection, ACutOutCapIsFoundWithItsSize) {
     const PointSet sphere = sphereWithHole();
     const HoleSearch search = findHoles(sphere, 2.0f, false, 2);
+    EXPECT_EQ(search.maxSize, 2.0f);
     ASSERT_EQ(search.holes.size(), 1u);
     EXPECT_TRUE(search.tooLarge.empty());
     const FoundHole& hole = search.holes[0];
@@ -51,6 +52,7 @@ TEST(HoleDetection, ACutOutCapIsFoundWithItsSize) {
     // The same in multiples of the spacing.
     const HoleSearch relative = findHoles(sphere, 2.0f / search.spacing, true, 1);
     ASSERT_EQ(relative.holes.size(), 1u);
+    EXPECT_FLOAT_EQ(relative.maxSize, 2.0f);
     EXPECT_EQ(relative.holes[0].ball.centre, hole.ball.centre);
     EXPECT_NEAR(search.spacing, 0.056f, 0.01f);
 }

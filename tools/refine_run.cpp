@@ -181,15 +181,6 @@ void addFillHolesOption(CLI::App& cmd, std::string& upTo) {
         ->type_name("SIZE");
 }
 
-PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::string& inputName) {
-    if (!(upTo.value > 0.0f)) return points;
-    RefineJob job;
-    job.fillHolesUpTo = upTo;
-    job.keepNormals = true;  // completed already: nothing is left to turn
-    job.keepOutliers = true; // left out already, or kept as asked
-    return refineWithProgress(std::move(points), job, inputName).points;
-}
-
 void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints) {
     cmd.add_option(
            "--max-points", maxPoints,
@@ -288,50 +279,42 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
     return *done;
 }
 
-RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
-    if (points.size() < 3)
-        throw CommandError(
-            fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
-    checkFits(points, job, inputName);
-    const InputCompletion completed = completeInput(points, job.options.threads, inputName,
-                                                    {.replaceRadii = job.estimateRadii,
-                                                     .keepNormals = job.keepNormals,
-                                                     .keepOutliers = job.keepOutliers});
-    RefineRun run;
-    run.radiiEstimated = completed.radiiEstimated;
-    run.inputPoints = points.size();
-    run.turnedNormals = completed.turnedNormals;
-    run.outliers = completed.outliers;
+namespace {
+
+// The holes findHoles finds in `points` up to job.fillHolesUpTo, appended to job.holes but for those
+// also given (their balls meet one of job.holes: filled once, from the ball given), counted in
+// `run` and said on standard error.
+void addFoundHoles(const PointSet& points, RefineJob& job, RefineRun& run, const std::string& inputName) {
+    const HoleSearch found =
+        findHoles(points, job.fillHolesUpTo.value, job.fillHolesUpTo.relative, job.options.threads);
+    const std::size_t given = job.holes.size();
+    const auto meetsGiven = [&](const Hole& ball) {
+        return std::any_of(job.holes.begin(), job.holes.begin() + static_cast<std::ptrdiff_t>(given),
+                           [&](const Hole& other) {
+                               return glm::distance(ball.centre, other.centre) < ball.radius + other.radius;
+                           });
+    };
+    for (const FoundHole& hole : found.holes)
+        if (!meetsGiven(hole.ball)) job.holes.push_back(hole.ball);
+    run.holesFound = job.holes.size() - given;
+    run.holesLeftOpen = found.tooLarge.size();
+    std::string detail;
+    for (const FoundHole& hole : found.holes)
+        detail += fmt::format("{}{:.4g} across at {:.4g},{:.4g},{:.4g}", detail.empty() ? ": " : "; ",
+                              hole.size, hole.ball.centre.x, hole.ball.centre.y, hole.ball.centre.z);
+    const std::size_t alsoGiven = found.holes.size() - run.holesFound;
+    fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}{}\n", inputName,
+               found.holes.size(), found.maxSize, detail,
+               alsoGiven == 0 ? "" : fmt::format("; {} of them given by --fill-hole too", alsoGiven),
+               found.tooLarge.empty() ? "" : fmt::format("; {} wider left open", found.tooLarge.size()));
+}
+
+// The job on completed `points` (completeInput; `run` holds what it did): the holes found and
+// given filled, then the levels.
+RefineRun fillAndRefine(PointSet points, RefineJob job, RefineRun run, const std::string& inputName) {
     if (auto valid = validateForRefinement(points); !valid)
         throw CommandError(inputName + ": " + valid.error().message);
-    if (job.fillHolesUpTo.value > 0.0f) {
-        const HoleSearch found =
-            findHoles(points, job.fillHolesUpTo.value, job.fillHolesUpTo.relative, job.options.threads);
-        // A hole also given by --fill-hole (their balls meet) is filled once, from the ball given.
-        const std::size_t given = job.holes.size();
-        const auto meetsGiven = [&](const Hole& ball) {
-            return std::any_of(job.holes.begin(), job.holes.begin() + static_cast<std::ptrdiff_t>(given),
-                               [&](const Hole& other) {
-                                   return glm::distance(ball.centre, other.centre) <
-                                          ball.radius + other.radius;
-                               });
-        };
-        for (const FoundHole& hole : found.holes)
-            if (!meetsGiven(hole.ball)) job.holes.push_back(hole.ball);
-        run.holesFound = job.holes.size() - given;
-        run.holesLeftOpen = found.tooLarge.size();
-        const float limit =
-            job.fillHolesUpTo.relative ? job.fillHolesUpTo.value * found.spacing : job.fillHolesUpTo.value;
-        std::string detail;
-        for (const FoundHole& hole : found.holes)
-            detail += fmt::format("{}{:.4g} across at {:.4g},{:.4g},{:.4g}", detail.empty() ? ": " : "; ",
-                                  hole.size, hole.ball.centre.x, hole.ball.centre.y, hole.ball.centre.z);
-        const std::size_t alsoGiven = found.holes.size() - run.holesFound;
-        fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}{}\n", inputName,
-                   found.holes.size(), limit, detail,
-                   alsoGiven == 0 ? "" : fmt::format("; {} of them given by --fill-hole too", alsoGiven),
-                   found.tooLarge.empty() ? "" : fmt::format("; {} wider left open", found.tooLarge.size()));
-    }
+    if (job.fillHolesUpTo.value > 0.0f) addFoundHoles(points, job, run, inputName);
     run.holes = job.holes.size();
     HoleRims rims;
     if (!job.holes.empty()) {
@@ -351,6 +334,37 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
                         inputName, run.levels + 1));
     }
     return run;
+}
+
+} // namespace
+
+RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& inputName) {
+    if (points.size() < 3)
+        throw CommandError(
+            fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
+    checkFits(points, job, inputName);
+    const InputCompletion completed = completeInput(points, job.options.threads, inputName,
+                                                    {.replaceRadii = job.estimateRadii,
+                                                     .keepNormals = job.keepNormals,
+                                                     .keepOutliers = job.keepOutliers});
+    RefineRun run;
+    run.radiiEstimated = completed.radiiEstimated;
+    run.inputPoints = points.size();
+    run.turnedNormals = completed.turnedNormals;
+    run.outliers = completed.outliers;
+    return fillAndRefine(std::move(points), std::move(job), std::move(run), inputName);
+}
+
+PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::string& inputName) {
+    if (!(upTo.value > 0.0f)) return points;
+    RefineJob job;
+    job.fillHolesUpTo = upTo;
+    RefineRun run;
+    run.inputPoints = points.size();
+    addFoundHoles(points, job, run, inputName);
+    if (job.holes.empty()) return points; // nothing to fill: the points as they came
+    job.fillHolesUpTo = {};               // found already
+    return fillAndRefine(std::move(points), std::move(job), std::move(run), inputName).points;
 }
 
 } // namespace pnsplat::tools

@@ -78,6 +78,7 @@ HoleSearch findHoles(const PointSet& points, float maxSize, bool relative, unsig
     }
     const float size = relative ? maxSize * search.spacing : maxSize;
     if (!(size > 0.0f) || !std::isfinite(size)) return search;
+    search.maxSize = size;
     const float cap = 0.5f * size;
 
     // 1. Rim points and the empty balls they propose.

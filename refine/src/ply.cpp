@@ -49,10 +49,6 @@ using detail::unitDirection; // normals: kept bit for bit within 1e-6 of unit le
 // ---------------------------------------------------------------------------------------------
 // Header model
 
-std::size_t sizeOf(ScalarType type) {
-    return scalarTypeBytes(type);
-}
-
 bool isFloating(ScalarType type) {
     return type == ScalarType::Float32 || type == ScalarType::Float64;
 }
@@ -473,7 +469,7 @@ class BinaryReader {
         std::vector<std::size_t> offsets;
         for (const Property& p : element.properties) {
             offsets.push_back(stride);
-            stride += sizeOf(p.type);
+            stride += scalarTypeBytes(p.type);
         }
         if (stride == 0) return {};
         const std::uint64_t available = remaining() / stride;
@@ -507,7 +503,8 @@ class BinaryReader {
                           PlyData& out) {
         // Every row holds at least its list counts and scalars: bound the count before allocating.
         std::size_t minRow = 0;
-        for (const Property& p : element.properties) minRow += sizeOf(p.isList ? p.countType : p.type);
+        for (const Property& p : element.properties)
+            minRow += scalarTypeBytes(p.isList ? p.countType : p.type);
         const Result<Rows> rows =
             prepareRows(file_, "binary", element, remaining() / minRow, isVertex, isFace, layout, out);
         if (!rows) return rows.error();
@@ -517,13 +514,13 @@ class BinaryReader {
             for (std::size_t p = 0; p < element.properties.size(); ++p) {
                 const Property& property = element.properties[p];
                 if (!property.isList) {
-                    const std::size_t size = sizeOf(property.type);
+                    const std::size_t size = scalarTypeBytes(property.type);
                     if (remaining() < size) return truncated(element, i);
                     if (slotOf[p] >= 0) values[slotOf[p]] = loadScalar<kSwap>(data_ + pos_, property.type);
                     pos_ += size;
                     continue;
                 }
-                const std::size_t countSize = sizeOf(property.countType);
+                const std::size_t countSize = scalarTypeBytes(property.countType);
                 if (remaining() < countSize) return truncated(element, i);
                 const double n = loadScalar<kSwap>(data_ + pos_, property.countType);
                 pos_ += countSize;
@@ -531,7 +528,7 @@ class BinaryReader {
                     return fail(file_,
                                 fmt::format("negative list length ({} {})", printable(element.name), i));
                 const auto length = static_cast<std::size_t>(n);
-                const std::size_t itemSize = sizeOf(property.type);
+                const std::size_t itemSize = scalarTypeBytes(property.type);
                 if (length > remaining() / itemSize) return truncated(element, i);
                 if (static_cast<int>(p) == faceList) {
                     indices_.resize(length);

@@ -1482,11 +1482,12 @@ TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
         run("bench settle " + quote(in) + " --cameras framing,grazing --width 64 --height 48 --validation " +
             "--pictures " + quote(dir / "pictures"));
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
-    // The settled picture, the offline one and their difference, side by side over captions.
+    // The settled picture, the offline one at the deepest level drawn, their difference and the
+    // offline one a level deeper, side by side over captions.
     for (const char* camera : {"framing", "grazing"}) {
         const auto picture = engine::readPng(dir / "pictures" / fmt::format("torus-{}.png", camera));
         ASSERT_TRUE(picture.ok()) << camera;
-        EXPECT_EQ(picture->width, 3u * 64u) << camera;
+        EXPECT_EQ(picture->width, 4u * 64u) << camera;
         EXPECT_GT(picture->height, 48u) << camera;
     }
     const std::vector<std::string> out = lines(r.out);
@@ -1501,8 +1502,26 @@ TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
         EXPECT_GT(std::stod(jsonField(out[k], "drawn_per_covered_px")), 0.0);
         EXPECT_GE(std::stod(jsonField(out[k], "made_per_covered_px")),
                   std::stod(jsonField(out[k], "drawn_per_covered_px")));
-        EXPECT_GE(std::stod(jsonField(out[k], "reference_levels")), 1.0);
+        // A level deeper moves the silhouettes' pixels of so small a picture (27-37 dB); a blank
+        // picture would be below 10.
+        EXPECT_GT(std::stod(jsonField(out[k], "psnr_deeper")), 20.0);
+        // The references: the offline refinement at the deepest level drawn and one deeper, of
+        // the splats in view only.
+        const std::string deepest = jsonField(out[k], "deepest_level");
+        EXPECT_GE(std::stoi(deepest), 1);
+        EXPECT_EQ(jsonField(out[k], "reference_levels"), deepest);
+        EXPECT_EQ(std::stoi(jsonField(out[k], "deeper_levels")), std::stoi(deepest) + 1);
+        EXPECT_EQ(jsonField(out[k], "deeper_capped"), "false");
+        EXPECT_GT(std::stod(jsonField(out[k], "deeper_points_in_view")),
+                  std::stod(jsonField(out[k], "reference_points_in_view")));
     }
+    // A reference whose next level would pass --max-reference-points stops there, capped.
+    const RunResult capped = run("bench settle " + quote(in) +
+                                 " --cameras framing --width 64 --height 48 --max-reference-points 100");
+    ASSERT_TRUE(capped.exited && capped.exitCode == 0) << capped.err;
+    const std::string line = lines(capped.out).at(0);
+    EXPECT_EQ(jsonField(line, "deeper_capped"), "true") << line;
+    EXPECT_LT(std::stoi(jsonField(line, "deeper_levels")), std::stoi(jsonField(line, "deepest_level")) + 1);
     EXPECT_EQ(jsonField(out[2], "cases"), "2") << out[2];
     const RunResult wrong = run("bench settle " + quote(in) + " --cameras sideways");
     EXPECT_TRUE(failsCleanly(wrong, Exit::Usage)) << wrong.err;

@@ -386,6 +386,50 @@ TEST_F(RenderTest, CullingSkipsNodesAndChangesNothing) {
     EXPECT_LT(difference(a, b).rmse, 0.05); // only float-atomic ordering may differ
 }
 
+// The splats splatsOutOfPicture finds (facing away, or out of the view) change nothing: the compute
+// path's sums are integers, so the picture without them is bitwise the same. A close camera sees a
+// part of a sphere, many splats straddling the image's edges.
+TEST_F(RenderTest, SplatsOutOfThePictureChangeNothing) {
+    const PointSet sphere = withRadii(sampleSphereUniform(50000, 1.0f));
+    Camera camera;
+    camera.eye = {0.4f, 0.3f, 1.5f};
+    camera.target = {0.2f, 0.1f, 0.7f};
+    camera.fovY = radians(40.0f);
+    const RenderSettings settings = small(RenderPath::Compute, 128, 96);
+    const std::vector<std::uint32_t> out = engine::splatsOutOfPicture(
+        sphere.position, sphere.normal, sphere.radius, camera, settings.width, settings.height, 1.0f);
+    ASSERT_TRUE(std::ranges::is_sorted(out));
+    std::size_t away = 0, outside = 0;
+    const glm::mat4 view = camera.view();
+    for (const std::uint32_t i : out) {
+        const glm::vec3 p = glm::vec3(view * glm::vec4(sphere.position[i], 1.0f));
+        const bool inView = -p.z > 0.0f && std::abs(p.y) < std::tan(camera.fovY / 2.0f) * -p.z &&
+                            std::abs(p.x) < std::tan(camera.fovY / 2.0f) * 128.0f / 96.0f * -p.z;
+        ++(inView ? away : outside);
+    }
+    EXPECT_GT(away, 1000u) << "splats in view that face away";
+    EXPECT_GT(outside, 10000u) << "splats out of the view";
+    EXPECT_LT(sphere.size() - out.size(), sphere.size() / 4);
+    PointSet kept = sphere;
+    removePoints(kept, out);
+    const RgbaImage all = render(sphere, settings, camera), some = render(kept, settings, camera);
+    ASSERT_EQ(all.width, 128u);
+    EXPECT_GT(engine::coveredPixels(all.pixels, glm::u8vec3(0)), 128u * 96u / 2u);
+    EXPECT_TRUE(all.pixels == some.pixels);
+    // A margin too thin shows: without the splats whose centre lies out of the view, the edges lose
+    // what their disks brought in.
+    PointSet centres = sphere;
+    std::vector<std::uint32_t> centreOut;
+    for (std::uint32_t i = 0; i < sphere.size(); ++i) {
+        const glm::vec3 p = glm::vec3(view * glm::vec4(sphere.position[i], 1.0f));
+        const float t = std::tan(camera.fovY / 2.0f);
+        if (!(-p.z > 0.0f && std::abs(p.y) < t * -p.z && std::abs(p.x) < t * 128.0f / 96.0f * -p.z))
+            centreOut.push_back(i);
+    }
+    removePoints(centres, centreOut);
+    EXPECT_FALSE(render(centres, settings, camera).pixels == all.pixels);
+}
+
 // Golden images: each model at a fixed camera on the default path. PNSPLAT_UPDATE_GOLDEN=1 rewrites
 // them (after a deliberate change; look at them before committing).
 struct Golden {

@@ -47,42 +47,57 @@ constexpr SettleView kSettleViews[] = {
 struct SettleArgs {
     std::vector<std::string> inputs; // empty: the first kSettleModelCount of kSparseModels
     std::vector<std::string> views;  // empty: all of kSettleViews
-    // Below the 4,194,304 splats of lavapipe's largest storage buffer (128 MiB), which a picture drawn
-    // without the node tree takes in one.
+    // The splats in view of a reference picture: below the 4,194,304 splats of lavapipe's largest
+    // storage buffer (128 MiB), which a picture drawn without the node tree takes in one.
     std::size_t maxReferencePoints = 4'000'000;
+    // The points of the offline refinement, every level and the whole model (about 90 bytes each
+    // while refining: 20 million take 1.8 GB).
+    std::size_t maxRefinedPoints = 20'000'000;
     std::string pictures; // where to write each case's pictures (empty: nowhere)
     EngineArgs engine;
 };
 
-// The offline refinement the settled picture is measured against: one level deeper than the
-// deepest node drawn, or, where that is deeper, the level at which its splats in view are at most
-// 2 px (99th percentile), as in EngineTest; no deeper than maxPoints allows (a level triples the
-// points).
+// An offline refinement of the whole model at `levels` levels, only its splats that can change
+// the picture of the camera (splatsOutOfPicture: the picture is the same).
 struct OfflineReference {
     PointSet points;
     std::uint32_t levels = 0;
-    bool capped = false; // stopped by maxPoints before either
+    bool capped = false; // a level shallower than asked: the next would pass a limit of SettleArgs
 };
-OfflineReference offlineReference(const PointSet& input, std::uint32_t deepest, const engine::Camera& camera,
-                                  std::uint32_t width, std::uint32_t height, std::size_t maxPoints) {
+// The references of issue 26's lines 1 and 2: the offline refinement at the deepest level the
+// settled frame draws, and one level deeper. A level triples the points: a reference stops at the
+// last level whose next would pass the refined or the in-view limit, and is then capped.
+struct OfflineReferences {
+    OfflineReference deepest, deeper;
+};
+OfflineReferences offlineReferences(const PointSet& input, std::uint32_t deepest,
+                                    const engine::Camera& camera, const SettleArgs& args, float radiusScale) {
     RefineOptions options;
     options.threads = 0;
     Refiner refiner(input, options);
-    OfflineReference out;
-    const auto converged = [&] {
-        const PointSet& p = refiner.points();
-        return engine::splatDiameterQuantile(p.position, p.normal, p.radius, camera, width, height, 0.99f) <=
-               2.0f;
+    OfflineReferences out;
+    OfflineReference current;
+    const auto snapshot = [&] {
+        current.points = refiner.points();
+        removePoints(current.points,
+                     engine::splatsOutOfPicture(current.points.position, current.points.normal,
+                                                current.points.radius, camera, args.engine.width,
+                                                args.engine.height, radiusScale));
+        current.levels = refiner.levels();
     };
-    while (refiner.levels() < deepest + 1 && !converged()) {
-        if (3 * refiner.points().size() > maxPoints) {
-            out.capped = true;
+    snapshot();
+    while (refiner.levels() < deepest + 1) {
+        if (refiner.levels() == deepest) out.deepest = current;
+        if (3 * refiner.points().size() > args.maxRefinedPoints ||
+            3 * current.points.size() > args.maxReferencePoints) {
+            current.capped = true;
             break;
         }
         refiner.refineLevel();
+        snapshot();
     }
-    out.levels = refiner.levels();
-    out.points = std::move(refiner).takePoints();
+    if (current.levels < deepest) out.deepest = current; // capped before the deepest level
+    out.deeper = std::move(current);
     return out;
 }
 
@@ -136,7 +151,8 @@ void runBenchSettle(const SettleArgs& args) {
     fmt::print(stderr, "bench settle: {} model(s), {} camera(s), {}x{} on {}, threshold {} px\n",
                models.size(), views.size(), args.engine.width, args.engine.height, context->deviceName(),
                args.engine.threshold);
-    double lowestPsnr = std::numeric_limits<double>::infinity(), mostDrawn = 0.0, mostMade = 0.0;
+    double lowestPsnr = kIdenticalPsnr, lowestDeeperPsnr = kIdenticalPsnr, lowestDeeperSsim = 1.0;
+    double mostDrawn = 0.0, mostMade = 0.0;
     std::size_t holePixels = 0, cases = 0;
     for (const Model& model : models) {
         const PointSet& input = model.points;
@@ -156,57 +172,75 @@ void runBenchSettle(const SettleArgs& args) {
             const std::size_t made = engine.tree().pointCount();
             engine.finish();
 
-            const OfflineReference reference = offlineReference(input, deepest, camera, args.engine.width,
-                                                                args.engine.height, args.maxReferencePoints);
-            auto offline = engine::Engine::create(*context, reference.points, drawOnly);
-            if (!offline) throw CommandError(loaded + ": offline reference: " + offline.error().message);
-            engine::FrameOptions once;
-            once.readBack = true;
-            const engine::FrameReport drawn = unwrap((*offline)->frame(camera, once));
-            const engine::RgbaImage offlinePicture = unwrap((*offline)->image(drawn.frame));
-            (*offline)->finish();
-
+            const OfflineReferences references =
+                offlineReferences(input, deepest, camera, args, drawOnly.render.radiusScale);
+            const auto drawReference = [&](const OfflineReference& reference) {
+                auto offline = engine::Engine::create(*context, reference.points, drawOnly);
+                if (!offline) throw CommandError(loaded + ": offline reference: " + offline.error().message);
+                engine::FrameOptions once;
+                once.readBack = true;
+                const engine::FrameReport drawn = unwrap((*offline)->frame(camera, once));
+                engine::RgbaImage image = unwrap((*offline)->image(drawn.frame));
+                (*offline)->finish();
+                return image;
+            };
+            const engine::RgbaImage offlinePicture = drawReference(references.deepest);
+            const engine::RgbaImage deeperPicture = drawReference(references.deeper);
             const engine::ImageDifference difference = unwrap(engine::compareImages(picture, offlinePicture));
+            const engine::ImageDifference deeper = unwrap(engine::compareImages(picture, deeperPicture));
             const auto holes =
                 unwrap(engine::enclosedBackgroundAbsentIn(picture, offlinePicture, background));
             std::size_t holeArea = 0;
             for (const engine::ImageRegion& hole : holes) holeArea += hole.pixels;
+            const auto caption = [](const OfflineReference& reference) {
+                return fmt::format("offline, {} levels{}", reference.levels,
+                                   reference.capped ? " (capped)" : "");
+            };
             if (!args.pictures.empty()) {
-                const engine::RgbaImage panels[3] = {picture, offlinePicture, difference.heatmap};
-                const std::string captions[3] = {
-                    fmt::format("settled adaptive, deepest level {}", deepest),
-                    fmt::format("offline, {} levels{}", reference.levels,
-                                reference.capped ? " (capped)" : ""),
-                    fmt::format("difference: {:.2f} dB", std::min(difference.psnr, kIdenticalPsnr))};
+                const engine::RgbaImage panels[4] = {picture, offlinePicture, difference.heatmap,
+                                                     deeperPicture};
+                const std::string captions[4] = {
+                    fmt::format("settled adaptive, deepest level {}", deepest), caption(references.deepest),
+                    fmt::format("difference: {:.2f} dB", std::min(difference.psnr, kIdenticalPsnr)),
+                    caption(references.deeper)};
                 unwrap(engine::writePng(fmt::format("{}/{}-{}.png", args.pictures, name, view->name),
                                         sideBySide(panels, captions)));
             }
             const auto covered = static_cast<double>(engine::coveredPixels(picture.pixels, background));
             const double drawnPerPixel = covered > 0.0 ? double(settled.splatsDrawn) / covered : 0.0;
             const double madePerPixel = covered > 0.0 ? double(made) / covered : 0.0;
+            const OfflineReference& first = references.deepest;
+            const OfflineReference& second = references.deeper;
             fmt::print(
                 R"({{"model": {}, "camera": {}, "width": {}, "height": {}, "settled": {}, "psnr": {:.3f}, "ssim": {:.5f}, )"
+                R"("psnr_deeper": {:.3f}, "ssim_deeper": {:.5f}, )"
                 R"("holes": {}, "hole_pixels": {}, "covered_px": {}, "splats_drawn": {}, "drawn_per_covered_px": {:.2f}, )"
                 R"("points_made": {}, "made_per_covered_px": {:.2f}, "median_splat_px": {:.2f}, "deepest_level": {}, )"
-                R"("refine_ms": {:.0f}, "reference_levels": {}, "reference_points": {}, "reference_capped": {}}})"
+                R"("refine_ms": {:.0f}, "reference_levels": {}, "reference_points_in_view": {}, "reference_capped": {}, )"
+                R"("deeper_levels": {}, "deeper_points_in_view": {}, "deeper_capped": {}}})"
                 "\n",
                 jsonString(name), jsonString(view->name), args.engine.width, args.engine.height,
                 settled.settled ? "true" : "false", std::min(difference.psnr, kIdenticalPsnr),
-                difference.ssim, holes.size(), holeArea, covered, settled.splatsDrawn, drawnPerPixel, made,
-                madePerPixel, settled.medianSplatPx, deepest, settled.refineWaitMs, reference.levels,
-                reference.points.size(), reference.capped ? "true" : "false");
+                difference.ssim, std::min(deeper.psnr, kIdenticalPsnr), deeper.ssim, holes.size(), holeArea,
+                covered, settled.splatsDrawn, drawnPerPixel, made, madePerPixel, settled.medianSplatPx,
+                deepest, settled.refineWaitMs, first.levels, first.points.size(),
+                first.capped ? "true" : "false", second.levels, second.points.size(),
+                second.capped ? "true" : "false");
             std::fflush(stdout);
             lowestPsnr = std::min(lowestPsnr, std::min(difference.psnr, kIdenticalPsnr));
+            lowestDeeperPsnr = std::min(lowestDeeperPsnr, std::min(deeper.psnr, kIdenticalPsnr));
+            lowestDeeperSsim = std::min(lowestDeeperSsim, deeper.ssim);
             mostDrawn = std::max(mostDrawn, drawnPerPixel);
             mostMade = std::max(mostMade, madePerPixel);
             holePixels += holeArea;
             ++cases;
         }
     }
-    fmt::print(R"({{"summary": true, "cases": {}, "psnr_lowest": {:.3f}, "hole_pixels": {}, )"
-               R"("drawn_per_covered_px_highest": {:.2f}, "made_per_covered_px_highest": {:.2f}}})"
+    fmt::print(R"({{"summary": true, "cases": {}, "psnr_lowest": {:.3f}, "psnr_deeper_lowest": {:.3f}, )"
+               R"("ssim_deeper_lowest": {:.5f}, "hole_pixels": {}, "drawn_per_covered_px_highest": {:.2f}, )"
+               R"("made_per_covered_px_highest": {:.2f}}})"
                "\n",
-               cases, lowestPsnr, holePixels, mostDrawn, mostMade);
+               cases, lowestPsnr, lowestDeeperPsnr, lowestDeeperSsim, holePixels, mostDrawn, mostMade);
     checkValidation(*context);
 }
 
@@ -229,8 +263,14 @@ void addBenchSettleCommand(CLI::App& bench) {
         ->check(CLI::IsMember({"framing", "close-up", "grazing"}));
     settle
         ->add_option("--max-reference-points", args->maxReferencePoints,
-                     "refine the offline reference no further than this many points (it is then reported as "
-                     "capped)")
+                     "draw an offline reference of at most this many splats in view: one storage buffer (a "
+                     "shallower one is reported as capped)")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    settle
+        ->add_option("--max-refined-points", args->maxRefinedPoints,
+                     "refine the offline references to at most this many points in all (memory: about 90 "
+                     "bytes each)")
         ->capture_default_str()
         ->check(CLI::PositiveNumber);
     settle->add_option("--pictures", args->pictures,

@@ -205,6 +205,12 @@ void runRender(const RenderArgs& args) {
     EngineSettings settings = engineSettings(engineArgs, *context, args.adaptive);
     settings.render.background = {args.background[0], args.background[1], args.background[2]};
     const std::size_t pointsIn = points.size();
+    // One picture needs only the splats that can change it: a deep refinement whose splats pass the
+    // device's largest storage buffer draws when those in view fit (the same picture).
+    if (!args.adaptive)
+        removePoints(points,
+                     splatsOutOfPicture(points.position, points.normal, points.radius, camera,
+                                        args.engine.width, args.engine.height, settings.render.radiusScale));
     auto created = Engine::create(*context, std::move(points), settings);
     if (!created) throw CommandError(name + ": " + created.error().message);
     Engine& engine = **created;
@@ -222,7 +228,7 @@ void runRender(const RenderArgs& args) {
     unwrap(writePng(args.output, image));
     checkValidation(*context);
     const char* path = settings.render.path == RenderPath::Compute ? "compute" : "graphics";
-    const std::size_t splats = engine.tree().pointCount();
+    const std::size_t splats = args.adaptive ? engine.tree().pointCount() : pointsIn;
     const std::size_t covered =
         engine::coveredPixels(image.pixels, engine::backgroundPixel(settings.render.background));
     const double perCovered = covered > 0 ? double(drawn.splatsDrawn) / double(covered) : 0.0;

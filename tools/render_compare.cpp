@@ -150,13 +150,16 @@ Comparison renderComparison(engine::Context& context, CompareJob job) {
     return out;
 }
 
-engine::RgbaImage sideBySide(const engine::RgbaImage (&panels)[3], const std::string (&captions)[3]) {
+engine::RgbaImage sideBySide(std::span<const engine::RgbaImage> panels,
+                             std::span<const std::string> captions) {
+    assert(!panels.empty() && captions.size() == panels.size());
     const std::uint32_t width = panels[0].width, height = panels[0].height;
-    const bool any = !captions[0].empty() || !captions[1].empty() || !captions[2].empty();
+    const bool any = std::ranges::any_of(captions, [](const std::string& c) { return !c.empty(); });
     const int strip = any ? captionHeight(width) : 0;
+    const auto count = static_cast<std::uint32_t>(panels.size());
     engine::RgbaImage picture =
-        filled(3 * width, height + std::uint32_t(strip), glm::vec3(viewer::kPanelBackground) / 255.0f);
-    for (std::uint32_t k = 0; k < 3; ++k) {
+        filled(count * width, height + std::uint32_t(strip), glm::vec3(viewer::kPanelBackground) / 255.0f);
+    for (std::uint32_t k = 0; k < count; ++k) {
         assert(panels[k].width == width && panels[k].height == height);
         place(picture, panels[k], k * width);
         if (captions[k].empty()) continue;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <optional>
+#include <span>
 #include <string>
 
 #include <glm/vec3.hpp>
@@ -43,10 +44,11 @@ struct Comparison {
 // on an engine or Vulkan failure.
 Comparison renderComparison(engine::Context& context, CompareJob job);
 
-// The three panels (of one size) side by side, left to right, over a strip of captions, one line
-// under each (cut off at the panel's edge; the strip is left out when all three are empty): a
-// picture 3 · width × (height + captionHeight(width)).
-engine::RgbaImage sideBySide(const engine::RgbaImage (&panels)[3], const std::string (&captions)[3]);
+// The panels (of one size) side by side, left to right, over a strip of captions, one line under
+// each (as many captions as panels, each cut off at its panel's edge; the strip is left out when
+// all are empty): a picture panels · width × (height + captionHeight(width)).
+engine::RgbaImage sideBySide(std::span<const engine::RgbaImage> panels,
+                             std::span<const std::string> captions);
 // The caption strip's height in pixels under panels `width` wide: 18, or 36 from 480 pixels wide.
 int captionHeight(std::uint32_t width);
 

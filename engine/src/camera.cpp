@@ -226,4 +226,27 @@ float splatDiameterQuantile(std::span<const glm::vec3> positions, std::span<cons
     return *at;
 }
 
+std::vector<std::uint32_t> splatsOutOfPicture(std::span<const glm::vec3> positions,
+                                              std::span<const glm::vec3> normals,
+                                              std::span<const float> radii, const Camera& camera,
+                                              std::uint32_t width, std::uint32_t height, float radiusScale) {
+    const glm::mat4 view = camera.view();
+    const float tanY = std::tan(camera.fovY * 0.5f);
+    // No far plane, and a near plane at the eye: depthRange encloses every splat kept.
+    const Frustum frustum{
+        tanY * float(width) / float(height), tanY, {0.0f, std::numeric_limits<float>::infinity()}};
+    std::vector<std::uint32_t> out;
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+        const glm::vec3 toSplat = positions[i] - camera.eye;
+        const float distance = glm::length(toSplat);
+        // The passes test the same dot product in view space: a relative margin far above the
+        // rounding of either (1e-4 of the distance, the normal being unit).
+        const bool away = glm::dot(normals[i], toSplat) > 1e-4f * distance;
+        const glm::vec3 centre = glm::vec3(view * glm::vec4(positions[i], 1.0f));
+        const float reach = radii[i] * radiusScale * 1.01f + 1e-5f * distance;
+        if (away || !frustum.intersects(centre, reach)) out.push_back(static_cast<std::uint32_t>(i));
+    }
+    return out;
+}
+
 } // namespace pnsplat::engine

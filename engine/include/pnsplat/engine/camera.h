@@ -6,6 +6,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
@@ -104,6 +105,18 @@ glm::mat4 projection(float fovY, float aspect, DepthRange range);
 float splatDiameterQuantile(std::span<const glm::vec3> positions, std::span<const glm::vec3> normals,
                             std::span<const float> radii, const Camera& camera, std::uint32_t width,
                             std::uint32_t height, float quantile);
+
+// The splats that cannot change the picture of `camera` in a width × height image: facing away
+// (the passes skip them: splat_common.glsl's frontFacing) or wholly outside the view (the ball of
+// radius × radiusScale about the centre misses the view pyramid, or lies behind the eye). Both
+// tests keep a margin of rounding, so that on the compute path the picture drawn without them is
+// the picture drawn with them, bit for bit (its sums are integers). Ascending indices, for
+// removePoints: a picture of more splats than one storage buffer holds (`render` of a deep
+// refinement, bench settle's reference) needs only those in view. Any thread; O(points).
+std::vector<std::uint32_t> splatsOutOfPicture(std::span<const glm::vec3> positions,
+                                              std::span<const glm::vec3> normals,
+                                              std::span<const float> radii, const Camera& camera,
+                                              std::uint32_t width, std::uint32_t height, float radiusScale);
 
 // View-space frustum test of a bounding sphere (centre already in view space).
 struct Frustum {

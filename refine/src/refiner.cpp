@@ -83,6 +83,13 @@ constexpr float kMinSplitAngle = kThetaC / 8.0f;
 
 using Clock = std::chrono::steady_clock;
 
+// Whether x lies inside one of the balls, their centres and radii times `scale` (a level's
+// rescaling, ALGORITHM.md §5.4: a power of two, exact).
+bool insideAny(std::span<const Hole> balls, glm::vec3 x, float scale) {
+    return std::ranges::any_of(
+        balls, [&](const Hole& ball) { return glm::length(x - ball.centre * scale) < ball.radius * scale; });
+}
+
 // A point inserted during the current level, stored in the cell of its parent.
 struct NewPoint {
     glm::vec3 position;
@@ -645,6 +652,8 @@ struct Refiner::State {
         std::vector<std::uint8_t> frozen; // per point of P0: a context point that is not refined
     };
     std::optional<RegionRun> regionRun;
+    bool meanNormals = false;                                  // Refiner::setMeanNormals
+    std::vector<Hole> refinedBalls;                            // Refiner::setRefinedBalls
     std::vector<std::array<std::uint32_t, 3>> newPointParents; // recordParents: per new point (PointSource)
     Region scaledRegion;                                       // regionRun's region during the level
     bool outsideRegion(glm::vec3 q) const { return regionRun && !scaledRegion.contains(q); }
@@ -1020,7 +1029,7 @@ NewPoint Refiner::State::newPointFrom(std::uint32_t p, const NeighbourSet& fan, 
             t.b021 = c.b021;
             t.b012 = c.b012;
         }
-        np.normal = centreNormal(t, n, na, nb);
+        np.normal = meanNormals ? meanNormal(n, na, nb) : centreNormal(t, n, na, nb);
     }
     if (points.hasColour())
         np.colour =
@@ -1490,6 +1499,7 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
     }
     const auto skipped = [&](std::uint32_t i) {
         if (regionRun && regionRun->frozen[i]) return true;
+        if (!refinedBalls.empty() && !insideAny(refinedBalls, points.position[i], scale)) return true;
         return levelRadius[i] <= targetRadius && (longestOwned.empty() || longestOwned[i] <= targetRadius);
     };
     std::erase_if(keyed, [&](const auto& entry) {
@@ -1680,6 +1690,12 @@ LevelStats Refiner::refineLevel(const ProgressFn& progress) {
 void Refiner::setTargetRadius(float radius) {
     state_->options.targetRadius = radius;
 }
+void Refiner::setMeanNormals(bool on) {
+    state_->meanNormals = on;
+}
+void Refiner::setRefinedBalls(std::vector<Hole> balls) {
+    state_->refinedBalls = std::move(balls);
+}
 float Refiner::targetRadius() const {
     return state_->options.targetRadius;
 }
@@ -1776,13 +1792,36 @@ Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> hole
         if (!reached[k])
             return Error{"hole " + std::to_string(k + 1) +
                          " reaches no point's ball: nothing around it to fill it from"};
-    rims.fillTarget = std::max(kEvenOutFactor * medianRadius(points.radius), largestKept);
+    const float median = medianRadius(points.radius);
+    rims.fillTarget = std::max(kEvenOutFactor * median, largestKept);
+    rims.densityTarget = kHoleDensityFactor * median;
+    rims.holes.assign(holes.begin(), holes.end());
     points.radius = std::move(radius);
     return rims;
 }
 
 std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress) {
-    return refineDownTo(refiner, rims.fillTarget, kHoleFillingLevels, progress);
+    refiner.setMeanNormals(true);
+    std::vector<LevelStats> levels = refineDownTo(refiner, rims.fillTarget, kHoleFillingLevels, progress);
+    refiner.setMeanNormals(false);
+    const float previous = refiner.targetRadius();
+    refiner.setTargetRadius(rims.densityTarget);
+    refiner.setRefinedBalls(rims.holes);
+    const auto largestInside = [&] {
+        const PointSet& points = refiner.points();
+        float largest = 0.0f;
+        for (std::size_t i = 0; i < points.size(); ++i)
+            if (insideAny(rims.holes, points.position[i], 1.0f))
+                largest = std::max(largest, points.radius[i]);
+        return largest;
+    };
+    for (unsigned level = 0; level < kHoleFillingLevels && largestInside() > rims.densityTarget; ++level) {
+        levels.push_back(refiner.refineLevel(progress));
+        if (levels.back().inserted == 0) break;
+    }
+    refiner.setRefinedBalls({});
+    refiner.setTargetRadius(previous);
+    return levels;
 }
 
 namespace {

@@ -123,6 +123,12 @@ struct LevelStats {
 // thread that called refineLevel, at most a few hundred times per level.
 using ProgressFn = std::function<void(std::size_t done, std::size_t total)>;
 
+// A hole to fill: a ball that holds no input point (hole filling, below).
+struct Hole {
+    glm::vec3 centre{0.0f};
+    float radius = 0.0f;
+};
+
 struct SegmentEnds;
 struct RegionLevel;
 struct RegionResult;
@@ -140,6 +146,12 @@ class Refiner {
     // RefineOptions::targetRadius for the levels that follow, and its current value.
     void setTargetRadius(float radius);
     float targetRadius() const;
+    // For the levels that follow; fillHoles sets both for its levels and clears them after. On, a
+    // new point's normal is the mean of its triangle's corner normals (meanNormal), not the
+    // patch's at its centre. With balls, only the points inside one of them are refined (and
+    // only those the target radius leaves); without, every point the target radius leaves.
+    void setMeanNormals(bool on);
+    void setRefinedBalls(std::vector<Hole> balls);
     // The length of the longest boundary or crease segment (section 6), 0 without segments. They
     // are found at the first level; before it there are none.
     float longestSegment() const;
@@ -199,24 +211,41 @@ std::vector<LevelStats> refineDownTo(Refiner& refiner, float targetRadius, unsig
 //    instead, a rim point finds its new one-ring complete with its many neighbours' children and
 //    inserts almost nothing.
 //  - Choice: fillTarget = max(kEvenOutFactor times the median radius, the largest radius of the
-//    points not enlarged): no other point is refined on the way (the fill evens out nothing else),
-//    and on a uniform input the hole ends as dense as its surroundings.
-struct Hole {
-    glm::vec3 centre{0.0f};
-    float radius = 0.0f;
-};
+//    points not enlarged): no other point is refined on the way (the fill evens out nothing else).
+//    After the uniform levels the hole would hold about half its surroundings' density (0.56 on
+//    the data's two holes).
+//  - Choice: the points inserted by the filling levels take the mean of their triangle's corner
+//    normals (Refiner::setMeanNormals), not the patch's normal at its centre. An enlarged rim
+//    point's fan triangles are slivers (two corners side by side on one rim, the third across the
+//    hole), whose centre normal is ill-conditioned: 30 to 56 degrees off the true one on the
+//    igea's hole, and the points made from those normals lay up to a third of the hole's radius
+//    inside the surface.
+//  - Choice: then the density levels: only the points inside a hole's ball are refined
+//    (Refiner::setRefinedBalls), with the radii the filling left them, until their radii are down
+//    to densityTarget = kHoleDensityFactor times the median radius (at most kHoleFillingLevels
+//    levels): the fill's new points come from small triangles of fill and rim points.
+//    kHoleDensityFactor = √2: the last level takes the fill's radii well past the target (their
+//    median ends at 0.6 times it on the data's holes), and after the uniform levels the data's two
+//    holes ended 1.59 and 1.47 times as dense as their surroundings with the median radius as the
+//    target, 1.14 and 1.20 with 1.2 times it, 0.92 and 0.92 with √2 times it, 0.71 and 0.72 with
+//    1.7 times it, 0.53 and 0.60 with twice it (igea, bunny; ALGORITHM.md §9.6).
 struct HoleRims {
     std::size_t enlarged = 0; // radii that grew
     float fillTarget = 0.0f;
+    std::vector<Hole> holes;    // the holes, for the density levels
+    float densityTarget = 0.0f; // kHoleDensityFactor times the median radius
 };
 // Errors, with `points` unchanged: a centre or radius that is not finite, a radius that is not
 // positive, an input point inside a hole, a hole that no point's ball reaches. (A point whose
 // distance to a centre is finite is within 2^64 of it, so an enlarged radius never overflows.)
 // Single-threaded, O(points × holes).
 Result<HoleRims> enlargeAroundHoles(PointSet& points, std::span<const Hole> holes);
-// The filling levels (refineDownTo to rims.fillTarget, at most kHoleFillingLevels).
+// The filling levels (refineDownTo to rims.fillTarget, at most kHoleFillingLevels, with mean
+// normals), then the density levels (inside rims.holes, down to rims.densityTarget, at most
+// kHoleFillingLevels).
 std::vector<LevelStats> fillHoles(Refiner& refiner, const HoleRims& rims, const ProgressFn& progress = {});
 inline constexpr unsigned kHoleFillingLevels = 12;
+inline constexpr float kHoleDensityFactor = 1.41421356f; // √2
 
 // A region of space for the real-time refinement (node_tree.h): [lo, hi) on each axis, so that
 // the regions of one level partition space and a point lies in exactly one of them. Sides may be

@@ -211,8 +211,15 @@ void runRender(const RenderArgs& args) {
         removePoints(points,
                      splatsOutOfPicture(points.position, points.normal, points.radius, camera,
                                         args.engine.width, args.engine.height, settings.render.radiusScale));
+    const std::size_t pointsDrawn = points.size();
     auto created = Engine::create(*context, std::move(points), settings);
-    if (!created) throw CommandError(name + ": " + created.error().message);
+    if (!created)
+        throw CommandError(
+            args.adaptive || pointsDrawn == pointsIn
+                ? name + ": " + created.error().message
+                : fmt::format("{}: {} ({} of its {} splats can be in this picture; fewer levels or a camera "
+                              "that sees less would draw)",
+                              name, created.error().message, pointsDrawn, pointsIn));
     Engine& engine = **created;
 
     FrameOptions

@@ -399,14 +399,15 @@ TEST_F(RenderTest, SplatsOutOfThePictureChangeNothing) {
     const std::vector<std::uint32_t> out = engine::splatsOutOfPicture(
         sphere.position, sphere.normal, sphere.radius, camera, settings.width, settings.height, 1.0f);
     ASSERT_TRUE(std::ranges::is_sorted(out));
-    std::size_t away = 0, outside = 0;
+    // Whether a splat's centre lies in the view.
     const glm::mat4 view = camera.view();
-    for (const std::uint32_t i : out) {
+    const float tanY = std::tan(camera.fovY / 2.0f), tanX = tanY * 128.0f / 96.0f;
+    const auto centreInView = [&](std::uint32_t i) {
         const glm::vec3 p = glm::vec3(view * glm::vec4(sphere.position[i], 1.0f));
-        const bool inView = -p.z > 0.0f && std::abs(p.y) < std::tan(camera.fovY / 2.0f) * -p.z &&
-                            std::abs(p.x) < std::tan(camera.fovY / 2.0f) * 128.0f / 96.0f * -p.z;
-        ++(inView ? away : outside);
-    }
+        return -p.z > 0.0f && std::abs(p.y) < tanY * -p.z && std::abs(p.x) < tanX * -p.z;
+    };
+    std::size_t away = 0, outside = 0;
+    for (const std::uint32_t i : out) ++(centreInView(i) ? away : outside);
     EXPECT_GT(away, 1000u) << "splats in view that face away";
     EXPECT_GT(outside, 10000u) << "splats out of the view";
     EXPECT_LT(sphere.size() - out.size(), sphere.size() / 4);
@@ -420,12 +421,8 @@ TEST_F(RenderTest, SplatsOutOfThePictureChangeNothing) {
     // what their disks brought in.
     PointSet centres = sphere;
     std::vector<std::uint32_t> centreOut;
-    for (std::uint32_t i = 0; i < sphere.size(); ++i) {
-        const glm::vec3 p = glm::vec3(view * glm::vec4(sphere.position[i], 1.0f));
-        const float t = std::tan(camera.fovY / 2.0f);
-        if (!(-p.z > 0.0f && std::abs(p.y) < t * -p.z && std::abs(p.x) < t * 128.0f / 96.0f * -p.z))
-            centreOut.push_back(i);
-    }
+    for (std::uint32_t i = 0; i < sphere.size(); ++i)
+        if (!centreInView(i)) centreOut.push_back(i);
     removePoints(centres, centreOut);
     EXPECT_FALSE(render(centres, settings, camera).pixels == all.pixels);
 }

@@ -1464,6 +1464,17 @@ TEST(CliBenchView, QualityFramesAgainstTheSettledPicture) {
     EXPECT_NE(out[9].find("{\"quality_frame\": 6, \"psnr\": "), std::string::npos) << out[9];
     EXPECT_NE(out[10].find("\"quality_frames\": 3, \"psnr_median\": "), std::string::npos) << out[10];
     EXPECT_EQ(out[10].find("\"psnr_p5\": null"), std::string::npos) << out[10];
+    // Every frame a quality frame: more pictures waiting than frames in flight, each read before its
+    // slot is reused (engine.image of a reused slot is an error).
+    const RunResult every =
+        run("bench view --frames 5 --width 32 --height 24 --lockstep --validation --quality-every 1");
+    ASSERT_TRUE(every.exited && every.exitCode == 0) << every.err;
+    const std::vector<std::string> everyOut = lines(every.out);
+    ASSERT_EQ(everyOut.size(), 5u + 5u + 1u) << every.out;
+    for (std::size_t k = 0; k < 5; ++k)
+        EXPECT_NE(everyOut[5 + k].find(fmt::format("{{\"quality_frame\": {}, \"psnr\": ", k)),
+                  std::string::npos)
+            << everyOut[5 + k];
     // Without it: no quality figures.
     const RunResult plain = run("bench view --frames 2 --width 32 --height 24");
     ASSERT_TRUE(plain.exited && plain.exitCode == 0) << plain.err;

@@ -116,6 +116,24 @@ TEST(CliRefine, LevelsAndTargetPointsAreExclusive) {
     EXPECT_FALSE(fs::exists(out));
 }
 
+// A count or a bound out of range is named in one short line (CLI11's own checks printed their
+// range up to the largest double, 309 digits).
+TEST(CliRefine, CountsOutOfRangeGetAShortLine) {
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    for (const std::string bad : {"--target-points 0", "--max-points -3", "--max-points 1.5"}) {
+        const RunResult r = run("refine -o " + quote(out) + " " + bad);
+        EXPECT_TRUE(failsCleanly(r, Exit::Usage)) << bad;
+        EXPECT_NE(r.err.find("must be a whole number of at least 1"), std::string::npos) << r.err;
+        EXPECT_LT(r.err.size(), 160u) << r.err;
+    }
+    const RunResult diff = run("diff a.png b.png --max-rmse -1");
+    EXPECT_TRUE(failsCleanly(diff, Exit::Usage));
+    EXPECT_NE(diff.err.find("--max-rmse: must be a number of at least 0 (got -1)"), std::string::npos)
+        << diff.err;
+    EXPECT_FALSE(fs::exists(out));
+}
+
 TEST(CliRefine, TargetPointsStopsAtTheFirstLevelReachingIt) {
     const TempDir dir;
     const fs::path out = dir / "out.ply";

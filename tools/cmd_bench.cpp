@@ -593,7 +593,7 @@ void addBenchCommand(CLI::App& app) {
         ->add_option("--target-points", args->targetPoints,
                      "refine until at least this many points (default: 150000 for the sphere; with "
                      "inputs, no target: --levels)")
-        ->check(CLI::PositiveNumber);
+        ->check(kPositiveCount);
     refine->add_option("--repeat", args->repeat, "timed runs per configuration (after one warm-up)")
         ->check(CLI::Range(1u, 100u))
         ->capture_default_str();

@@ -266,13 +266,13 @@ void addBenchSettleCommand(CLI::App& bench) {
                      "draw an offline reference of at most this many splats in view: one storage buffer (a "
                      "shallower one is reported as capped)")
         ->capture_default_str()
-        ->check(CLI::PositiveNumber);
+        ->check(kPositiveCount);
     settle
         ->add_option("--max-refined-points", args->maxRefinedPoints,
                      "refine the offline references to at most this many points in all (memory: about 90 "
                      "bytes each)")
         ->capture_default_str()
-        ->check(CLI::PositiveNumber);
+        ->check(kPositiveCount);
     settle->add_option("--pictures", args->pictures,
                        "write each case as DIR/MODEL-CAMERA.png: the settled picture, the offline one and "
                        "their difference side by side");

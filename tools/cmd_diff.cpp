@@ -48,7 +48,7 @@ void addDiffCommand(CLI::App& app) {
     addForceFlag(*cmd, args->force);
     cmd->add_option("--max-rmse", args->maxRmse,
                     "exit with status 1 when RMSE (0..255 units) exceeds this (errors: 2 or 3)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(kNonNegative);
     cmd->add_option("--pixel-threshold", args->pixelThreshold,
                     "a pixel differs when a channel differs by more than this (0..255)")
         ->check(CLI::Range(0, 255))

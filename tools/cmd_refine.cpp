@@ -187,7 +187,7 @@ void addRefineCommand(CLI::App& app) {
                        ->check(CLI::Range(1u, 64u));
     cmd->add_option("-n,--target-points", args->targetPoints,
                     "refine level by level until at least this many points (more than the input has)")
-        ->check(CLI::PositiveNumber)
+        ->check(kPositiveCount)
         ->excludes(levels);
     cmd->add_option("--neighbourhood", args->neighbourhood,
                     "one-ring: accurate (Ng, geodesic projection) or fuzzy (Nf)")

@@ -3,6 +3,7 @@
 // ("pnsplat: <message>") before exiting with the error's status.
 #pragma once
 
+#include <exception>
 #include <initializer_list>
 #include <memory>
 #include <string>
@@ -21,6 +22,31 @@
 #include "pnsplat/refine/result.h"
 
 namespace pnsplat::tools {
+
+// Checks of a count of at least 1 and of a number of at least 0, for options: CLI11's own
+// (PositiveNumber, NonNegativeNumber) print their range up to the largest double, 309 digits.
+inline const CLI::Validator kPositiveCount(
+    [](std::string& value) -> std::string {
+        std::size_t used = 0;
+        try {
+            if (!value.empty() && value.front() != '-' && std::stoull(value, &used) >= 1 &&
+                used == value.size())
+                return {};
+        } catch (const std::exception&) {
+        }
+        return "must be a whole number of at least 1 (got " + value + ")";
+    },
+    "COUNT>=1");
+inline const CLI::Validator kNonNegative(
+    [](std::string& value) -> std::string {
+        std::size_t used = 0;
+        try {
+            if (const double x = std::stod(value, &used); used == value.size() && x >= 0.0) return {};
+        } catch (const std::exception&) {
+        }
+        return "must be a number of at least 0 (got " + value + ")";
+    },
+    "NUMBER>=0");
 
 // Adds the subcommand `name` to `parent`: its options fill the returned Args (which the subcommand
 // owns), and `run` runs with them once the command line is parsed. Returns the subcommand, for the

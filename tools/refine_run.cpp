@@ -187,7 +187,7 @@ void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints) {
            "refuse to start a refinement estimated to make more points than this (default: as many as "
            "the memory allows: the least of the physical memory, a control group's limit and ulimit -v "
            "or -d, at about 140 bytes per point and 84 MiB per thread)")
-        ->check(CLI::PositiveNumber);
+        ->check(kPositiveCount);
 }
 
 void addKeepNormalsOption(CLI::App& cmd, bool& keep) {

@@ -733,6 +733,18 @@ struct Refiner::State {
         return std::any_of(s.ring.begin(), s.ring.end(), at) ||
                std::any_of(s.outer.begin(), s.outer.end(), at);
     }
+    // Whether q is the position of a child of `corner`, a corner of the fan triangle that made q:
+    // the same triangle in the corner's own fan makes the same PN centre, and the corner's children
+    // are not always among Y_p (p within the corner's fan reach, the corner not within p's).
+    // A corner within reach was refined before p or is refined after it, never at the same time
+    // (ALGORITHM.md §5.2), so its children are read whole.
+    bool madeByCorner(glm::vec3 q, std::uint32_t corner) const {
+        if (!refined[corner]) return false;
+        const ChildRange range = childRange[corner];
+        const NewPoint* children = cellBase[range.cell] + range.begin;
+        return std::any_of(children, children + range.count,
+                           [&](const NewPoint& c) { return c.position == q; });
+    }
     // Appends np, made from `source`, to `cell`, refined by the worker of `s`; returns its index in
     // the cell.
     std::uint32_t store(std::uint32_t cell, const NewPoint& np, const PointSource& source, WorkerScratch& s) {
@@ -1387,7 +1399,8 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
         // radius then collapsed to 0). Such a point lies within p's reach, where the points of
         // P(l) were just scanned (collectNeighbourhood); with centroid candidates (variant 4) a
         // twin in Y_p can escape D_p, which is measured on the centroid.
-        if (coincidesWithNearby(np.position, x, s)) {
+        if (coincidesWithNearby(np.position, x, s) || madeByCorner(np.position, s.fan.index[c.a]) ||
+            madeByCorner(np.position, s.fan.index[c.b])) {
             ++s.coincident;
             if (profile) interpolationSeconds += secondsSince(ti);
             continue;

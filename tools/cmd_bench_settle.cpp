@@ -76,28 +76,38 @@ OfflineReferences offlineReferences(const PointSet& input, std::uint32_t deepest
     options.threads = 0;
     Refiner refiner(input, options);
     OfflineReferences out;
-    OfflineReference current;
-    const auto snapshot = [&] {
-        current.points = refiner.points();
-        removePoints(current.points,
-                     engine::splatsOutOfPicture(current.points.position, current.points.normal,
-                                                current.points.radius, camera, args.engine.width,
-                                                args.engine.height, radiusScale));
-        current.levels = refiner.levels();
+    // The splats of the refinement so far that cannot change the picture, and the reference of
+    // the others: copied only for the levels kept, and only those.
+    std::vector<std::uint32_t> outside;
+    const auto measure = [&] {
+        const PointSet& points = refiner.points();
+        outside = engine::splatsOutOfPicture(points.position, points.normal, points.radius, camera,
+                                             args.engine.width, args.engine.height, radiusScale);
+        return points.size() - outside.size();
     };
-    snapshot();
+    const auto reference = [&](bool capped) {
+        const PointSet& points = refiner.points();
+        OfflineReference r{{}, refiner.levels(), capped};
+        r.points.reserve(points.size() - outside.size());
+        for (std::size_t i = 0, k = 0; i < points.size(); ++i)
+            if (k < outside.size() && outside[k] == i)
+                ++k;
+            else
+                r.points.appendFrom(points, i);
+        return r;
+    };
+    std::size_t inView = measure();
     while (refiner.levels() < deepest + 1) {
-        if (refiner.levels() == deepest) out.deepest = current;
-        if (3 * refiner.points().size() > args.maxRefinedPoints ||
-            3 * current.points.size() > args.maxReferencePoints) {
-            current.capped = true;
-            break;
+        if (refiner.levels() == deepest) out.deepest = reference(false);
+        if (3 * refiner.points().size() > args.maxRefinedPoints || 3 * inView > args.maxReferencePoints) {
+            out.deeper = reference(true);
+            if (refiner.levels() < deepest) out.deepest = out.deeper; // capped before the deepest level
+            return out;
         }
         refiner.refineLevel();
-        snapshot();
+        inView = measure();
     }
-    if (current.levels < deepest) out.deepest = current; // capped before the deepest level
-    out.deeper = std::move(current);
+    out.deeper = reference(false);
     return out;
 }
 

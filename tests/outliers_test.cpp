@@ -114,6 +114,25 @@ TEST(Outliers, PointAboveAPlaneIsFoundByTheOffsetRule) {
     EXPECT_EQ(findOutliers(plane.position, 2, densityOnly).outliers, (std::vector<std::uint32_t>{901}));
 }
 
+// Spacings whose squares overflow single precision (a fuzzed file's): the k-d tree finds fewer than
+// k neighbours, or none. Such points are not measured (infinity) and nothing is called an outlier
+// for it; the input's completion stops with its one-line error about the spacing.
+TEST(Outliers, SpacingsTooLargeToMeasureAreLeftToTheRadiusCheck) {
+    PointSet grid;
+    for (int y = 0; y < 12; ++y)
+        for (int x = 0; x < 12; ++x) grid.position.emplace_back(3e19f * float(x), 3e19f * float(y), 0.0f);
+    grid.position.emplace_back(1.0f, 2.0f, 3.0f); // one point near another: its pair is measurable
+    grid.normal.assign(grid.size(), glm::vec3(0.0f, 0.0f, 1.0f)); // (normals are estimated only below 1e19)
+    const OutlierSearch search = findOutliers(grid.position, 2);
+    EXPECT_TRUE(search.outliers.empty());
+    for (const double d : outlierDistances(grid.position, kOutlierNearest, 2)) EXPECT_TRUE(std::isinf(d));
+
+    const Result<InputCompletion> done = completeInput(grid, 2);
+    ASSERT_FALSE(done.ok());
+    EXPECT_NE(done.error().message.find("too far to measure its radius"), std::string::npos)
+        << done.error().message;
+}
+
 // A grid's mean distances to its nearest points against brute force; sets of at most
 // kOutlierMinPoints points are left alone.
 TEST(Outliers, DistancesMatchBruteForceAndTinySetsAreLeftAlone) {

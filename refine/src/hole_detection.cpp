@@ -66,8 +66,14 @@ HoleSearch findHoles(const PointSet& points, float maxSize, bool relative, unsig
     parallelForRanges(pool, n, kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
         std::array<float, kCount> distance2;
         for (std::size_t i = begin; i < end; ++i) {
-            tree.knnSearch(&points.position[i].x, kCount, &nearest[i * kCount], distance2.data());
-            spacing[i] = std::sqrt(distance2[1]);
+            // Fewer are found where squared distances overflow single precision (points about
+            // 1e19 apart): the missing ones repeat i itself, and the spacing is unmeasured (infinite).
+            const std::size_t found =
+                tree.knnSearch(&points.position[i].x, kCount, &nearest[i * kCount], distance2.data());
+            std::fill(nearest.begin() + static_cast<std::ptrdiff_t>(i * kCount + found),
+                      nearest.begin() + static_cast<std::ptrdiff_t>((i + 1) * kCount),
+                      static_cast<std::uint32_t>(i));
+            spacing[i] = found > 1 ? std::sqrt(distance2[1]) : std::numeric_limits<float>::infinity();
         }
     });
     {

@@ -6,6 +6,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <limits>
 
 #include <glm/geometric.hpp>
 
@@ -40,8 +41,14 @@ std::vector<double> meanDistances(const KdTree& tree, std::span<const glm::vec3>
         std::array<float, kOutlierMaxNearest + 1> distance2;
         for (std::size_t i = begin; i < end; ++i) {
             // The k + 1 nearest: the point itself (at 0) and its k nearest others. Their sum does
-            // not depend on how the search orders ties, so neither does the result.
+            // not depend on how the search orders ties, so neither does the result. The search
+            // finds fewer where squared distances overflow single precision (spacings above about
+            // 1e19): such a point is not measured (infinity), and its `nearest` are not read.
             const std::size_t found = tree.knnSearch(&positions[i].x, k + 1, index.data(), distance2.data());
+            if (found < k + 1) {
+                distance[i] = std::numeric_limits<double>::infinity();
+                continue;
+            }
             double sum = 0.0;
             for (std::size_t j = 0; j < found; ++j) sum += std::sqrt(double{distance2[j]});
             distance[i] = sum / k;
@@ -76,7 +83,13 @@ OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned thread
     WorkerPool pool(threads);
     std::vector<std::uint32_t> nearest(count * (k + 1));
     const std::vector<double> distance = meanDistances(tree, positions, k, pool, nearest);
-    std::vector<double> scratch = distance;
+    // The statistics and both rules take the measured points only; the others are left to the
+    // radius estimation, whose check names the spacing (completeInput).
+    std::vector<double> scratch;
+    scratch.reserve(count);
+    for (const double d : distance)
+        if (std::isfinite(d)) scratch.push_back(d);
+    if (scratch.empty()) return search;
     search.median = median(scratch);
     for (double& d : scratch) d = std::abs(d - search.median);
     // 1.4826 · MAD estimates the standard deviation of a normal distribution.
@@ -89,6 +102,7 @@ OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned thread
     std::vector<std::uint8_t> outlier(count, 0);
     parallelForRanges(pool, count, kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
         for (std::size_t i = begin; i < end; ++i) {
+            if (!std::isfinite(distance[i])) continue;
             if (distance[i] > search.threshold) {
                 outlier[i] = 1;
                 continue;

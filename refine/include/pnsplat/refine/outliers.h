@@ -54,7 +54,8 @@ inline constexpr unsigned kOutlierMaxNearest = 64;
 
 // For each of the n positions, the mean distance to its k nearest other positions (a coincident
 // position counts, at distance 0), in double precision; n values. Needs 1 <= k <=
-// kOutlierMaxNearest and k < n (else every value is 0).
+// kOutlierMaxNearest and k < n (else every value is 0). Infinity for a point some of whose k
+// nearest lie too far to measure (squared distances past single precision, about 1e19 apart).
 std::vector<double> outlierDistances(std::span<const glm::vec3> positions, unsigned k, unsigned threads = 0);
 
 struct OutlierParams {

@@ -1,8 +1,9 @@
 // Writes the fuzz targets' starting corpora (scripts/fuzz.sh): small valid files of every kind the
 // reader takes — ascii and binary, with and without radii, colours, second normals, attributes and
-// faces, positions only — made here rather than stored. fuzz_ply's folder gets the files; fuzz_refine's
-// gets each one several times behind the byte that picks the variant (refine_fuzz.cpp); fuzz_points's
-// gets text and PCD files (point_file.h) of the same sets, and a few hand-written ones.
+// faces, positions only, points too far apart to measure — made here rather than stored. fuzz_ply's folder
+// gets the files; fuzz_refine's gets each one several times behind the byte that picks the variant
+// (refine_fuzz.cpp); fuzz_points's gets text and PCD files (point_file.h) of the same sets, and a few
+// hand-written ones.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -51,6 +52,15 @@ int main(int argc, char** argv) {
     }
     PointSet positionsOnly = torus;
     positionsOnly.normal.clear();
+    // Triangles 1e20 apart: squared distances past single precision, which the k-d searches of the
+    // input's completion do not find.
+    PointSet farApart;
+    for (int c = 0; c < 20; ++c)
+        for (const glm::vec3 e :
+             {glm::vec3(0.0f), glm::vec3(0.0f, 1.0f, 0.0f), glm::vec3(0.0f, 0.5f, 0.9f)}) {
+            farApart.position.push_back(glm::vec3(1e20f * float(c), 0.0f, 0.0f) + 1e14f * e);
+            farApart.normal.emplace_back(1.0f, 0.0f, 0.0f);
+        }
     bool ok = true;
     for (const PlyFormat format : {PlyFormat::Ascii, PlyFormat::BinaryLittleEndian}) {
         const std::string suffix = format == PlyFormat::Ascii ? "-ascii.ply" : "-binary.ply";
@@ -59,7 +69,8 @@ int main(int argc, char** argv) {
              write(folder / ("coloured" + suffix), model, format) &&
              write(folder / ("creases" + suffix), cylinder, format) &&
              write(folder / ("radii" + suffix), withRadii, format) &&
-             write(folder / ("attributes" + suffix), withAttributes, format);
+             write(folder / ("attributes" + suffix), withAttributes, format) &&
+             write(folder / ("far-apart" + suffix), farApart, format);
     }
     // Positions only and a small mesh: writePly needs normals and writes no faces.
     std::ofstream bare(folder / "positions-ascii.ply");

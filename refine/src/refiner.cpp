@@ -596,6 +596,33 @@ void scalePoints(PointSet& points, float factor, WorkerPool& pool) {
     });
 }
 
+// A level's scale (ALGORITHM.md §5.4; the points are multiplied by `scale` during the level) and
+// its extent and r_lim, scaled.
+struct LevelScale {
+    int exponent = 0;
+    float scale = 1.0f;
+    glm::vec3 lo{0.0f};
+    float extent = 0.0f;
+    float radiusLimit = 0.0f;
+};
+
+// Which points of P(l) a level leaves as they are (Refiner::State::skips): refineRegion's context
+// points, points outside setRefinedBalls' balls, and (adaptive) points within the target radius
+// that own no longer segment.
+struct LevelSkip {
+    float scale = 1.0f;
+    float targetRadius = 0.0f;
+    std::vector<float> longestOwned; // per point, its longest segment (adaptive, with segments)
+};
+
+// The points a level refines, by cell: (cell key, point) pairs, the small points' cells in key
+// order, then the large points' (a colouring of their own); `cells` index into `keyed`.
+struct LevelCells {
+    CellKeys keyed;
+    HugePageVector<Cell> cells;
+    std::uint32_t smallCells = 0;
+};
+
 } // namespace
 
 RefineOptions RefineOptions::fast() {
@@ -668,6 +695,8 @@ struct Refiner::State {
 
     PNSPLAT_V3_CLONE void refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s);
     LevelStats refineLevel(const ProgressFn& progress);
+    // The first steps of a level: its scale applied, levelRadius and the per-point arrays set.
+    LevelScale beginLevel();
     void findSegments();
     bool splitsSegments() const {
         const std::uint32_t offset = regionRun ? regionRun->levelOffset : 0;
@@ -687,6 +716,32 @@ struct Refiner::State {
     }
 
   private:
+    // The steps of refineLevel, in order.
+    void indexSegments();
+    LevelSkip skipRule(float scale) const;
+    bool skips(std::uint32_t i, const LevelSkip& skip) const;
+    LevelCells sortIntoCells(const LevelScale& level, const LevelSkip& skip, LevelStats& stats);
+    void refineCells(const LevelCells& level, const ProgressFn& progress, std::size_t refinedPoints);
+    void refineCell(const LevelCells& level, std::uint32_t c, bool largeCell, WorkerScratch& s);
+    HugePageVector<std::uint32_t> appendChildren();
+    void splitAllSegments(std::span<const std::uint32_t> childBegin, const LevelSkip& skip);
+    void addWorkerStats(LevelStats& stats) const;
+
+    // The steps of refinePoint, and what they share.
+    struct PointRun {
+        std::uint32_t p, cell;
+        glm::vec3 x;
+        TangentFrame frame;
+        std::uint32_t firstChild;   // the cell's count before p's children
+        std::uint32_t phantoms = 0; // candidates left to a neighbouring region (kPhantomCell)
+        double interpolationSeconds = 0.0;
+    };
+    [[gnu::always_inline]] std::size_t findFan(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s,
+                                               Clock::time_point& t0);
+    [[gnu::always_inline]] std::size_t nextCandidate(glm::vec3 x, WorkerScratch& s) const;
+    [[gnu::always_inline]] void placeCandidate(PointRun& run, std::size_t chosen, WorkerScratch& s);
+    [[gnu::always_inline]] void updateRadii(std::uint32_t p, std::span<const RingMember> ring);
+
     void gatherNearby(std::span<const std::uint32_t> group, std::optional<std::uint64_t> cell,
                       float reachFactor, std::vector<NearbyPoint>& nearby, WorkerScratch& s);
     bool gatherNeighbourhood(std::uint32_t p, const TangentFrame& frame, float reach,
@@ -1235,16 +1290,14 @@ void Refiner::State::findSegments() {
                    segments.end());
 }
 
-void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) {
+// The fan of p: its neighbourhood within r, filtered (section 3), or within kRetryReach·r when that
+// fan is open; the number of neighbours before the filter. Profiled from t0.
+inline std::size_t Refiner::State::findFan(std::uint32_t p, const TangentFrame& frame, WorkerScratch& s,
+                                           Clock::time_point& t0) {
     const bool profile = options.profile;
-    Clock::time_point t0;
-    if (profile) t0 = Clock::now();
-
     const glm::vec3 x = points.position[p];
-    const glm::vec3 n = planeNormal(p);
     const FuzzyParams fuzzy =
         fuzzyParams(options.smoothing && !options.centroidCandidates); // PN-centre candidates
-    const TangentFrame frame(n);
     std::span<const NearbyPoint> nearby = s.nearby;
     if (s.groupCell) {
         s.nearbyGrid.select(x, levelRadius[p], s.pointNearby);
@@ -1253,24 +1306,203 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     const bool cut = gatherNeighbourhood(p, frame, levelRadius[p], nearby, s);
     std::size_t neighbours = s.fan.size();
     if (profile) s.times.neighbourhood += secondsSince(t0);
-    filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
+    filterFuzzy(x, frame.n, fuzzy, s.fan, s.neighbourhood);
     if (profile) s.times.filtering += secondsSince(t0);
-    if (!cut && fanIsOpen(s.fan)) {
-        // Choice: a fan open wider than θb may be a boundary, or a radius that fell short of the
-        // natural first ring on one side (the radius update only reaches N'_p). Look once more
-        // within kRetryReach·r before treating it as a boundary; the new one-ring then reaches
-        // across, and the gap is filled at this level instead of staying a hole.
-        ++s.retried;
-        gatherNearby(std::span(&p, 1), s.groupCell, kRetryReach, s.wideNearby, s);
-        if (profile) t0 = Clock::now(); // gatherNearby counted its own time
-        gatherNeighbourhood(p, frame, kRetryReach * levelRadius[p], s.wideNearby, s);
-        neighbours = s.fan.size();
-        if (profile) s.times.neighbourhood += secondsSince(t0);
-        filterFuzzy(x, n, fuzzy, s.fan, s.neighbourhood);
-        if (profile) s.times.filtering += secondsSince(t0);
-    }
-    s.neighbours += neighbours;
+    if (cut || !fanIsOpen(s.fan)) return neighbours;
+    // Choice: a fan open wider than θb may be a boundary, or a radius that fell short of the
+    // natural first ring on one side (the radius update only reaches N'_p). Look once more within
+    // kRetryReach·r before treating it as a boundary; the new one-ring then reaches across, and the
+    // gap is filled at this level instead of staying a hole.
+    ++s.retried;
+    gatherNearby(std::span(&p, 1), s.groupCell, kRetryReach, s.wideNearby, s);
+    if (profile) t0 = Clock::now(); // gatherNearby counted its own time
+    gatherNeighbourhood(p, frame, kRetryReach * levelRadius[p], s.wideNearby, s);
+    neighbours = s.fan.size();
+    if (profile) s.times.neighbourhood += secondsSince(t0);
+    filterFuzzy(x, frame.n, fuzzy, s.fan, s.neighbourhood);
+    if (profile) s.times.filtering += secondsSince(t0);
+    return neighbours;
+}
 
+namespace {
+
+// Step 2 of refinePoint: the candidate that best balances the sampling of the gap after ring[j]:
+// max of min(∠p_j p p_k, ∠p_k p p_j+1), or candidates.size() when none is inside it; with
+// `anyInside`, the first candidate found inside instead of the best.
+// Choice: angles measured around n_p in the tangent plane (the plane that orders the fan), and only
+// candidates inside the gap compete, so a point is never put into a gap other than the one being
+// filled.
+std::size_t candidateInGap(std::span<const RingMember> ring, std::span<const Candidate> candidates,
+                           std::size_t j, bool anyInside) {
+    const RingMember& a = ring[j];
+    const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(j, ring.size())].angle);
+    std::size_t best = candidates.size();
+    float bestScore = -1.0f;
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+        if (candidates[k].taken) continue;
+        const float into = sweep(a.angle, candidates[k].angle);
+        const float score = std::min(into, gapSweep - into);
+        if (score >= kMinSplitAngle && score > bestScore) {
+            if (anyInside) return k;
+            bestScore = score;
+            best = k;
+        }
+    }
+    return best;
+}
+
+} // namespace
+
+// Steps 1 and 2 of refinePoint: the next candidate of L_p to place, or candidates.size() when
+// N'_p is complete or no candidate fills what is open.
+inline std::size_t Refiner::State::nextCandidate(glm::vec3 x, WorkerScratch& s) const {
+    std::vector<RingMember>& ring = s.ring;
+    const std::span<const Candidate> candidates = s.candidates;
+    if (ring.empty()) {
+        // An empty N'_p is incomplete; every candidate fills it equally: the first one left.
+        std::size_t first = 0;
+        while (candidates[first].taken) ++first;
+        return first;
+    }
+    // For speed only: a curved angle costs more than looking for a candidate in its gap, a plain
+    // angle (variant 2) less, so only the first is looked at first.
+    const bool candidatesFirst = !options.plainAngle;
+    // 1. The pair of consecutive members of N'_p with the largest curved angle that is not below
+    //    θc (N'_p complete otherwise) and still has a candidate inside it. A gap with no candidate
+    //    inside can never be chosen, and candidates only leave: it may be marked exhausted at once,
+    //    and its curved angle is then never measured (the same choice).
+    for (std::size_t j = 0; j < ring.size(); ++j) {
+        if (!ring[j].gapStale) continue;
+        ring[j].gapStale = false;
+        ring[j].gapExhausted =
+            candidatesFirst && candidateInGap(ring, candidates, j, true) == candidates.size();
+        if (!ring[j].gapExhausted)
+            ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
+    }
+    for (;;) {
+        std::size_t widest = ring.size();
+        for (std::size_t j = 0; j < ring.size(); ++j) {
+            if (ring[j].gapExhausted || ring[j].gapToNext < kThetaC) continue;
+            if (widest == ring.size() || ring[j].gapToNext > ring[widest].gapToNext) widest = j;
+        }
+        if (widest == ring.size()) return candidates.size();
+        const std::size_t chosen = candidateInGap(ring, candidates, widest, false);
+        if (chosen < candidates.size()) return chosen;
+        ring[widest].gapExhausted = true;
+    }
+}
+
+// Step 3 of refinePoint: inserts candidate `chosen` unless it falls into the discard space D_p
+// (eq. 11); then the closest point of Y_p joins N'_p instead (ties broken by storage position).
+inline void Refiner::State::placeCandidate(PointRun& run, std::size_t chosen, WorkerScratch& s) {
+    std::vector<RingMember>& ring = s.ring;
+    s.candidates[chosen].taken = true;
+    const Candidate& c = s.candidates[chosen];
+    const std::uint32_t p = run.p;
+    std::size_t closest = s.outer.size();
+    float closestDistance = std::numeric_limits<float>::max();
+    bool discarded = false;
+    for (std::size_t h = 0; h < s.outer.size(); ++h) {
+        const float distance = glm::length(c.position - s.outer[h].position);
+        if (distance < s.outer[h].discardRadius) discarded = true;
+        const bool tie = distance == closestDistance && closest < s.outer.size() &&
+                         storedBefore(s.outer[h], s.outer[closest]);
+        if (distance < closestDistance || tie) {
+            closestDistance = distance;
+            closest = h;
+        }
+    }
+    if (discarded) {
+        ++s.discarded;
+        RingMember& y = s.outer[closest];
+        y.angle = run.frame.angleOf(y.position - run.x);
+        const bool present = std::any_of(ring.begin(), ring.end(), [&](const RingMember& m) {
+            return m.cell == y.cell && m.local == y.local;
+        });
+        // Choice: a substitute farther than c_β,max · r from p would break the convergence bound of
+        // section 8.1 (the proof assumes the farthest new neighbour is a PN centre); such a point is
+        // left out and nothing joins N'_p.
+        if (!present && withinConvergenceBound(p, y.position)) insertIntoRing(ring, y);
+        return;
+    }
+    Clock::time_point ti;
+    if (options.profile) ti = Clock::now();
+    const NewPoint np = newPointFrom(p, s.fan, c);
+    const auto done = [&] {
+        if (options.profile) run.interpolationSeconds += secondsSince(ti);
+    };
+    // Choice: a candidate farther than c_β,max · r from p is not inserted, as Y_p's substitutes and
+    // the segments' first points are not put into N'_p: it would break the convergence bound of
+    // section 8.1. The bound assumes a fan within r; after the wider second look (up to
+    // kRetryReach · r) a PN centre can lie beyond it (1 in 118,000 on the fandisk). The gap stays
+    // open for p's other candidates, and the far triangle's other corners, which are closer to it,
+    // insert their own.
+    if (!withinConvergenceBound(p, np.position)) {
+        ++s.beyondBound;
+        return done();
+    }
+    // Choice: a point that would coincide with p or a point near it (of P(l) within reach, of N'_p
+    // or of Y_p) is not inserted. The fuzzy filter can drop p's own child of the previous level
+    // from its fan (normals far apart, as in noisy scans), and the fan triangle that made that
+    // child then makes it again: one such duplicate in the nefertiti's 214,257 points, and in a
+    // quarter of small sets with normals tilted by up to 50° (fuzz_refine: its radius then
+    // collapsed to 0). Such a point lies within p's reach, where the points of P(l) were just
+    // scanned (collectNeighbourhood); with centroid candidates (variant 4) a twin in Y_p can escape
+    // D_p, which is measured on the centroid.
+    if (coincidesWithNearby(np.position, run.x, s) || madeByCorner(np.position, s.fan.index[c.a]) ||
+        madeByCorner(np.position, s.fan.index[c.b])) {
+        ++s.coincident;
+        return done();
+    }
+    const float angle = run.frame.angleOf(np.position - run.x);
+    // refineRegion: the neighbouring region inserts what lies in it (see refiner.h). Choice: the
+    // candidate joins N'_p all the same, unstored, as the point the whole level would insert there:
+    // p's radius reaches it, and the members beside it grow to reach it rather than each other
+    // across the gap it leaves.
+    if (outsideRegion(np.position)) {
+        ++s.outsideRegion;
+        insertIntoRing(ring, RingMember{kPhantomCell, run.phantoms++, np.position, np.normal, angle});
+        return;
+    }
+    const std::uint32_t local = store(run.cell, np, PointSource{{p, s.fan.index[c.a], s.fan.index[c.b]}}, s);
+    ++s.inserted;
+    insertIntoRing(ring, RingMember{run.cell, local, np.position, np.normal, angle});
+    done();
+}
+
+// Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
+// neighbours in the new ring. Choice for an empty N'_p (nothing found, nothing inserted: the
+// paper's maximum is undefined): r' = c_β,max · r, so every radius still converges (8.1).
+inline void Refiner::State::updateRadii(std::uint32_t p, std::span<const RingMember> ring) {
+    if (ring.empty()) {
+        points.radius[p] = kCBetaMax * levelRadius[p];
+        return;
+    }
+    const glm::vec3 x = points.position[p];
+    float newRadius = 0.0f;
+    const std::size_t m = ring.size();
+    // Each side of the ring measured once: |p_j - p_j+1| reaches both of its members.
+    float before = glm::length(ring[0].position - ring[m - 1].position);
+    for (std::size_t j = 0; j < m; ++j) {
+        const glm::vec3 pj = ring[j].position;
+        const float toP = glm::length(pj - x);
+        newRadius = std::max(newRadius, toP);
+        const float after = glm::length(pj - ring[nextIndex(j, m)].position);
+        if (ring[j].cell != kPhantomCell) {
+            float& rj = newPoint(ring[j]).radius;
+            rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
+        }
+        before = after;
+    }
+    points.radius[p] = kRadiusMargin * newRadius;
+}
+
+void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) {
+    const bool profile = options.profile;
+    Clock::time_point t0;
+    if (profile) t0 = Clock::now();
+    const TangentFrame frame(planeNormal(p));
+    s.neighbours += findFan(p, frame, s, t0);
     makeCandidates(p, frame, s);
     if (profile) s.times.interpolation += secondsSince(t0);
 
@@ -1278,285 +1510,163 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     std::sort(s.ring.begin(), s.ring.end(), [](const RingMember& a, const RingMember& b) {
         return a.angle != b.angle ? a.angle < b.angle : storedBefore(a, b);
     });
-
-    std::vector<RingMember>& ring = s.ring;
-    std::uint32_t phantoms = 0;
-    std::vector<Candidate>& candidates = s.candidates;
-    const std::uint32_t firstChild = cellCount[cell];
-    double interpolationSeconds = 0;
-    if (splitsSegments()) splitSegments(p, cell, firstChild, s);
-
-    // 2. (below) The candidate that best balances the sampling of the gap after ring[j]:
-    //    max of min(∠p_j p p_k, ∠p_k p p_j+1), or candidates.size() when none is inside it; with
-    //    `anyInside`, the first candidate found inside instead of the best.
-    //    Choice: angles measured around n_p in the tangent plane (the plane that orders the fan),
-    //    and only candidates inside the gap compete, so a point is never put into a gap other than
-    //    the one being filled.
-    const auto candidateIn = [&](std::size_t j, bool anyInside) {
-        const RingMember& a = ring[j];
-        const float gapSweep =
-            ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(j, ring.size())].angle);
-        std::size_t best = candidates.size();
-        float bestScore = -1.0f;
-        for (std::size_t k = 0; k < candidates.size(); ++k) {
-            if (candidates[k].taken) continue;
-            const float into = sweep(a.angle, candidates[k].angle);
-            const float score = std::min(into, gapSweep - into);
-            if (score >= kMinSplitAngle && score > bestScore) {
-                if (anyInside) return k;
-                bestScore = score;
-                best = k;
-            }
-        }
-        return best;
-    };
-    // For speed only: a curved angle costs more than looking for a candidate in its gap, a plain
-    // angle (variant 2) less, so only the first is looked at first.
-    const bool candidatesFirst = !options.plainAngle;
-
+    PointRun run{p, cell, points.position[p], frame, cellCount[cell]};
+    if (splitsSegments()) splitSegments(p, cell, run.firstChild, s);
     // Candidates leave L_p by being marked taken; the others keep their order.
-    for (std::size_t remaining = candidates.size(); remaining > 0; --remaining) {
-        // 1. The pair of consecutive members of N'_p with the largest curved angle that is not
-        //    below θc (N'_p complete otherwise) and still has a candidate inside it. A gap with no
-        //    candidate inside can never be chosen, and candidates only leave: it may be marked
-        //    exhausted at once, and its curved angle is then never measured (the same choice).
-        std::size_t chosen = candidates.size();
-        if (ring.empty()) {
-            // An empty N'_p is incomplete; every candidate fills it equally: the first one left.
-            chosen = 0;
-            while (candidates[chosen].taken) ++chosen;
-        } else {
-            for (std::size_t j = 0; j < ring.size(); ++j) {
-                if (!ring[j].gapStale) continue;
-                ring[j].gapStale = false;
-                ring[j].gapExhausted = candidatesFirst && candidateIn(j, true) == candidates.size();
-                if (!ring[j].gapExhausted)
-                    ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
-            }
-            for (;;) {
-                std::size_t widest = ring.size();
-                for (std::size_t j = 0; j < ring.size(); ++j) {
-                    if (ring[j].gapExhausted || ring[j].gapToNext < kThetaC) continue;
-                    if (widest == ring.size() || ring[j].gapToNext > ring[widest].gapToNext) widest = j;
-                }
-                if (widest == ring.size()) break; // complete, or no candidate fills what is open
-                chosen = candidateIn(widest, false);
-                if (chosen < candidates.size()) break;
-                ring[widest].gapExhausted = true;
-            }
-            if (chosen == candidates.size()) break;
-        }
-
-        // 3. Insert the candidate unless it falls into the discard space D_p (eq. 11); then the
-        //    closest point of Y_p joins N'_p instead (ties broken by storage position).
-        candidates[chosen].taken = true;
-        const Candidate& c = candidates[chosen];
-        std::size_t closest = s.outer.size();
-        float closestDistance = std::numeric_limits<float>::max();
-        bool discarded = false;
-        for (std::size_t h = 0; h < s.outer.size(); ++h) {
-            const float distance = glm::length(c.position - s.outer[h].position);
-            if (distance < s.outer[h].discardRadius) discarded = true;
-            const bool tie = distance == closestDistance && closest < s.outer.size() &&
-                             storedBefore(s.outer[h], s.outer[closest]);
-            if (distance < closestDistance || tie) {
-                closestDistance = distance;
-                closest = h;
-            }
-        }
-        if (discarded) {
-            ++s.discarded;
-            RingMember& y = s.outer[closest];
-            y.angle = frame.angleOf(y.position - x);
-            const bool present = std::any_of(ring.begin(), ring.end(), [&](const RingMember& m) {
-                return m.cell == y.cell && m.local == y.local;
-            });
-            // Choice: a substitute farther than c_β,max · r from p would break the convergence
-            // bound of section 8.1 (the proof assumes the farthest new neighbour is a PN centre);
-            // such a point is left out and nothing joins N'_p.
-            if (!present && withinConvergenceBound(p, y.position)) insertIntoRing(ring, y);
-            continue;
-        }
-        Clock::time_point ti;
-        if (profile) ti = Clock::now();
-        const NewPoint np = newPointFrom(p, s.fan, c);
-        // Choice: a candidate farther than c_β,max · r from p is not inserted, as Y_p's substitutes
-        // and the segments' first points are not put into N'_p: it would break the convergence
-        // bound of section 8.1. The bound assumes a fan within r; after the wider second look (up
-        // to kRetryReach · r) a PN centre can lie beyond it (1 in 118,000 on the fandisk). The
-        // gap stays open for p's other candidates, and the far triangle's other corners, which
-        // are closer to it, insert their own.
-        if (!withinConvergenceBound(p, np.position)) {
-            ++s.beyondBound;
-            if (profile) interpolationSeconds += secondsSince(ti);
-            continue;
-        }
-        // Choice: a point that would coincide with p or a point near it (of P(l) within reach, of
-        // N'_p or of Y_p) is not inserted. The fuzzy filter can drop p's own child of the previous
-        // level from its fan (normals far apart, as in noisy scans), and the fan triangle that
-        // made that child then makes it again: one such duplicate in the nefertiti's 214,257
-        // points, and in a quarter of small sets with normals tilted by up to 50° (fuzz_refine: its
-        // radius then collapsed to 0). Such a point lies within p's reach, where the points of
-        // P(l) were just scanned (collectNeighbourhood); with centroid candidates (variant 4) a
-        // twin in Y_p can escape D_p, which is measured on the centroid.
-        if (coincidesWithNearby(np.position, x, s) || madeByCorner(np.position, s.fan.index[c.a]) ||
-            madeByCorner(np.position, s.fan.index[c.b])) {
-            ++s.coincident;
-            if (profile) interpolationSeconds += secondsSince(ti);
-            continue;
-        }
-        // refineRegion: the neighbouring region inserts what lies in it (see refiner.h). Choice: the
-        // candidate joins N'_p all the same, unstored, as the point the whole level would insert
-        // there: p's radius reaches it, and the members beside it grow to reach it rather than
-        // each other across the gap it leaves.
-        if (outsideRegion(np.position)) {
-            ++s.outsideRegion;
-            insertIntoRing(ring, RingMember{kPhantomCell, phantoms++, np.position, np.normal,
-                                            frame.angleOf(np.position - x)});
-            continue;
-        }
-        const std::uint32_t local = store(cell, np, PointSource{{p, s.fan.index[c.a], s.fan.index[c.b]}}, s);
-        ++s.inserted;
-        RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
-        insertIntoRing(ring, m);
-        if (profile) interpolationSeconds += secondsSince(ti);
+    for (std::size_t remaining = s.candidates.size(); remaining > 0; --remaining) {
+        const std::size_t chosen = nextCandidate(run.x, s);
+        if (chosen == s.candidates.size()) break;
+        placeCandidate(run, chosen, s);
     }
-
-    // Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
-    // neighbours in the new ring. Choice for an empty N'_p (nothing found, nothing inserted: the
-    // paper's maximum is undefined): r' = c_β,max · r, so every radius still converges (8.1).
-    if (ring.empty()) points.radius[p] = kCBetaMax * levelRadius[p];
-    if (!ring.empty()) {
-        float newRadius = 0.0f;
-        const std::size_t m = ring.size();
-        // Each side of the ring measured once: |p_j - p_j+1| reaches both of its members.
-        float before = glm::length(ring[0].position - ring[m - 1].position);
-        for (std::size_t j = 0; j < m; ++j) {
-            const glm::vec3 pj = ring[j].position;
-            const float toP = glm::length(pj - x);
-            newRadius = std::max(newRadius, toP);
-            const float after = glm::length(pj - ring[nextIndex(j, m)].position);
-            if (ring[j].cell != kPhantomCell) {
-                float& rj = newPoint(ring[j]).radius;
-                rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
-            }
-            before = after;
-        }
-        points.radius[p] = kRadiusMargin * newRadius;
-    }
+    updateRadii(p, s.ring);
     s.reachable = 0; // reachableFrom may point into storage that the next point reuses
-    childRange[p] = ChildRange{cell, firstChild, cellCount[cell] - firstChild};
+    childRange[p] = ChildRange{cell, run.firstChild, cellCount[cell] - run.firstChild};
     refined[p] = 1;
     if (profile) {
         const double total = secondsSince(t0);
-        s.times.selection += total - interpolationSeconds;
-        s.times.interpolation += interpolationSeconds;
+        s.times.selection += total - run.interpolationSeconds;
+        s.times.interpolation += run.interpolationSeconds;
     }
 }
 
-LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
-    const Clock::time_point start = Clock::now();
+LevelScale Refiner::State::beginLevel() {
     const auto count = static_cast<std::uint32_t>(points.size());
-    LevelStats stats;
-    stats.level = hierarchy.levels();
-    stats.pointsBefore = count;
-
-    // Colouring (see the top of this file), and the level's scale.
     HugePageVector<float> sortedRadii = points.radius;
     const float unscaledLimit = radiusLimitOf(sortedRadii);
     const Bounds bounds = boundsOf(points.position);
-    const int exponent = scaleExponent(points, std::min(unscaledLimit, bounds.extent()));
-    const float scale = std::ldexp(1.0f, exponent);
-    if (exponent != 0) scalePoints(points, scale, pool);
-    const glm::vec3 lo = bounds.lo * scale; // exact, as the points'
-    const float extent = bounds.extent() * scale;
-    const float radiusLimit = unscaledLimit * scale;
-    const float targetRadius = options.targetRadius * scale;
-    if (regionRun) scaledRegion = Region{regionRun->region.lo * scale, regionRun->region.hi * scale};
-
+    LevelScale level;
+    level.exponent = scaleExponent(points, std::min(unscaledLimit, bounds.extent()));
+    level.scale = std::ldexp(1.0f, level.exponent);
+    if (level.exponent != 0) scalePoints(points, level.scale, pool);
+    level.lo = bounds.lo * level.scale; // exact, as the points'
+    level.extent = bounds.extent() * level.scale;
+    level.radiusLimit = unscaledLimit * level.scale;
     levelRadius = points.radius;
     hierarchy.updateBounds(points.position);
     refined.assign(count, 0);
     childRange.assign(count, ChildRange{});
-    if (stats.level == 1 && !regionRun && (options.boundaries || points.hasCrease())) findSegments();
-    if (splitsSegments()) {
-        segmentsOfBegin.assign(count + 1, 0);
-        for (const Segment& segment : segments) ++segmentsOfBegin[segment.a + 1];
-        for (std::uint32_t i = 0; i < count; ++i) segmentsOfBegin[i + 1] += segmentsOfBegin[i];
-        segmentsOf.resize(segments.size());
-        std::vector<std::uint32_t> fill(segmentsOfBegin.begin(), segmentsOfBegin.end() - 1);
-        for (std::uint32_t k = 0; k < segments.size(); ++k) segmentsOf[fill[segments[k].a]++] = k;
-        segmentChild.assign(segments.size(), 0);
-        segmentInserted.assign(segments.size(), 0);
-    }
+    return level;
+}
 
-    const float cellSize = std::max(kCellFactor * radiusLimit, extent / float(1u << 20));
-    std::vector<std::uint32_t> large;
-    CellKeys keyed(count);
+void Refiner::State::indexSegments() {
+    const auto count = static_cast<std::uint32_t>(points.size());
+    segmentsOfBegin.assign(count + 1, 0);
+    for (const Segment& segment : segments) ++segmentsOfBegin[segment.a + 1];
+    for (std::uint32_t i = 0; i < count; ++i) segmentsOfBegin[i + 1] += segmentsOfBegin[i];
+    segmentsOf.resize(segments.size());
+    std::vector<std::uint32_t> fill(segmentsOfBegin.begin(), segmentsOfBegin.end() - 1);
+    for (std::uint32_t k = 0; k < segments.size(); ++k) segmentsOf[fill[segments[k].a]++] = k;
+    segmentChild.assign(segments.size(), 0);
+    segmentInserted.assign(segments.size(), 0);
+}
+
+LevelSkip Refiner::State::skipRule(float scale) const {
+    LevelSkip skip{scale, options.targetRadius * scale, {}};
+    // Adaptive refinement skips a point small enough already, unless it owns a segment longer than
+    // the target: its radius covers its new ring, not the segment, which only its refinement splits.
+    if (skip.targetRadius > 0.0f && !segments.empty()) {
+        skip.longestOwned.assign(points.size(), 0.0f);
+        for (const Segment& segment : segments)
+            skip.longestOwned[segment.a] = std::max(skip.longestOwned[segment.a], segmentLength(segment));
+    }
+    return skip;
+}
+
+bool Refiner::State::skips(std::uint32_t i, const LevelSkip& skip) const {
+    if (regionRun && regionRun->frozen[i]) return true;
+    if (!refinedBalls.empty() && !insideAny(refinedBalls, points.position[i], skip.scale)) return true;
+    return levelRadius[i] <= skip.targetRadius &&
+           (skip.longestOwned.empty() || skip.longestOwned[i] <= skip.targetRadius);
+}
+
+LevelCells Refiner::State::sortIntoCells(const LevelScale& level, const LevelSkip& skip, LevelStats& stats) {
+    const auto count = static_cast<std::uint32_t>(points.size());
+    const float cellSize = std::max(kCellFactor * level.radiusLimit, level.extent / float(1u << 20));
+    LevelCells out;
+    CellKeys& keyed = out.keyed;
+    keyed.resize(count);
     parallelForRanges(pool, count, 16384, [&](std::size_t begin, std::size_t end, unsigned) {
         for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i)
-            keyed[i] = {cellKeyOf(points.position[i], lo, cellSize), i};
+            keyed[i] = {cellKeyOf(points.position[i], level.lo, cellSize), i};
     });
     sortCellKeys(keyed);
     gridKey.resize(count);
     gridPoint.resize(count);
     for (std::uint32_t k = 0; k < count; ++k) gridKey[k] = keyed[k].first, gridPoint[k] = keyed[k].second;
-    // The points refined in cells: all but the large ones and those small enough already (adaptive).
-    // Adaptive refinement skips a point small enough already, unless it owns a segment longer than
-    // the target: its radius covers its new ring, not the segment, which only its refinement splits.
-    std::vector<float> longestOwned;
-    if (targetRadius > 0.0f && !segments.empty()) {
-        longestOwned.assign(count, 0.0f);
-        for (const Segment& segment : segments)
-            longestOwned[segment.a] = std::max(longestOwned[segment.a], segmentLength(segment));
-    }
-    const auto skipped = [&](std::uint32_t i) {
-        if (regionRun && regionRun->frozen[i]) return true;
-        if (!refinedBalls.empty() && !insideAny(refinedBalls, points.position[i], scale)) return true;
-        return levelRadius[i] <= targetRadius && (longestOwned.empty() || longestOwned[i] <= targetRadius);
-    };
+    // The points refined in cells: all but the large ones and those skipped.
     std::erase_if(keyed, [&](const auto& entry) {
-        return skipped(entry.second) || levelRadius[entry.second] > radiusLimit;
+        return skips(entry.second, skip) || levelRadius[entry.second] > level.radiusLimit;
     });
+    std::vector<std::uint32_t> large;
     for (std::uint32_t i = 0; i < count; ++i) {
-        if (skipped(i)) continue;
+        if (skips(i, skip)) continue;
         ++stats.refinedPoints;
-        if (levelRadius[i] > radiusLimit) large.push_back(i);
+        if (levelRadius[i] > level.radiusLimit) large.push_back(i);
     }
+    stats.largePoints = large.size();
     // The large points get a colouring of their own, at the scale of the largest of them, appended
     // to `keyed` (their cells' keys use that scale).
     const std::size_t smallEnd = keyed.size();
     if (!large.empty()) {
         float largest = 0.0f;
         for (const std::uint32_t i : large) largest = std::max(largest, levelRadius[i]);
-        const float largeCellSize = std::max(kCellFactor * largest, extent / float(1u << 20));
+        const float largeCellSize = std::max(kCellFactor * largest, level.extent / float(1u << 20));
         CellKeys keyedLarge(large.size());
         for (std::size_t k = 0; k < large.size(); ++k)
-            keyedLarge[k] = {cellKeyOf(points.position[large[k]], lo, largeCellSize), large[k]};
+            keyedLarge[k] = {cellKeyOf(points.position[large[k]], level.lo, largeCellSize), large[k]};
         sortCellKeys(keyedLarge);
         keyed.insert(keyed.end(), keyedLarge.begin(), keyedLarge.end());
     }
-    HugePageVector<Cell> cells;
-    cells.reserve(keyed.size()); // at most one cell per point: no growth, no copy
-    std::uint32_t smallCells = 0;
+    out.cells.reserve(keyed.size()); // at most one cell per point: no growth, no copy
     for (std::uint32_t k = 0; k < keyed.size();) {
         std::uint32_t e = k + 1;
         while (e < keyed.size() && e != smallEnd && keyed[e].first == keyed[k].first) ++e;
-        if (k < smallEnd) ++smallCells;
-        cells.push_back(Cell{k, e});
+        if (k < smallEnd) ++out.smallCells;
+        out.cells.push_back(Cell{k, e});
         k = e;
     }
+    return out;
+}
+
+// A cell's points find their surroundings together, from the grid; a large point alone, through
+// the hierarchy (its reach may pass the 3×3×3 cells of the grid).
+void Refiner::State::refineCell(const LevelCells& level, std::uint32_t c, bool largeCell, WorkerScratch& s) {
+    const Cell cell = level.cells[c];
+    const CellKeys& keyed = level.keyed;
+    cellBase[c] = s.arena.open();
+    if (recordSources) cellSources[c] = s.sources.open();
+    if (largeCell) {
+        s.groupCell.reset();
+        for (std::uint32_t k = cell.begin; k < cell.end; ++k) {
+            const std::uint32_t i = keyed[k].second;
+            gatherNearby(std::span(&i, 1), std::nullopt, 1.0f, s.nearby, s);
+            refinePoint(i, c, s);
+        }
+        return;
+    }
+    s.group.clear();
+    for (std::uint32_t k = cell.begin; k < cell.end; ++k) s.group.push_back(keyed[k].second);
+    s.groupCell = keyed[cell.begin].first;
+    gatherNearby(s.group, s.groupCell, 1.0f, s.nearby, s);
+    float largest = 0.0f;
+    for (const std::uint32_t i : s.group) largest = std::max(largest, levelRadius[i]);
+    s.nearbyGrid.build(s.nearby, largest);
+    for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, c, s);
+}
+
+void Refiner::State::refineCells(const LevelCells& level, const ProgressFn& progress,
+                                 std::size_t refinedPoints) {
+    const HugePageVector<Cell>& cells = level.cells;
     // The largest tiles that leave the workers at least kMinTiles to share (a choice of the data
     // alone, never of the thread count).
-    const unsigned tileShift = chooseTileShift(keyed, std::span(cells.data(), smallCells));
-    const Tiles smallTiles = makeTiles(keyed, cells, 0, smallCells, tileShift);
-    const Tiles largeTiles = makeTiles(keyed, cells, smallCells, static_cast<std::uint32_t>(cells.size()), 0);
+    const unsigned tileShift = chooseTileShift(level.keyed, std::span(cells.data(), level.smallCells));
+    const Tiles smallTiles = makeTiles(level.keyed, cells, 0, level.smallCells, tileShift);
+    const Tiles largeTiles =
+        makeTiles(level.keyed, cells, level.smallCells, static_cast<std::uint32_t>(cells.size()), 0);
     cellBase.assign(cells.size(), nullptr);
     cellCount.assign(cells.size(), 0);
     recordSources = points.hasAttributes() || (regionRun && regionRun->recordParents);
     if (recordSources) cellSources.assign(cells.size(), nullptr);
-    stats.largePoints = large.size();
-
     for (WorkerScratch& s : scratch) {
         s.arena.clear();
         s.sources.clear();
@@ -1565,30 +1675,6 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
             s.outsideRegion = s.scanned = s.neighbours = 0;
         s.columnsOf = kNoCell;
     }
-    // A cell's points find their surroundings together, from the grid; a large point alone,
-    // through the hierarchy (its reach may pass the 3×3×3 cells of the grid).
-    const auto refineCell = [&](std::uint32_t c, bool largeCell, WorkerScratch& s) {
-        const Cell cell = cells[c];
-        cellBase[c] = s.arena.open();
-        if (recordSources) cellSources[c] = s.sources.open();
-        if (largeCell) {
-            s.groupCell.reset();
-            for (std::uint32_t k = cell.begin; k < cell.end; ++k) {
-                const std::uint32_t i = keyed[k].second;
-                gatherNearby(std::span(&i, 1), std::nullopt, 1.0f, s.nearby, s);
-                refinePoint(i, c, s);
-            }
-            return;
-        }
-        s.group.clear();
-        for (std::uint32_t k = cell.begin; k < cell.end; ++k) s.group.push_back(keyed[k].second);
-        s.groupCell = keyed[cell.begin].first;
-        gatherNearby(s.group, s.groupCell, 1.0f, s.nearby, s);
-        float largest = 0.0f;
-        for (const std::uint32_t i : s.group) largest = std::max(largest, levelRadius[i]);
-        s.nearbyGrid.build(s.nearby, largest);
-        for (std::uint32_t k = cell.begin; k < cell.end; ++k) refinePoint(keyed[k].second, c, s);
-    };
     std::atomic<std::size_t> processed{0};
     // The large points first, then the others; a tile's cells one after the other by one worker.
     for (const bool largeCells : {true, false}) {
@@ -1596,16 +1682,18 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         runGraph(pool, tiles.graph, [&](std::uint32_t tile, unsigned worker) {
             std::size_t done = 0;
             for (std::uint32_t k = tiles.cellBegin[tile]; k < tiles.cellBegin[tile + 1]; ++k) {
-                refineCell(tiles.cells[k], largeCells, scratch[worker]);
+                refineCell(level, tiles.cells[k], largeCells, scratch[worker]);
                 done += cells[tiles.cells[k]].end - cells[tiles.cells[k]].begin;
             }
             const std::size_t total = processed.fetch_add(done, std::memory_order_relaxed) + done;
-            if (worker == 0 && progress) progress(total, stats.refinedPoints);
+            if (worker == 0 && progress) progress(total, refinedPoints);
         });
     }
-    if (progress) progress(processed.load(), stats.refinedPoints);
+    if (progress) progress(processed.load(), refinedPoints);
+}
 
-    // Append the new points grouped by parent, parents in index order (section 7).
+HugePageVector<std::uint32_t> Refiner::State::appendChildren() {
+    const auto count = static_cast<std::uint32_t>(points.size());
     HugePageVector<std::uint32_t> childBegin(count + 1);
     std::uint32_t offset = count;
     for (std::uint32_t i = 0; i < count; ++i) {
@@ -1642,32 +1730,33 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
                 newPointParents[childBegin[i] + k - count] = cellSources[range.cell][range.begin + k].corners;
         }
     }
-    if (splitsSegments()) {
-        // Each segment becomes three: (a, q1), (q1, q2), (q2, b); one whose first point was not
-        // refined (adaptive refinement: the point and the segment are within the target) stays whole.
-        std::vector<Segment> split;
-        split.reserve(3 * segments.size());
-        for (std::uint32_t k = 0; k < segments.size(); ++k) {
-            const Segment segment = segments[k];
-            if (skipped(segment.a)) {
-                split.push_back(segment);
-                continue;
-            }
-            // (a, q1), (q1, q2), (q2, b), without the points refineRegion left out.
-            std::uint32_t from = segment.a, next = childBegin[segment.a] + segmentChild[k];
-            for (unsigned t = 0; t < 2; ++t) {
-                if (!(segmentInserted[k] & (1u << t))) continue;
-                split.push_back(Segment{from, next, segment.crease});
-                from = next++;
-            }
-            split.push_back(Segment{from, segment.b, segment.crease});
-        }
-        segments = std::move(split);
-    }
-    stats.boundarySegments = segments.size();
-    hierarchy.addLevel(std::move(childBegin));
-    if (exponent != 0) scalePoints(points, std::ldexp(1.0f, -exponent), pool);
+    return childBegin;
+}
 
+void Refiner::State::splitAllSegments(std::span<const std::uint32_t> childBegin, const LevelSkip& skip) {
+    // Each segment becomes three: (a, q1), (q1, q2), (q2, b); one whose first point was not refined
+    // (adaptive refinement: the point and the segment are within the target) stays whole.
+    std::vector<Segment> split;
+    split.reserve(3 * segments.size());
+    for (std::uint32_t k = 0; k < segments.size(); ++k) {
+        const Segment segment = segments[k];
+        if (skips(segment.a, skip)) {
+            split.push_back(segment);
+            continue;
+        }
+        // (a, q1), (q1, q2), (q2, b), without the points refineRegion left out.
+        std::uint32_t from = segment.a, next = childBegin[segment.a] + segmentChild[k];
+        for (unsigned t = 0; t < 2; ++t) {
+            if (!(segmentInserted[k] & (1u << t))) continue;
+            split.push_back(Segment{from, next, segment.crease});
+            from = next++;
+        }
+        split.push_back(Segment{from, segment.b, segment.crease});
+    }
+    segments = std::move(split);
+}
+
+void Refiner::State::addWorkerStats(LevelStats& stats) const {
     for (const WorkerScratch& s : scratch) {
         stats.inserted += s.inserted;
         stats.discarded += s.discarded;
@@ -1684,6 +1773,29 @@ LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
         stats.phases.selection += s.times.selection;
         stats.phases.interpolation += s.times.interpolation;
     }
+}
+
+LevelStats Refiner::State::refineLevel(const ProgressFn& progress) {
+    const Clock::time_point start = Clock::now();
+    LevelStats stats;
+    stats.level = hierarchy.levels();
+    stats.pointsBefore = points.size();
+    // The level's scale, then its colouring (see the top of this file).
+    const LevelScale level = beginLevel();
+    if (regionRun)
+        scaledRegion = Region{regionRun->region.lo * level.scale, regionRun->region.hi * level.scale};
+    if (stats.level == 1 && !regionRun && (options.boundaries || points.hasCrease())) findSegments();
+    if (splitsSegments()) indexSegments();
+    const LevelSkip skip = skipRule(level.scale);
+    const LevelCells cells = sortIntoCells(level, skip, stats);
+    refineCells(cells, progress, stats.refinedPoints);
+    // The new points appended grouped by parent, parents in index order (section 7).
+    HugePageVector<std::uint32_t> childBegin = appendChildren();
+    if (splitsSegments()) splitAllSegments(childBegin, skip);
+    stats.boundarySegments = segments.size();
+    hierarchy.addLevel(std::move(childBegin));
+    if (level.exponent != 0) scalePoints(points, std::ldexp(1.0f, -level.exponent), pool);
+    addWorkerStats(stats);
     stats.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     return stats;
 }
@@ -1853,17 +1965,8 @@ std::vector<SegmentEnds> findSegments(const PointSet& input, const RefineOptions
     if (!options.boundaries && !input.hasCrease()) return {};
     Refiner refiner(input, options);
     Refiner::State& state = *refiner.state_;
-    const auto count = static_cast<std::uint32_t>(state.points.size());
-    // The preparation of refineLevel's first level, up to its search for segments.
-    HugePageVector<float> sortedRadii = state.points.radius;
-    const float limit = radiusLimitOf(sortedRadii);
-    const int exponent =
-        scaleExponent(state.points, std::min(limit, boundsOf(state.points.position).extent()));
-    if (exponent != 0) scalePoints(state.points, std::ldexp(1.0f, exponent), state.pool);
-    state.levelRadius = state.points.radius;
-    state.hierarchy.updateBounds(state.points.position);
-    state.refined.assign(count, 0);
-    state.childRange.assign(count, ChildRange{});
+    // refineLevel's first level, up to its search for segments.
+    const int exponent = state.beginLevel().exponent;
     state.findSegments();
     if (exponent != 0) scalePoints(state.points, std::ldexp(1.0f, -exponent), state.pool);
     std::vector<SegmentEnds> segments;

@@ -1332,8 +1332,9 @@ namespace {
 // Choice: angles measured around n_p in the tangent plane (the plane that orders the fan), and only
 // candidates inside the gap compete, so a point is never put into a gap other than the one being
 // filled.
-std::size_t candidateInGap(std::span<const RingMember> ring, std::span<const Candidate> candidates,
-                           std::size_t j, bool anyInside) {
+[[gnu::always_inline]] inline std::size_t candidateInGap(std::span<const RingMember> ring,
+                                                         std::span<const Candidate> candidates, std::size_t j,
+                                                         bool anyInside) {
     const RingMember& a = ring[j];
     const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(j, ring.size())].angle);
     std::size_t best = candidates.size();

@@ -443,9 +443,8 @@ void agreeWithNeighbours(const NeighbourGraph& graph, std::span<const glm::vec3>
     }
 }
 
-} // namespace
-
-Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
+// Fails for fewer than 3 points or a non-finite position.
+Result<void> checkPositions(const PointSet& points) {
     const std::size_t count = points.size();
     if (count < 3)
         return Error{fmt::format("{} point(s): normals need at least 3 points to fit a plane", count)};
@@ -454,14 +453,28 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
         if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
             return Error{fmt::format("point {} has a non-finite position: no normal can be estimated", i)};
     }
-    // Coincident points are one point of the fit and of the graph (they share its normal): the
-    // distinct positions in lexicographic order, and each point's place among them.
-    std::vector<glm::vec3> distinct;
-    std::vector<std::uint32_t> distinctOf(count);
+    return {};
+}
+
+// Coincident points are one point of the fit and of the graph (they share its normal): the
+// distinct positions in lexicographic order, and each point's place among them.
+struct DistinctPositions {
+    std::vector<glm::vec3> position;
+    std::vector<std::uint32_t> of; // a point's index into `position`
+};
+
+DistinctPositions distinctPositions(const PointSet& points) {
+    DistinctPositions distinct{{}, std::vector<std::uint32_t>(points.size())};
     for (const std::uint32_t i : orderByPosition(points)) {
-        if (distinct.empty() || distinct.back() != points.position[i]) distinct.push_back(points.position[i]);
-        distinctOf[i] = static_cast<std::uint32_t>(distinct.size() - 1);
+        if (distinct.position.empty() || distinct.position.back() != points.position[i])
+            distinct.position.push_back(points.position[i]);
+        distinct.of[i] = static_cast<std::uint32_t>(distinct.position.size() - 1);
     }
+    return distinct;
+}
+
+// Fails for fewer than 3 distinct positions, or for an extent the k-d tree cannot measure.
+Result<void> checkDistinct(std::span<const glm::vec3> distinct, std::size_t count) {
     const std::size_t m = distinct.size();
     if (m == 1) return Error{fmt::format("all {} points coincide: no normal can be estimated", count)};
     if (m < 3)
@@ -484,48 +497,72 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
                                  extent, large ? "large" : "small", smallest, largest,
                                  large ? "down" : "up")};
     }
-    const KdCloud cloud{distinct};
-    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-    tree.buildIndex();
+    return {};
+}
 
-    // The k nearest of each distinct position (itself left out: the only one at distance 0), and
-    // the plane they fit.
-    const std::size_t k = std::min<std::size_t>(kNormalNearest, m - 1);
-    std::vector<glm::vec3> normal(m), centroidOf(m);
-    std::vector<std::uint8_t> degenerate(m, 0);
-    WorkerPool pool(threads);
-    std::vector<std::uint32_t> nearest = nearestPoints(
-        tree, distinct, k, pool, [&](std::size_t i, const std::uint32_t* mine, std::size_t stored) {
-            const glm::vec3 x = distinct[i];
-            // The covariance of the point and its neighbours about their centroid, in double.
-            glm::dvec3 centroid(x);
-            float largest = std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)});
-            for (std::size_t r = 0; r < stored; ++r) {
-                const glm::vec3 y = distinct[mine[r]];
-                centroid += glm::dvec3(y);
-                largest = std::max({largest, std::abs(y.x), std::abs(y.y), std::abs(y.z)});
-            }
-            centroid /= static_cast<double>(stored + 1);
-            double covariance[3][3] = {};
-            const auto add = [&](glm::vec3 y) {
-                const glm::dvec3 d = glm::dvec3(y) - centroid;
-                for (int row = 0; row < 3; ++row)
-                    for (int c = row; c < 3; ++c) covariance[row][c] += d[row] * d[c];
-            };
-            add(x);
-            for (std::size_t r = 0; r < stored; ++r) add(distinct[mine[r]]);
-            const SmallestEigen e = smallestEigenvector(covariance);
-            // No plane: the neighbours spread across a line by no more than the rounding of their
-            // single-precision coordinates (about (ε·|x|)² per point).
-            const double rounding =
-                static_cast<double>(std::numeric_limits<float>::epsilon()) * static_cast<double>(largest);
-            degenerate[i] = !(e.values[1] > static_cast<double>(stored + 1) * rounding * rounding);
-            normal[i] = glm::vec3(e.vector);
-            centroidOf[i] = glm::vec3(centroid);
-        });
+// The plane through x and its `stored` neighbours `mine` (of `distinct`).
+struct PlaneFit {
+    glm::vec3 normal;
+    glm::vec3 centroid;
+    bool degenerate; // no plane: the points lie on one line
+};
+
+PlaneFit fitPlane(std::span<const glm::vec3> distinct, glm::vec3 x, const std::uint32_t* mine,
+                  std::size_t stored) {
+    // The covariance of the point and its neighbours about their centroid, in double.
+    glm::dvec3 centroid(x);
+    float largest = std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+    for (std::size_t r = 0; r < stored; ++r) {
+        const glm::vec3 y = distinct[mine[r]];
+        centroid += glm::dvec3(y);
+        largest = std::max({largest, std::abs(y.x), std::abs(y.y), std::abs(y.z)});
+    }
+    centroid /= static_cast<double>(stored + 1);
+    double covariance[3][3] = {};
+    const auto add = [&](glm::vec3 y) {
+        const glm::dvec3 d = glm::dvec3(y) - centroid;
+        for (int row = 0; row < 3; ++row)
+            for (int c = row; c < 3; ++c) covariance[row][c] += d[row] * d[c];
+    };
+    add(x);
+    for (std::size_t r = 0; r < stored; ++r) add(distinct[mine[r]]);
+    const SmallestEigen e = smallestEigenvector(covariance);
+    // No plane: the neighbours spread across a line by no more than the rounding of their
+    // single-precision coordinates (about (ε·|x|)² per point).
+    const double rounding =
+        static_cast<double>(std::numeric_limits<float>::epsilon()) * static_cast<double>(largest);
+    const bool degenerate = !(e.values[1] > static_cast<double>(stored + 1) * rounding * rounding);
+    return {glm::vec3(e.vector), glm::vec3(centroid), degenerate};
+}
+
+// The k nearest of each distinct position (itself left out: the only one at distance 0), and
+// the plane they fit.
+struct PlaneFits {
+    std::vector<std::uint32_t> nearest; // k per position (nearestPoints)
+    std::vector<glm::vec3> normal, centroid;
+    std::vector<std::uint8_t> degenerate;
+};
+
+PlaneFits fitPlanes(const KdTree& tree, std::span<const glm::vec3> distinct, std::size_t k,
+                    WorkerPool& pool) {
+    const std::size_t m = distinct.size();
+    PlaneFits fits{{}, std::vector<glm::vec3>(m), std::vector<glm::vec3>(m), std::vector<std::uint8_t>(m, 0)};
+    fits.nearest = nearestPoints(tree, distinct, k, pool,
+                                 [&](std::size_t i, const std::uint32_t* mine, std::size_t stored) {
+                                     const PlaneFit fit = fitPlane(distinct, distinct[i], mine, stored);
+                                     fits.degenerate[i] = fit.degenerate;
+                                     fits.normal[i] = fit.normal;
+                                     fits.centroid[i] = fit.centroid;
+                                 });
+    return fits;
+}
+
+// Fails, naming the first, when any point's nearest distinct points lie on one line.
+Result<void> checkPlanes(const PlaneFits& fits, std::span<const std::uint32_t> distinctOf, std::size_t k) {
+    const std::size_t count = distinctOf.size();
     std::size_t bad = 0, first = count;
     for (std::size_t i = 0; i < count; ++i) {
-        if (!degenerate[distinctOf[i]]) continue;
+        if (!fits.degenerate[distinctOf[i]]) continue;
         ++bad;
         first = std::min(first, i);
     }
@@ -533,33 +570,70 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
         return Error{fmt::format("no normal can be estimated for {} point(s) (the first: point {}): their {} "
                                  "nearest distinct points lie on one line",
                                  bad, first, k)};
+    return {};
+}
 
-    // Each distinct position's splat radius for the visibility vote: the distance of its
-    // kSplatNearest-th nearest point.
-    std::vector<float> splatRadius(m);
-    for (std::size_t i = 0; i < m; ++i)
+// Each distinct position's splat radius for the visibility vote: the distance of its
+// kSplatNearest-th nearest point.
+std::vector<float> splatRadii(std::span<const glm::vec3> distinct, std::span<const std::uint32_t> nearest,
+                              std::size_t k) {
+    std::vector<float> splatRadius(distinct.size());
+    for (std::size_t i = 0; i < distinct.size(); ++i)
         splatRadius[i] =
             glm::length(distinct[nearest[i * k + std::min<std::size_t>(kSplatNearest, k) - 1]] - distinct[i]);
-    const NeighbourGraph graph(std::move(nearest), k);
+    return splatRadius;
+}
+
+// Orients each connected part of the graph from its start (startsBefore first), whose normal is
+// turned to face +z, by propagateOrientation; appends the spanning forest to `spanning` (in the
+// order reached; a start as an edge from itself). Returns the number of parts.
+std::size_t orientComponents(const NeighbourGraph& graph, std::span<const glm::vec3> distinct,
+                             std::span<glm::vec3> normal, std::vector<FrontierEdge>& spanning) {
+    const std::size_t m = distinct.size();
     std::vector<std::uint32_t> starts(m);
     std::iota(starts.begin(), starts.end(), 0u);
     std::sort(starts.begin(), starts.end(),
               [&](std::uint32_t a, std::uint32_t b) { return startsBefore(distinct[a], distinct[b]); });
     std::vector<std::uint8_t> reached(m, 0);
-    std::vector<FrontierEdge> spanning; // in the order reached; a start as an edge from itself
-    NormalEstimate estimate;
+    std::size_t components = 0;
     for (const std::uint32_t start : starts) {
         if (reached[start]) continue;
-        ++estimate.components;
+        ++components;
         if (normal[start].z < 0.0f) normal[start] = -normal[start];
         reached[start] = 1;
         spanning.push_back(FrontierEdge{0.0, start, start});
         propagateOrientation(graph, distinct, normal, reached, std::span(&start, 1), &spanning, true);
     }
-    orientByVisibility(graph, distinct, normal, splatRadius, spanning, pool);
-    agreeWithNeighbours(graph, distinct, centroidOf, splatRadius, normal);
+    return components;
+}
+
+} // namespace
+
+Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
+    if (Result<void> checked = checkPositions(points); !checked) return checked.error();
+    const std::size_t count = points.size();
+    const DistinctPositions distinct = distinctPositions(points);
+    if (Result<void> checked = checkDistinct(distinct.position, count); !checked) return checked.error();
+    const std::size_t m = distinct.position.size();
+    const KdCloud cloud{distinct.position};
+    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    tree.buildIndex();
+
+    const std::size_t k = std::min<std::size_t>(kNormalNearest, m - 1);
+    WorkerPool pool(threads);
+    PlaneFits fits = fitPlanes(tree, distinct.position, k, pool);
+    if (Result<void> checked = checkPlanes(fits, distinct.of, k); !checked) return checked.error();
+
+    const std::vector<float> splatRadius = splatRadii(distinct.position, fits.nearest, k);
+    const NeighbourGraph graph(std::move(fits.nearest), k);
+    std::vector<glm::vec3>& normal = fits.normal;
+    std::vector<FrontierEdge> spanning; // in the order reached; a start as an edge from itself
+    NormalEstimate estimate;
+    estimate.components = orientComponents(graph, distinct.position, normal, spanning);
+    orientByVisibility(graph, distinct.position, normal, splatRadius, spanning, pool);
+    agreeWithNeighbours(graph, distinct.position, fits.centroid, splatRadius, normal);
     points.normal.resize(count);
-    for (std::size_t i = 0; i < count; ++i) points.normal[i] = normal[distinctOf[i]];
+    for (std::size_t i = 0; i < count; ++i) points.normal[i] = normal[distinct.of[i]];
     points.crease.clear();
     return estimate;
 }

@@ -87,15 +87,65 @@ int useOf(std::string_view name) {
     return kUnused;
 }
 
-Result<Header> parseHeader(std::string_view bytes, std::string_view file) {
-    if (bytes.empty()) return fail(file, "empty file");
-    Header header;
+// The header's lines as read, before they are checked against each other.
+struct HeaderLines {
     std::vector<std::string_view> sizes, types, counts;
     std::optional<std::uint64_t> width, height, points;
     bool haveFields = false, haveData = false;
+};
+
+// Reads one header line's keyword and the words after it into `header` and `lines`; returns
+// what is wrong with the line, if anything.
+std::optional<std::string_view> readKeyword(std::string_view keyword,
+                                            const std::vector<std::string_view>& rest, Header& header,
+                                            HeaderLines& lines) {
+    const auto number = [&](std::optional<std::uint64_t>& into) -> bool {
+        if (rest.size() != 1) return false;
+        into = parseCount(rest[0]);
+        return into.has_value();
+    };
+    if (keyword == "VERSION" || keyword == "VIEWPOINT") {
+        return std::nullopt;
+    } else if (keyword == "FIELDS") {
+        if (lines.haveFields) return "second FIELDS line";
+        if (rest.empty()) return "no fields";
+        lines.haveFields = true;
+        for (const std::string_view name : rest) header.fields.push_back(Field{std::string(name)});
+    } else if (keyword == "SIZE") {
+        lines.sizes = rest;
+    } else if (keyword == "TYPE") {
+        lines.types = rest;
+    } else if (keyword == "COUNT") {
+        lines.counts = rest;
+    } else if (keyword == "WIDTH") {
+        if (!number(lines.width)) return "expected 'WIDTH <count>'";
+    } else if (keyword == "HEIGHT") {
+        if (!number(lines.height)) return "expected 'HEIGHT <count>'";
+    } else if (keyword == "POINTS") {
+        if (!number(lines.points)) return "expected 'POINTS <count>'";
+    } else if (keyword == "DATA") {
+        if (rest.size() != 1) return "expected 'DATA ascii|binary|binary_compressed'";
+        if (rest[0] == "ascii")
+            header.data = Data::Ascii;
+        else if (rest[0] == "binary")
+            header.data = Data::Binary;
+        else if (rest[0] == "binary_compressed")
+            header.data = Data::BinaryCompressed;
+        else
+            return "unknown DATA encoding";
+        lines.haveData = true;
+    } else {
+        return "unknown keyword";
+    }
+    return std::nullopt;
+}
+
+// Reads the header's lines up to and including DATA; sets the body's offset and first line.
+Result<HeaderLines> readHeaderLines(std::string_view bytes, std::string_view file, Header& header) {
+    HeaderLines lines;
     std::size_t pos = 0;
     std::uint64_t lineNumber = 0;
-    while (!haveData) {
+    while (!lines.haveData) {
         const std::size_t newline = bytes.find('\n', pos);
         if (newline == std::string_view::npos || newline >= detail::kMaxHeaderBytes)
             return fail(file, newline == std::string_view::npos && bytes.size() < detail::kMaxHeaderBytes
@@ -109,80 +159,32 @@ Result<Header> parseHeader(std::string_view bytes, std::string_view file) {
         if (line.starts_with('#')) continue;
         const std::vector<std::string_view> words = splitWords(line);
         if (words.empty()) continue;
-        const auto bad = [&](std::string_view what) {
-            return fail(file, fmt::format("malformed PCD header line {}: {} ('{}')", lineNumber, what,
-                                          printable(line)));
-        };
-        const std::string_view keyword = words[0];
         const std::vector<std::string_view> rest(words.begin() + 1, words.end());
-        const auto number = [&](std::optional<std::uint64_t>& into) -> bool {
-            if (rest.size() != 1) return false;
-            into = parseCount(rest[0]);
-            return into.has_value();
-        };
-        if (keyword == "VERSION" || keyword == "VIEWPOINT") {
-            continue;
-        } else if (keyword == "FIELDS") {
-            if (haveFields) return bad("second FIELDS line");
-            if (rest.empty()) return bad("no fields");
-            haveFields = true;
-            for (const std::string_view name : rest) header.fields.push_back(Field{std::string(name)});
-        } else if (keyword == "SIZE") {
-            sizes = rest;
-        } else if (keyword == "TYPE") {
-            types = rest;
-        } else if (keyword == "COUNT") {
-            counts = rest;
-        } else if (keyword == "WIDTH") {
-            if (!number(width)) return bad("expected 'WIDTH <count>'");
-        } else if (keyword == "HEIGHT") {
-            if (!number(height)) return bad("expected 'HEIGHT <count>'");
-        } else if (keyword == "POINTS") {
-            if (!number(points)) return bad("expected 'POINTS <count>'");
-        } else if (keyword == "DATA") {
-            if (rest.size() != 1) return bad("expected 'DATA ascii|binary|binary_compressed'");
-            if (rest[0] == "ascii")
-                header.data = Data::Ascii;
-            else if (rest[0] == "binary")
-                header.data = Data::Binary;
-            else if (rest[0] == "binary_compressed")
-                header.data = Data::BinaryCompressed;
-            else
-                return bad("unknown DATA encoding");
-            haveData = true;
-        } else {
-            return bad("unknown keyword");
-        }
+        if (const std::optional<std::string_view> what = readKeyword(words[0], rest, header, lines))
+            return fail(file, fmt::format("malformed PCD header line {}: {} ('{}')", lineNumber, *what,
+                                          printable(line)));
     }
     header.bodyOffset = pos;
     header.bodyLine = lineNumber + 1;
+    return lines;
+}
 
-    const std::size_t n = header.fields.size();
-    if (!haveFields) return fail(file, "malformed PCD header: no FIELDS line");
-    if (sizes.size() != n || types.size() != n || (!counts.empty() && counts.size() != n))
-        return fail(file,
-                    fmt::format("malformed PCD header: {} FIELDS but {} SIZE, {} TYPE and {} COUNT values", n,
-                                sizes.size(), types.size(), counts.empty() ? n : counts.size()));
-    if (!width) return fail(file, "malformed PCD header: no WIDTH line");
-    const std::uint64_t h = height.value_or(1);
-    if (*width > (std::uint64_t{1} << 31) || h > (std::uint64_t{1} << 31) ||
-        (points && *points != *width * h))
-        return fail(file, fmt::format("malformed PCD header: POINTS {} is not WIDTH {} x HEIGHT {}",
-                                      points ? *points : 0, *width, h));
-    header.points = *width * h;
-    for (std::size_t f = 0; f < n; ++f) {
+// Checks the fields' SIZE, TYPE and COUNT and lays them out in a row.
+Result<void> layOutFields(Header& header, const HeaderLines& lines, std::string_view file) {
+    for (std::size_t f = 0; f < header.fields.size(); ++f) {
         Field& field = header.fields[f];
-        const std::optional<std::uint64_t> size = parseCount(sizes[f]);
-        const std::optional<std::uint64_t> count = counts.empty() ? std::uint64_t{1} : parseCount(counts[f]);
-        const std::string_view type = types[f];
+        const std::optional<std::uint64_t> size = parseCount(lines.sizes[f]);
+        const std::optional<std::uint64_t> count =
+            lines.counts.empty() ? std::uint64_t{1} : parseCount(lines.counts[f]);
+        const std::string_view type = lines.types[f];
         const bool validType = type.size() == 1 && (type[0] == 'F' || type[0] == 'I' || type[0] == 'U');
         const bool validSize =
             size && (validType && type[0] == 'F' ? (*size == 4 || *size == 8)
                                                  : (*size == 1 || *size == 2 || *size == 4 || *size == 8));
         if (!validType || !validSize || !count || *count == 0 || *count > 65536)
             return fail(file, fmt::format("malformed PCD header: field '{}' of SIZE {} TYPE {} COUNT {}",
-                                          printable(field.name), printable(sizes[f]), printable(type),
-                                          counts.empty() ? "1" : printable(counts[f])));
+                                          printable(field.name), printable(lines.sizes[f]), printable(type),
+                                          lines.counts.empty() ? "1" : printable(lines.counts[f])));
         field.type = type[0];
         field.size = static_cast<unsigned>(*size);
         field.count = static_cast<unsigned>(*count);
@@ -192,6 +194,32 @@ Result<Header> parseHeader(std::string_view bytes, std::string_view file) {
         header.rowValues += field.count;
         field.use = useOf(field.name);
     }
+    return {};
+}
+
+Result<Header> parseHeader(std::string_view bytes, std::string_view file) {
+    if (bytes.empty()) return fail(file, "empty file");
+    Header header;
+    Result<HeaderLines> read = readHeaderLines(bytes, file, header);
+    if (!read) return read.error();
+    const HeaderLines& lines = *read;
+
+    const std::size_t n = header.fields.size();
+    if (!lines.haveFields) return fail(file, "malformed PCD header: no FIELDS line");
+    if (lines.sizes.size() != n || lines.types.size() != n ||
+        (!lines.counts.empty() && lines.counts.size() != n))
+        return fail(file,
+                    fmt::format("malformed PCD header: {} FIELDS but {} SIZE, {} TYPE and {} COUNT values", n,
+                                lines.sizes.size(), lines.types.size(),
+                                lines.counts.empty() ? n : lines.counts.size()));
+    if (!lines.width) return fail(file, "malformed PCD header: no WIDTH line");
+    const std::uint64_t width = *lines.width, h = lines.height.value_or(1);
+    if (width > (std::uint64_t{1} << 31) || h > (std::uint64_t{1} << 31) ||
+        (lines.points && *lines.points != width * h))
+        return fail(file, fmt::format("malformed PCD header: POINTS {} is not WIDTH {} x HEIGHT {}",
+                                      lines.points ? *lines.points : 0, width, h));
+    header.points = width * h;
+    if (Result<void> laid = layOutFields(header, lines, file); !laid) return laid.error();
     return header;
 }
 

@@ -133,6 +133,64 @@ constexpr std::array<std::string_view, kSlotCount> kSlotNames = {
 constexpr std::array<std::string_view, kSlotCount> kSlotAliases = {
     "", "", "", "normal_x", "normal_y", "normal_z", "", "", "", "", "", "", "", ""};
 
+// What is wrong with a header line, if anything (the reader names the line).
+using LineProblem = std::optional<std::string_view>;
+
+// A `format <type> 1.0` line.
+LineProblem readFormat(const std::vector<std::string_view>& words, Header& header, bool& haveFormat) {
+    if (haveFormat) return "second format line";
+    if (words.size() != 3) return "expected 'format <type> 1.0'";
+    if (words[1] == "ascii")
+        header.encoding = Encoding::Ascii;
+    else if (words[1] == "binary_little_endian")
+        header.encoding = Encoding::BinaryLittleEndian;
+    else if (words[1] == "binary_big_endian")
+        header.encoding = Encoding::BinaryBigEndian;
+    else
+        return "unknown format";
+    if (words[2] != "1.0") return "unsupported format version";
+    haveFormat = true;
+    return std::nullopt;
+}
+
+// An `element <name> <count>` line.
+LineProblem readElement(const std::vector<std::string_view>& words, Header& header) {
+    if (words.size() != 3) return "expected 'element <name> <count>'";
+    const auto count = parseCount(words[2]);
+    if (!count) return "element count is not a non-negative integer";
+    for (const Element& e : header.elements)
+        if (e.name == words[1]) return "second element of the same name";
+    header.elements.push_back(Element{std::string(words[1]), *count, {}});
+    return std::nullopt;
+}
+
+// A `property <type> <name>` or `property list <type> <type> <name>` line, of the last element.
+LineProblem readProperty(const std::vector<std::string_view>& words, Header& header) {
+    if (header.elements.empty()) return "property before any element";
+    Property property;
+    if (words.size() == 3) {
+        const auto type = parseScalarType(words[1]);
+        if (!type) return "unknown property type";
+        property.type = *type;
+        property.name = std::string(words[2]);
+    } else if (words.size() == 5 && words[1] == "list") {
+        const auto countType = parseScalarType(words[2]);
+        const auto itemType = parseScalarType(words[3]);
+        if (!countType || !itemType) return "unknown property type";
+        if (isFloating(*countType)) return "list count type must be an integer type";
+        property.isList = true;
+        property.countType = *countType;
+        property.type = *itemType;
+        property.name = std::string(words[4]);
+    } else {
+        return "expected 'property <type> <name>' or 'property list <type> <type> <name>'";
+    }
+    Element& element = header.elements.back();
+    if (element.find(property.name) >= 0) return "second property of the same name";
+    element.properties.push_back(std::move(property));
+    return std::nullopt;
+}
+
 Result<Header> parseHeader(std::string_view data, std::string_view file) {
     if (data.empty()) return fail(file, "empty file");
     if (data.size() < 4 || data.substr(0, 3) != "ply" || (data[3] != '\n' && data[3] != '\r'))
@@ -173,52 +231,14 @@ Result<Header> parseHeader(std::string_view data, std::string_view file) {
             if (words.size() != 1) return bad("unexpected words after end_header");
             break;
         }
-        if (keyword == "format") {
-            if (haveFormat) return bad("second format line");
-            if (words.size() != 3) return bad("expected 'format <type> 1.0'");
-            if (words[1] == "ascii")
-                header.encoding = Encoding::Ascii;
-            else if (words[1] == "binary_little_endian")
-                header.encoding = Encoding::BinaryLittleEndian;
-            else if (words[1] == "binary_big_endian")
-                header.encoding = Encoding::BinaryBigEndian;
-            else
-                return bad("unknown format");
-            if (words[2] != "1.0") return bad("unsupported format version");
-            haveFormat = true;
-        } else if (keyword == "element") {
-            if (words.size() != 3) return bad("expected 'element <name> <count>'");
-            const auto count = parseCount(words[2]);
-            if (!count) return bad("element count is not a non-negative integer");
-            for (const Element& e : header.elements)
-                if (e.name == words[1]) return bad("second element of the same name");
-            header.elements.push_back(Element{std::string(words[1]), *count, {}});
-        } else if (keyword == "property") {
-            if (header.elements.empty()) return bad("property before any element");
-            Property property;
-            if (words.size() == 3) {
-                const auto type = parseScalarType(words[1]);
-                if (!type) return bad("unknown property type");
-                property.type = *type;
-                property.name = std::string(words[2]);
-            } else if (words.size() == 5 && words[1] == "list") {
-                const auto countType = parseScalarType(words[2]);
-                const auto itemType = parseScalarType(words[3]);
-                if (!countType || !itemType) return bad("unknown property type");
-                if (isFloating(*countType)) return bad("list count type must be an integer type");
-                property.isList = true;
-                property.countType = *countType;
-                property.type = *itemType;
-                property.name = std::string(words[4]);
-            } else {
-                return bad("expected 'property <type> <name>' or 'property list <type> <type> <name>'");
-            }
-            Element& element = header.elements.back();
-            if (element.find(property.name) >= 0) return bad("second property of the same name");
-            element.properties.push_back(std::move(property));
-        } else {
-            return bad("unknown keyword");
-        }
+        LineProblem problem = "unknown keyword";
+        if (keyword == "format")
+            problem = readFormat(words, header, haveFormat);
+        else if (keyword == "element")
+            problem = readElement(words, header);
+        else if (keyword == "property")
+            problem = readProperty(words, header);
+        if (problem) return bad(*problem);
     }
     if (!haveFormat) return fail(file, "malformed header: no format line");
     header.bodyOffset = pos;

@@ -13,6 +13,7 @@
 #include <cstring>
 #include <iterator>
 #include <optional>
+#include <span>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -217,7 +218,6 @@ class TextReader {
         bool haveColumns = false, sawHeader = false;
         std::vector<std::string> headerNames;
         std::array<std::string_view, kMaxFields> fields;
-        std::array<double, detail::kRowSlots> values{};
         PlyData out;
         while (pos < bytes_.size()) {
             const std::size_t newline = std::min(bytes_.find('\n', pos), bytes_.size());
@@ -225,20 +225,18 @@ class TextReader {
             pos = newline + 1;
             ++lineNumber;
             if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-            const auto lineError = [&](const std::string& problem) {
-                return fail(file_, fmt::format("line {}: {}{}", lineNumber, problem, columns_.byCount));
-            };
             if (line.starts_with('#')) continue;
             const bool slashes = line.starts_with("//");
             if (slashes && (haveColumns || sawHeader)) continue; // a comment
             if (slashes) line.remove_prefix(2);
             const std::size_t count = splitFields(line, fields);
             if (count == 0) continue;
-            if (count > kMaxFields) return lineError(fmt::format("more than {} fields", kMaxFields));
+            if (count > kMaxFields)
+                return lineError(lineNumber, fmt::format("more than {} fields", kMaxFields));
             if (count == 1 && isCount(fields[0])) continue; // a point count (.pts)
             if (!haveColumns) {
                 const bool header = slashes || startsName(fields[0][0]);
-                if (header && sawHeader) return lineError("a second header line");
+                if (header && sawHeader) return lineError(lineNumber, "a second header line");
                 if (header) {
                     sawHeader = true;
                     for (std::size_t c = 0; c < count; ++c) headerNames.emplace_back(fields[c]);
@@ -248,52 +246,75 @@ class TextReader {
                 Result<void> named = nameColumns(headerNames, count, lineNumber, out);
                 if (!named) return named.error();
                 haveColumns = true;
-                for (const std::string& name : columns_.attributes)
-                    out.points.attributes.push_back(Attribute{name, ScalarType::Float32, {}});
-                detail::sizePoints(out.points, columns_.layout, false, lines);
-                for (Attribute& a : out.points.attributes) a.values.resize(lines);
-                if (columns_.colour) colours_.resize(lines);
+                sizePoints(out, lines);
             }
-            if (count != columns_.use.size())
-                return lineError(fmt::format("{} field(s), expected {}", count, columns_.use.size()));
-            for (const auto& [column, use] : columns_.reading) {
-                const std::string_view field = fields[static_cast<std::size_t>(column)];
-                float value = 0.0f;
-                if (!detail::parseFloatField(field, value))
-                    return lineError(
-                        fmt::format("'{}' is not a number (column {})", printable(field), column + 1));
-                if (!std::isfinite(value))
-                    return lineError(
-                        fmt::format("non-finite value '{}' (column {})", printable(field), column + 1));
-                if (use >= kAttribute) {
-                    out.points.attributes[static_cast<std::size_t>(use - kAttribute)].values[n] = value;
-                } else if (use >= kColour) {
-                    colours_[n][use - kColour] = value;
-                    maxColour_ = std::max(maxColour_, value);
-                    fraction_ = fraction_ || field.find_first_of(".eE") != std::string_view::npos;
-                } else {
-                    values[static_cast<std::size_t>(use)] = value;
-                }
-            }
-            if (const char* problem = detail::storeRow(out.points, columns_.layout, n, values))
-                return lineError(problem);
+            Result<void> row = readRow(std::span(fields.data(), count), lineNumber, n, out);
+            if (!row) return row.error();
             ++n;
         }
         if (!haveColumns && !sawHeader) return fail(file_, "empty file (no points)");
         if (n == 0) return fail(file_, "no points");
         out.points.resize(n);
-        if (columns_.colour) {
-            const bool unit = columns_.unitColour || (fraction_ && maxColour_ <= 1.0f);
-            out.points.colour.resize(n);
-            for (std::size_t i = 0; i < n; ++i)
-                out.points.colour[i] =
-                    glm::u8vec3(colourByte(colours_[i].x, unit), colourByte(colours_[i].y, unit),
-                                colourByte(colours_[i].z, unit));
-        }
+        if (columns_.colour) storeColours(out.points);
         return out;
     }
 
   private:
+    // The error of line `lineNumber`, with how the columns were named when by their count.
+    Error lineError(std::uint64_t lineNumber, const std::string& problem) const {
+        return fail(file_, fmt::format("line {}: {}{}", lineNumber, problem, columns_.byCount));
+    }
+
+    // Room for `lines` points (an upper bound) once the columns are known.
+    void sizePoints(PlyData& out, std::size_t lines) {
+        for (const std::string& name : columns_.attributes)
+            out.points.attributes.push_back(Attribute{name, ScalarType::Float32, {}});
+        detail::sizePoints(out.points, columns_.layout, false, lines);
+        for (Attribute& a : out.points.attributes) a.values.resize(lines);
+        if (columns_.colour) colours_.resize(lines);
+    }
+
+    // Reads the `fields` of line `lineNumber` into point n of `out`, checked as every reader does.
+    Result<void> readRow(std::span<const std::string_view> fields, std::uint64_t lineNumber, std::size_t n,
+                         PlyData& out) {
+        if (fields.size() != columns_.use.size())
+            return lineError(lineNumber,
+                             fmt::format("{} field(s), expected {}", fields.size(), columns_.use.size()));
+        for (const auto& [column, use] : columns_.reading) {
+            const std::string_view field = fields[static_cast<std::size_t>(column)];
+            float value = 0.0f;
+            if (!detail::parseFloatField(field, value))
+                return lineError(lineNumber, fmt::format("'{}' is not a number (column {})", printable(field),
+                                                         column + 1));
+            if (!std::isfinite(value))
+                return lineError(lineNumber, fmt::format("non-finite value '{}' (column {})",
+                                                         printable(field), column + 1));
+            if (use >= kAttribute) {
+                out.points.attributes[static_cast<std::size_t>(use - kAttribute)].values[n] = value;
+            } else if (use >= kColour) {
+                colours_[n][use - kColour] = value;
+                maxColour_ = std::max(maxColour_, value);
+                fraction_ = fraction_ || field.find_first_of(".eE") != std::string_view::npos;
+            } else {
+                values_[static_cast<std::size_t>(use)] = value;
+            }
+        }
+        if (const char* problem = detail::storeRow(out.points, columns_.layout, n, values_))
+            return lineError(lineNumber, problem);
+        return {};
+    }
+
+    // Stores the colours as read, taken as in [0, 1] when named rf gf bf or written as fractions
+    // no larger than 1, else as in [0, 255].
+    void storeColours(PointSet& points) const {
+        const std::size_t n = points.size();
+        const bool unit = columns_.unitColour || (fraction_ && maxColour_ <= 1.0f);
+        points.colour.resize(n);
+        for (std::size_t i = 0; i < n; ++i)
+            points.colour[i] = glm::u8vec3(colourByte(colours_[i].x, unit), colourByte(colours_[i].y, unit),
+                                           colourByte(colours_[i].z, unit));
+    }
+
     // Names the columns of the first point line (`count` fields, at line `lineNumber`).
     Result<void> nameColumns(const std::vector<std::string>& headerNames, std::size_t count,
                              std::uint64_t lineNumber, PlyData& out) {
@@ -327,7 +348,8 @@ class TextReader {
     std::string_view file_;
     const PointFileOptions& options_;
     Columns columns_;
-    std::vector<glm::vec3> colours_; // as read, converted once the file shows their scale
+    std::vector<glm::vec3> colours_;                 // as read, converted once the file shows their scale
+    std::array<double, detail::kRowSlots> values_{}; // the row being read, by slot
     float maxColour_ = 0.0f;
     bool fraction_ = false;
 };

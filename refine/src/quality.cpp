@@ -385,71 +385,87 @@ Result<Reference> parseReference(const std::string& spec) {
 
 // ---- Evaluation ----
 
-QualityReport evaluateQuality(const PointSet& refined, const Reference& reference, const PointSet* input,
-                              const EvalOptions& options) {
-    const std::size_t n = refined.size();
-    assert(n >= 2 && refined.normal.size() == n);
-    assert(reference.isAnalytic() || !reference.points.empty());
-    WorkerPool pool(options.threads);
+namespace {
 
-    QualityReport report;
-    report.reference = reference.name;
-    report.points = n;
-    report.referenceTriangles = reference.triangles.size();
+// What the evaluation's steps read.
+struct Evaluation {
+    const PointSet& refined;
+    const Reference& reference;
+    const EvalOptions& options;
+    WorkerPool& pool;
+};
 
-    // 1. Distance to the true surface and normal error, per refined point (a crease point's error
-    // is that of the closer of its two normals).
-    std::vector<float> distance(n), angle(n);
-    const auto normalError = [&](std::size_t i, glm::vec3 truth) {
-        double a = angleInDegrees(refined.normal[i], truth);
-        if (refined.isCrease(i)) a = std::min(a, angleInDegrees(refined.crease[i], truth));
-        return static_cast<float>(a);
-    };
-    if (reference.isAnalytic()) {
-        const AnalyticSurface& s = *reference.surface;
-        report.diagonal = s.boundingDiagonal();
-        parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
-            for (std::size_t i = begin; i < end; ++i) {
-                distance[i] = s.distance(refined.position[i]);
-                angle[i] = normalError(i, s.normalAt(refined.position[i]));
-            }
-        });
-    } else if (reference.isMesh()) {
-        const auto& vp = reference.points.position;
-        const auto& vn = reference.points.normal;
-        report.diagonal = diagonalOf(vp);
-        const TriangleMeshIndex mesh(vp, reference.triangles);
-        parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
-            for (std::size_t i = begin; i < end; ++i) {
-                const TriangleMeshIndex::Hit hit = mesh.closest(refined.position[i]);
-                const glm::u32vec3 t = reference.triangles[hit.triangle];
-                glm::vec3 normal =
-                    hit.barycentric.x * vn[t.x] + hit.barycentric.y * vn[t.y] + hit.barycentric.z * vn[t.z];
-                if (!(length2(normal) > 1e-12f)) normal = glm::cross(vp[t.y] - vp[t.x], vp[t.z] - vp[t.x]);
-                if (!(length2(normal) > 0.0f)) normal = vn[t.x];
-                if (options.flatNormals) {
-                    const glm::vec3 face = glm::cross(vp[t.y] - vp[t.x], vp[t.z] - vp[t.x]);
-                    if (length2(face) > 0.0f) normal = glm::dot(face, normal) < 0.0f ? -face : face;
-                }
-                distance[i] = std::sqrt(hit.distanceSquared);
-                angle[i] = normalError(i, normal);
-            }
-        });
-    } else {
-        // Points only: the nearest reference point's tangent plane stands for the surface.
-        const KdCloud cloud{reference.points.position};
-        report.diagonal = diagonalOf(reference.points.position);
-        const std::unique_ptr<KdTree> tree = makePointTree(cloud);
-        parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
-            for (std::size_t i = begin; i < end; ++i) {
-                const std::uint32_t q = nearest(*tree, refined.position[i]).first;
-                const glm::vec3 nq = reference.points.normal[q];
-                distance[i] = std::abs(glm::dot(refined.position[i] - reference.points.position[q], nq));
-                angle[i] = normalError(i, nq);
-            }
-        });
-    }
+// The normal error of refined point i against the true normal, in degrees (a crease point's error
+// is that of the closer of its two normals).
+float normalError(const PointSet& refined, std::size_t i, glm::vec3 truth) {
+    double a = angleInDegrees(refined.normal[i], truth);
+    if (refined.isCrease(i)) a = std::min(a, angleInDegrees(refined.crease[i], truth));
+    return static_cast<float>(a);
+}
 
+void measureAgainstAnalytic(const Evaluation& eval, std::span<float> distance, std::span<float> angle) {
+    const AnalyticSurface& s = *eval.reference.surface;
+    const PointSet& refined = eval.refined;
+    parallelForRanges(eval.pool, refined.size(), kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
+        for (std::size_t i = begin; i < end; ++i) {
+            distance[i] = s.distance(refined.position[i]);
+            angle[i] = normalError(refined, i, s.normalAt(refined.position[i]));
+        }
+    });
+}
+
+void measureAgainstMesh(const Evaluation& eval, std::span<float> distance, std::span<float> angle) {
+    const PointSet& refined = eval.refined;
+    const std::vector<glm::u32vec3>& triangles = eval.reference.triangles;
+    const auto& vp = eval.reference.points.position;
+    const auto& vn = eval.reference.points.normal;
+    const TriangleMeshIndex mesh(vp, triangles);
+    parallelForRanges(eval.pool, refined.size(), kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
+        for (std::size_t i = begin; i < end; ++i) {
+            const TriangleMeshIndex::Hit hit = mesh.closest(refined.position[i]);
+            const glm::u32vec3 t = triangles[hit.triangle];
+            glm::vec3 normal =
+                hit.barycentric.x * vn[t.x] + hit.barycentric.y * vn[t.y] + hit.barycentric.z * vn[t.z];
+            if (!(length2(normal) > 1e-12f)) normal = glm::cross(vp[t.y] - vp[t.x], vp[t.z] - vp[t.x]);
+            if (!(length2(normal) > 0.0f)) normal = vn[t.x];
+            if (eval.options.flatNormals) {
+                const glm::vec3 face = glm::cross(vp[t.y] - vp[t.x], vp[t.z] - vp[t.x]);
+                if (length2(face) > 0.0f) normal = glm::dot(face, normal) < 0.0f ? -face : face;
+            }
+            distance[i] = std::sqrt(hit.distanceSquared);
+            angle[i] = normalError(refined, i, normal);
+        }
+    });
+}
+
+// Points only: the nearest reference point's tangent plane stands for the surface.
+void measureAgainstPoints(const Evaluation& eval, std::span<float> distance, std::span<float> angle) {
+    const PointSet& refined = eval.refined;
+    const PointSet& reference = eval.reference.points;
+    const KdCloud cloud{reference.position};
+    const std::unique_ptr<KdTree> tree = makePointTree(cloud);
+    parallelForRanges(eval.pool, refined.size(), kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
+        for (std::size_t i = begin; i < end; ++i) {
+            const std::uint32_t q = nearest(*tree, refined.position[i]).first;
+            const glm::vec3 nq = reference.normal[q];
+            distance[i] = std::abs(glm::dot(refined.position[i] - reference.position[q], nq));
+            angle[i] = normalError(refined, i, nq);
+        }
+    });
+}
+
+// Nearest-rank percentiles: the smallest value with at least that share of the points at or
+// below it (reorders `values`).
+double percentile(std::vector<float>& values, double share) {
+    const double dn = static_cast<double>(values.size());
+    const auto rank = static_cast<std::size_t>(std::ceil(share * dn)) - 1;
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(rank), values.end());
+    return static_cast<double>(values[rank]);
+}
+
+// The report's distances and normal errors from the per-point values (reorders them).
+void summariseErrors(std::vector<float>& distance, std::vector<float>& angle, QualityReport& report) {
+    const std::size_t n = distance.size();
     double sum = 0.0, sum2 = 0.0, maxDistance = 0.0, angleSum = 0.0, angleMax = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
         const double d = distance[i];
@@ -468,23 +484,18 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     report.distanceMaxRel = report.distanceMax / report.diagonal;
     report.normalErrorMeanDeg = angleSum / dn;
     report.normalErrorMaxDeg = angleMax;
-    // Nearest-rank percentiles: the smallest value with at least that share of the points at or
-    // below it (reorders `values`).
-    const auto percentile = [dn](std::vector<float>& values, double share) {
-        const auto rank = static_cast<std::size_t>(std::ceil(share * dn)) - 1;
-        std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(rank), values.end());
-        return static_cast<double>(values[rank]);
-    };
     report.normalErrorP95Deg = percentile(angle, 0.95);
     report.distanceP99 = percentile(distance, 0.99);
     report.distanceP99Rel = report.distanceP99 / report.diagonal;
+}
 
-    // 2. Uniformity: nearest other refined point of each refined point.
-    const KdCloud refinedCloud{refined.position};
-    const std::unique_ptr<KdTree> refinedTreePtr = makePointTree(refinedCloud);
-    const KdTree& refinedTree = *refinedTreePtr;
-    std::vector<float>& spacing = distance; // reuse the array
-    parallelForRanges(pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
+// 2. Uniformity: nearest other refined point of each refined point, into `spacing`; the report's
+// mean spacing and its coefficient of variation.
+void measureUniformity(const Evaluation& eval, const KdTree& refinedTree, std::span<float> spacing,
+                       QualityReport& report) {
+    const PointSet& refined = eval.refined;
+    const std::size_t n = refined.size();
+    parallelForRanges(eval.pool, n, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
         for (std::size_t i = begin; i < end; ++i) {
             std::array<std::uint32_t, 2> index{};
             std::array<float, 2> d2{};
@@ -495,6 +506,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
             spacing[i] = std::sqrt(index[0] == i ? d2[1] : d2[0]);
         }
     });
+    const double dn = static_cast<double>(n);
     double spacingSum = 0.0;
     for (std::size_t i = 0; i < n; ++i) spacingSum += static_cast<double>(spacing[i]);
     const double spacingMean = spacingSum / dn;
@@ -506,16 +518,23 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     report.spacingMean = spacingMean;
     report.uniformityCv = spacingMean > 0.0 ? std::sqrt(deviation2 / dn) / spacingMean
                                             : std::numeric_limits<double>::quiet_NaN();
+}
 
-    // 3. Holes: reference samples with no refined point within twice the mean spacing.
+// Uniform samples of an analytic reference, with their normals.
+PointSet analyticSamplesOf(const AnalyticSurface& s, std::size_t count) {
+    PointSet samples = s.kind == AnalyticSurface::Kind::Sphere ? sampleSphereUniform(count, s.R)
+                                                               : sampleTorusUniform(count, s.R, s.r);
+    for (glm::vec3& p : samples.position) p += s.centre;
+    return samples;
+}
+
+// 3. Holes: reference samples with no refined point within twice the mean spacing.
+void measureHoles(const Evaluation& eval, const KdTree& refinedTree, double spacingMean,
+                  QualityReport& report) {
+    const Reference& reference = eval.reference;
     PointSet analyticSamples;
-    if (reference.isAnalytic()) {
-        const AnalyticSurface& s = *reference.surface;
-        analyticSamples = s.kind == AnalyticSurface::Kind::Sphere
-                              ? sampleSphereUniform(options.analyticSamples, s.R)
-                              : sampleTorusUniform(options.analyticSamples, s.R, s.r);
-        for (glm::vec3& p : analyticSamples.position) p += s.centre;
-    }
+    if (reference.isAnalytic())
+        analyticSamples = analyticSamplesOf(*reference.surface, eval.options.analyticSamples);
     const auto& samples = reference.isAnalytic() ? analyticSamples.position : reference.points.position;
     const std::size_t m = samples.size();
     report.referencePoints = m;
@@ -526,7 +545,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     const auto threshold2 = static_cast<float>(4.0 * spacingMean * spacingMean);
     constexpr std::size_t kTangentialNearest = 8;
     std::vector<std::uint8_t> uncovered(m), uncoveredTangential(m);
-    parallelForRanges(pool, m, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
+    parallelForRanges(eval.pool, m, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
         std::array<std::uint32_t, kTangentialNearest> index;
         std::array<float, kTangentialNearest> d2;
         for (std::size_t j = begin; j < end; ++j) {
@@ -536,7 +555,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
             uncovered[j] = found == 0 || d2[0] > threshold2;
             float tangential2 = kInfinity;
             for (std::size_t k = 0; k < found; ++k) {
-                const glm::vec3 d = refined.position[index[k]] - q;
+                const glm::vec3 d = eval.refined.position[index[k]] - q;
                 const float along = glm::dot(d, sampleNormals[j]);
                 tangential2 = std::min(tangential2, glm::dot(d, d) - along * along);
             }
@@ -554,36 +573,69 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
     }
     report.holes = m > 0 ? static_cast<double>(holes) / static_cast<double>(m) : 0.0;
     report.holesTangential = m > 0 ? static_cast<double>(holesTangential) / static_cast<double>(m) : 0.0;
+}
 
-    // 4. Input preservation: each input point's 6 floats, bit for bit, among the output's.
-    if (input) {
-        using Key = std::array<std::uint32_t, 6>;
-        const bool byNormal = input->hasNormal(); // an input of positions only: by position alone
-        auto keyOf = [&](const PointSet& set, std::size_t i) {
-            const glm::vec3 p = set.position[i], q = byNormal ? set.normal[i] : glm::vec3(0.0f);
-            return Key{std::bit_cast<std::uint32_t>(p.x), std::bit_cast<std::uint32_t>(p.y),
-                       std::bit_cast<std::uint32_t>(p.z), std::bit_cast<std::uint32_t>(q.x),
-                       std::bit_cast<std::uint32_t>(q.y), std::bit_cast<std::uint32_t>(q.z)};
-        };
-        // The input is small: sort its keys, look every output point up, mark what is found.
-        std::vector<std::pair<Key, std::uint32_t>> keys(input->size());
-        for (std::size_t i = 0; i < keys.size(); ++i)
-            keys[i] = {keyOf(*input, i), static_cast<std::uint32_t>(i)};
-        std::sort(keys.begin(), keys.end());
-        std::vector<std::uint8_t> found(keys.size(), 0);
-        for (std::size_t i = 0; i < n && !keys.empty(); ++i) {
-            const Key k = keyOf(refined, i);
-            auto it = std::lower_bound(keys.begin(), keys.end(), k,
-                                       [](const auto& entry, const Key& key) { return entry.first < key; });
-            for (; it != keys.end() && it->first == k; ++it)
-                found[static_cast<std::size_t>(it - keys.begin())] = 1;
-        }
-        report.hasInput = true;
-        report.inputPoints = input->size();
-        report.inputMissing =
-            static_cast<std::size_t>(std::count(found.begin(), found.end(), std::uint8_t{0}));
-        report.inputPreserved = report.inputMissing == 0;
+// 4. Input preservation: each input point's 6 floats, bit for bit, among the output's.
+void measureInputPreservation(const PointSet& refined, const PointSet& input, QualityReport& report) {
+    using Key = std::array<std::uint32_t, 6>;
+    const bool byNormal = input.hasNormal(); // an input of positions only: by position alone
+    auto keyOf = [&](const PointSet& set, std::size_t i) {
+        const glm::vec3 p = set.position[i], q = byNormal ? set.normal[i] : glm::vec3(0.0f);
+        return Key{std::bit_cast<std::uint32_t>(p.x), std::bit_cast<std::uint32_t>(p.y),
+                   std::bit_cast<std::uint32_t>(p.z), std::bit_cast<std::uint32_t>(q.x),
+                   std::bit_cast<std::uint32_t>(q.y), std::bit_cast<std::uint32_t>(q.z)};
+    };
+    // The input is small: sort its keys, look every output point up, mark what is found.
+    std::vector<std::pair<Key, std::uint32_t>> keys(input.size());
+    for (std::size_t i = 0; i < keys.size(); ++i) keys[i] = {keyOf(input, i), static_cast<std::uint32_t>(i)};
+    std::sort(keys.begin(), keys.end());
+    std::vector<std::uint8_t> found(keys.size(), 0);
+    for (std::size_t i = 0; i < refined.size() && !keys.empty(); ++i) {
+        const Key k = keyOf(refined, i);
+        auto it = std::lower_bound(keys.begin(), keys.end(), k,
+                                   [](const auto& entry, const Key& key) { return entry.first < key; });
+        for (; it != keys.end() && it->first == k; ++it)
+            found[static_cast<std::size_t>(it - keys.begin())] = 1;
     }
+    report.hasInput = true;
+    report.inputPoints = input.size();
+    report.inputMissing = static_cast<std::size_t>(std::count(found.begin(), found.end(), std::uint8_t{0}));
+    report.inputPreserved = report.inputMissing == 0;
+}
+
+} // namespace
+
+QualityReport evaluateQuality(const PointSet& refined, const Reference& reference, const PointSet* input,
+                              const EvalOptions& options) {
+    const std::size_t n = refined.size();
+    assert(n >= 2 && refined.normal.size() == n);
+    assert(reference.isAnalytic() || !reference.points.empty());
+    WorkerPool pool(options.threads);
+    const Evaluation eval{refined, reference, options, pool};
+
+    QualityReport report;
+    report.reference = reference.name;
+    report.points = n;
+    report.referenceTriangles = reference.triangles.size();
+    report.diagonal = reference.isAnalytic() ? static_cast<double>(reference.surface->boundingDiagonal())
+                                             : diagonalOf(reference.points.position);
+
+    // 1. Distance to the true surface and normal error, per refined point.
+    std::vector<float> distance(n), angle(n);
+    if (reference.isAnalytic())
+        measureAgainstAnalytic(eval, distance, angle);
+    else if (reference.isMesh())
+        measureAgainstMesh(eval, distance, angle);
+    else
+        measureAgainstPoints(eval, distance, angle);
+    summariseErrors(distance, angle, report);
+
+    const KdCloud refinedCloud{refined.position};
+    const std::unique_ptr<KdTree> refinedTree = makePointTree(refinedCloud);
+    std::vector<float>& spacing = distance; // reuse the array
+    measureUniformity(eval, *refinedTree, spacing, report);
+    measureHoles(eval, *refinedTree, report.spacingMean, report);
+    if (input) measureInputPreservation(refined, *input, report);
     return report;
 }
 

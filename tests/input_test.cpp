@@ -139,6 +139,35 @@ TEST(FlippedNormals, CompleteInputTurnsThemOrRefuses) {
     EXPECT_TRUE(validateForRefinement(points).ok());
 }
 
+// A set completed before (pnsplat's own output: InputOptions::asWritten) keeps its flipped normals
+// and its stray points as given, where the same set otherwise loses the stray points and has its
+// normals turned. Repeated positions are still merged.
+TEST(FlippedNormals, ASetCompletedBeforeIsTakenAsWritten) {
+    PointSet points = sampleSphereRandom(1000, 1.0f, 9);
+    points.radius.assign(points.size(), 0.1f);
+    const std::vector<std::uint32_t> flipped = flipAtRandom(points, 5, 2);
+    points.appendFrom(points, 0); // a repeat
+    points.position.back() = points.position[0];
+    for (const glm::vec3 far : {glm::vec3(3.0f, 0.0f, 0.0f), glm::vec3(0.0f, -3.0f, 1.0f)}) {
+        points.appendFrom(points, 1);
+        points.position.back() = far;
+    }
+    PointSet written = points;
+    const Result<InputCompletion> taken = completeInput(written, kThreads, {.asWritten = true});
+    ASSERT_TRUE(taken.ok()) << taken.error().message;
+    EXPECT_EQ(taken->repeats.points, 1u);
+    EXPECT_EQ(taken->outliers, 0u);
+    EXPECT_EQ(taken->turnedNormals, 0u);
+    ASSERT_EQ(written.size(), 1002u);
+    for (const std::uint32_t i : flipped) EXPECT_EQ(written.normal[i], points.normal[i]);
+
+    const Result<InputCompletion> done = completeInput(points, kThreads);
+    ASSERT_TRUE(done.ok()) << done.error().message;
+    EXPECT_EQ(done->outliers, 2u);
+    EXPECT_EQ(done->turnedNormals, 5u);
+    EXPECT_EQ(points.size(), 1000u);
+}
+
 // A point whose normal fits none of its neighbours' reaches its kRadiusNearest nearest points (on
 // a unit grid, the 6th nearest of an inner point is √2 away), not the smallest float (1e-45, which
 // the refinement refused). Such a set refines: the point is kept, and the rest around it.

@@ -21,6 +21,7 @@
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/outliers.h"
 #include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/point_file.h"
 #include "pnsplat/refine/shapes.h"
 #include "program.h"
 #include "temp_dir.h"
@@ -284,4 +285,29 @@ TEST(CliRefine, OutliersAreLeftOutWithANoteOrKept) {
 }
 
 } // namespace
+// A file pnsplat wrote with normals and radii (a refinement) is drawn as written, stray points and
+// all, with a note; the same points in a text file, which says nothing of where it came from, lose
+// them.
+TEST(CliRender, APnsplatFileWithRadiiIsDrawnAsWritten) {
+    const TempDir dir;
+    PointSet sphere = sampleSphereRandom(2000, 1.0f, 27);
+    sphere.radius.assign(sphere.size(), 0.08f);
+    addOutliers(sphere, 5, glm::vec3(-2.0f), glm::vec3(2.0f), 2027, 0.4f);
+    const fs::path ply = dir / "refined.ply", text = dir / "refined.xyz", png = dir / "out.png";
+    ASSERT_TRUE(writePly(ply, sphere).ok());
+    ASSERT_TRUE(writePointFile(text, sphere, true).ok());
+
+    RunResult r = run("render " + quote(ply) + " --json --width 64 --height 48 -o " + quote(png));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_EQ(r.err, "pnsplat: " + ply.string() +
+                         ": written by pnsplat, with normals and radii: drawn as written (not searched for "
+                         "outliers or flipped normals)\n");
+    EXPECT_NE(r.out.find(R"("input_points": 2005)"), std::string::npos) << r.out;
+
+    r = run("render " + quote(text) + " --json --width 64 --height 48 -o " + quote(png));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_NE(r.err.find("5 outlier(s) left out"), std::string::npos) << r.err;
+    EXPECT_NE(r.out.find(R"("input_points": 2000)"), std::string::npos) << r.out;
+}
+
 } // namespace pnsplat

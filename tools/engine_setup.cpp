@@ -13,16 +13,26 @@ namespace pnsplat::tools {
 PointSet loadForRendering(const std::string& input, const InputOptions& options, std::string& name,
                           const std::vector<std::string>& columns, InputCompletion* completion) {
     PointSet points;
+    std::vector<std::string> comments;
     if (input.empty()) {
         name = "the default model";
         points = makeDefaultModel();
     } else {
         name = inputName(input);
-        points = readInput(input, nullptr, columns);
+        points = readInput(input, &comments, columns);
     }
     // The engine draws no attributes (PointSet::attributes): its node tree need not copy them.
     points.attributes.clear();
-    const InputCompletion done = completeInput(points, 0, name, options);
+    InputOptions completing = options;
+    if (writtenByPnsplat(comments) && points.hasNormal() && points.hasRadius()) {
+        // pnsplat's own output, such as a refinement, completed when it was made: drawn as written.
+        completing.asWritten = true;
+        fmt::print(stderr,
+                   "pnsplat: {}: written by pnsplat, with normals and radii: drawn as written (not searched "
+                   "for outliers or flipped normals)\n",
+                   name);
+    }
+    const InputCompletion done = completeInput(points, 0, name, completing);
     if (completion) *completion = done;
     return points;
 }

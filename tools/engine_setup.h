@@ -23,7 +23,8 @@ namespace pnsplat::tools {
 // The points of `input` (a point file: readInput, refine_run.h; or the embedded default model when
 // empty) completed as `refine` completes them (completeInput): outliers left out unless
 // options.keepOutliers, normals and radii estimated when the file has none, flipped normals turned
-// back unless options.keepNormals; `columns` names a text file's columns (--columns). `name`
+// back unless options.keepNormals; a file pnsplat wrote with normals and radii (a refinement) is
+// taken as written (InputOptions::asWritten). `columns` names a text file's columns (--columns). `name`
 // receives a name for messages; `completion`, when given, what was done. The real-time engine's
 // loader: `render`, `bench view` and `view` (a dropped file too).
 PointSet loadForRendering(const std::string& input, const InputOptions& options, std::string& name,

@@ -22,7 +22,7 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
                                  points.size())};
     // Before the estimations: an outlier's normal and radius would be measured across the gap
     // around it, and its neighbours' would reach it.
-    if (!options.keepOutliers) {
+    if (!options.keepOutliers && !options.asWritten) {
         const OutlierSearch search = findOutliers(points.position, threads);
         done.outlierMedian = search.median;
         done.outlierThreshold = search.threshold;
@@ -36,7 +36,8 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
         const Result<NormalEstimate> estimate = estimateNormals(points, threads);
         if (!estimate) return estimate.error();
         done.normalComponents = estimate->components;
-    } else if (const std::vector<std::uint32_t> flipped = findFlippedNormals(points, threads);
+    } else if (const std::vector<std::uint32_t> flipped =
+                   options.asWritten ? std::vector<std::uint32_t>{} : findFlippedNormals(points, threads);
                !flipped.empty()) {
         const glm::vec3 x = points.position[flipped[0]];
         if (options.keepNormals)

@@ -773,7 +773,7 @@ std::string plyHeader(const PointSet& points, PlyFormat format, std::span<const 
                line.find('\n') == std::string::npos);
         header += line + '\n';
     }
-    header += fmt::format("comment written by pnsplat\nelement vertex {}\n", points.size());
+    header += fmt::format("{}\nelement vertex {}\n", kWrittenByPnsplat, points.size());
     for (const char* name : {"x", "y", "z", "nx", "ny", "nz"})
         header += fmt::format("property float {}\n", name);
     if (points.hasRadius()) header += "property float radius\n";
@@ -850,6 +850,10 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
 }
 
 } // namespace
+
+bool writtenByPnsplat(std::span<const std::string> comments) {
+    return std::ranges::find(comments, kWrittenByPnsplat) != comments.end();
+}
 
 std::string inputName(const std::filesystem::path& path) {
     return path == "-" ? std::string("standard input") : path.string();

@@ -80,4 +80,9 @@ Result<void> writePly(const std::filesystem::path& path, const PointSet& points,
                       PlyFormat format = PlyFormat::BinaryLittleEndian,
                       std::span<const std::string> comments = {});
 
+// pnsplat's own comment, which writePly puts in every header.
+inline constexpr std::string_view kWrittenByPnsplat = "comment written by pnsplat";
+// Whether a file's comments (PlyData::comments) say pnsplat wrote it.
+bool writtenByPnsplat(std::span<const std::string> comments);
+
 } // namespace pnsplat

@@ -168,6 +168,23 @@ TEST(FlippedNormals, ASetCompletedBeforeIsTakenAsWritten) {
     EXPECT_EQ(points.size(), 1000u);
 }
 
+// completeInput says each step as it starts, in order, and the end: with radii to estimate and
+// without (the last step then starts and ends at once).
+TEST(FlippedNormals, CompletionReportsItsSteps) {
+    for (const bool withRadii : {false, true}) {
+        PointSet points = sampleSphereRandom(500, 1.0f, 3);
+        if (withRadii) points.radius.assign(points.size(), 0.1f);
+        std::vector<std::size_t> steps;
+        const Result<InputCompletion> done =
+            completeInput(points, kThreads, {}, [&](std::size_t k, std::size_t n) {
+                EXPECT_EQ(n, kCompletionSteps);
+                steps.push_back(k);
+            });
+        ASSERT_TRUE(done.ok()) << done.error().message;
+        EXPECT_EQ(steps, (std::vector<std::size_t>{0, 1, 2, 3, 4})) << withRadii;
+    }
+}
+
 // A point whose normal fits none of its neighbours' reaches its kRadiusNearest nearest points (on
 // a unit grid, the 6th nearest of an inner point is √2 away), not the smallest float (1e-45, which
 // the refinement refused). Such a set refines: the point is kept, and the rest around it.

@@ -246,7 +246,10 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments,
 
 InputCompletion completeInput(PointSet& points, unsigned threads, const std::string& inputName,
                               const InputOptions& options) {
-    const Result<InputCompletion> done = pnsplat::completeInput(points, threads, options);
+    ProgressBar bar("completing " + inputName);
+    const Result<InputCompletion> done = pnsplat::completeInput(
+        points, threads, options, [&](std::size_t step, std::size_t steps) { bar.update(step, steps); });
+    bar.finish();
     if (!done) throw CommandError(inputName + ": " + done.error().message);
     if (const CoincidentRemoval& removed = done->repeats; removed.points > 0)
         fmt::print(

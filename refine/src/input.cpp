@@ -13,15 +13,21 @@
 
 namespace pnsplat {
 
-Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const InputOptions& options) {
+Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const InputOptions& options,
+                                      const CompletionProgress& progress) {
+    const auto step = [&](std::size_t k) {
+        if (progress) progress(k, kCompletionSteps);
+    };
     InputCompletion done;
     const std::size_t given = points.size();
+    step(0);
     done.repeats = removeCoincident(points);
     if (points.size() < 3)
         return Error{fmt::format("{} points but {} distinct position(s); at least 3 are needed", given,
                                  points.size())};
     // Before the estimations: an outlier's normal and radius would be measured across the gap
     // around it, and its neighbours' would reach it.
+    step(1);
     if (!options.keepOutliers && !options.asWritten) {
         const OutlierSearch search = findOutliers(points.position, threads);
         done.outlierMedian = search.median;
@@ -32,6 +38,7 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
             removePoints(points, search.outliers);
         }
     }
+    step(2);
     if (!points.hasNormal()) {
         const Result<NormalEstimate> estimate = estimateNormals(points, threads);
         if (!estimate) return estimate.error();
@@ -52,7 +59,11 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
         done.turnedNormals = flipped.size();
         done.firstTurned = flipped[0];
     }
-    if (points.hasRadius() && !options.replaceRadii) return done;
+    step(3);
+    if (points.hasRadius() && !options.replaceRadii) {
+        step(kCompletionSteps);
+        return done;
+    }
     estimateRadii(points, threads);
     done.radiiEstimated = true;
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -69,6 +80,7 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
                                  "scale the model {}",
                                  i, x.x, x.y, x.z, nearest, far ? "far" : "close", far ? "down" : "up")};
     }
+    step(kCompletionSteps);
     return done;
 }
 

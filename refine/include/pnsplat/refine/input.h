@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 
 #include <glm/vec3.hpp>
 
@@ -38,11 +39,18 @@ struct InputCompletion {
     bool radiiEstimated = false;
 };
 
+// The steps of completeInput, in order: repeats merged, outliers, normals (estimated or checked),
+// radii. On millions of points each of the middle two takes tens of seconds.
+inline constexpr std::size_t kCompletionSteps = 4;
+using CompletionProgress = std::function<void(std::size_t step, std::size_t steps)>;
+
 // Completes `points` in place. Fails with one line, for: fewer than 3 distinct positions; normals
 // that cannot be estimated (estimateNormals); flipped normals with options.keepNormals (naming
 // how many and the first, with its position); points too close together or too far apart for
 // their radii to be measured (estimateRadii). It does not validate the result:
-// validateForRefinement (refiner.h) does.
-Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const InputOptions& options = {});
+// validateForRefinement (refiner.h) does. `progress`, when given, is called as each step starts
+// (step 0 to kCompletionSteps - 1) and at the end (kCompletionSteps).
+Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const InputOptions& options = {},
+                                      const CompletionProgress& progress = {});
 
 } // namespace pnsplat

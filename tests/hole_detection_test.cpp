@@ -87,19 +87,11 @@ TEST(HoleDetection, ClosedShapesAndOpenBoundariesHaveNone) {
     EXPECT_TRUE(findHoles(sphereWithHole(), std::nanf("")).holes.empty());
 }
 
-// Triangles of points 1e14 apart, 1e20 from each other: each point's k-d search finds its own
-// triangle only (squared distances past single precision are not found; the fuzzer's case). The
-// spacing is the triangles' and there is no hole.
+// Triangles of points 1e14 apart, 1e20 from each other (farApartTriangles): each point's k-d
+// search finds its own triangle only (squared distances past single precision are not found; the fuzzer's
+// case). The spacing is the triangles' and there is no hole.
 TEST(HoleDetection, PointsTooFarApartToMeasureProposeNoHole) {
-    PointSet clusters;
-    for (int c = 0; c < 40; ++c) {
-        const glm::vec3 corner(1e20f * float(c), 0.0f, 0.0f);
-        for (const glm::vec3 e :
-             {glm::vec3(0.0f), glm::vec3(0.0f, 1.0f, 0.0f), glm::vec3(0.0f, 0.5f, 0.866f)}) {
-            clusters.position.push_back(corner + 1e14f * e);
-            clusters.normal.emplace_back(1.0f, 0.0f, 0.0f);
-        }
-    }
+    const PointSet clusters = farApartTriangles(40);
     const HoleSearch search = findHoles(clusters, 4.0f, true, 2);
     EXPECT_NEAR(search.spacing, 1e14f, 1e10f);
     EXPECT_TRUE(search.holes.empty());

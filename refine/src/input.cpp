@@ -43,21 +43,22 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
         const Result<NormalEstimate> estimate = estimateNormals(points, threads);
         if (!estimate) return estimate.error();
         done.normalComponents = estimate->components;
-    } else if (const std::vector<std::uint32_t> flipped =
-                   options.asWritten ? std::vector<std::uint32_t>{} : findFlippedNormals(points, threads);
-               !flipped.empty()) {
-        const glm::vec3 x = points.position[flipped[0]];
-        if (options.keepNormals)
-            return Error{fmt::format("{} normal(s) point against their neighbours' (the first: point {}, at "
-                                     "{:.6g} {:.6g} {:.6g}) and are to be kept as given: fix them in the "
-                                     "file, or let them be turned",
-                                     flipped.size(), flipped[0], x.x, x.y, x.z)};
-        for (const std::uint32_t i : flipped) {
-            points.normal[i] = -points.normal[i];
-            if (points.isCrease(i)) points.crease[i] = -points.crease[i];
+    } else if (!options.asWritten) {
+        const std::vector<std::uint32_t> flipped = findFlippedNormals(points, threads);
+        if (!flipped.empty()) {
+            const glm::vec3 x = points.position[flipped[0]];
+            if (options.keepNormals)
+                return Error{fmt::format("{} normal(s) point against their neighbours' (the first: point {}, "
+                                         "at {:.6g} {:.6g} {:.6g}) and are to be kept as given: fix them in "
+                                         "the file, or let them be turned",
+                                         flipped.size(), flipped[0], x.x, x.y, x.z)};
+            for (const std::uint32_t i : flipped) {
+                points.normal[i] = -points.normal[i];
+                if (points.isCrease(i)) points.crease[i] = -points.crease[i];
+            }
+            done.turnedNormals = flipped.size();
+            done.firstTurned = flipped[0];
         }
-        done.turnedNormals = flipped.size();
-        done.firstTurned = flipped[0];
     }
     step(3);
     if (points.hasRadius() && !options.replaceRadii) {

@@ -1559,15 +1559,17 @@ LevelCells Refiner::State::sortIntoCells(const LevelScale& level, const LevelSki
     gridPoint.resize(count);
     for (std::uint32_t k = 0; k < count; ++k) gridKey[k] = keyed[k].first, gridPoint[k] = keyed[k].second;
     // The points refined in cells: all but the large ones and those skipped.
-    std::erase_if(keyed, [&](const auto& entry) {
-        return skips(entry.second, skip) || levelRadius[entry.second] > level.radiusLimit;
-    });
+    std::vector<std::uint8_t> skipped(count);
     std::vector<std::uint32_t> large;
     for (std::uint32_t i = 0; i < count; ++i) {
-        if (skips(i, skip)) continue;
+        skipped[i] = skips(i, skip);
+        if (skipped[i]) continue;
         ++stats.refinedPoints;
         if (levelRadius[i] > level.radiusLimit) large.push_back(i);
     }
+    std::erase_if(keyed, [&](const auto& entry) {
+        return skipped[entry.second] || levelRadius[entry.second] > level.radiusLimit;
+    });
     stats.largePoints = large.size();
     // The large points get a colouring of their own, at the scale of the largest of them, appended
     // to `keyed` (their cells' keys use that scale).

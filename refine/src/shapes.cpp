@@ -262,6 +262,19 @@ PointSet sampleTorusUniform(std::size_t n, float R, float r) {
     return set;
 }
 
+PointSet farApartTriangles(std::size_t count) {
+    PointSet triangles;
+    for (std::size_t c = 0; c < count; ++c) {
+        const glm::vec3 corner(1e20f * float(c), 0.0f, 0.0f);
+        for (const glm::vec3 e :
+             {glm::vec3(0.0f), glm::vec3(0.0f, 1.0f, 0.0f), glm::vec3(0.0f, 0.5f, 0.866f)}) {
+            triangles.position.push_back(corner + 1e14f * e);
+            triangles.normal.emplace_back(1.0f, 0.0f, 0.0f);
+        }
+    }
+    return triangles;
+}
+
 PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H) {
     assert(rimPoints >= 3 && R > 0.0f && H > 0.0f);
     const double dR = R, dH = H, half = 0.5 * dH;

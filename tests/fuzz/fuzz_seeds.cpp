@@ -52,15 +52,7 @@ int main(int argc, char** argv) {
     }
     PointSet positionsOnly = torus;
     positionsOnly.normal.clear();
-    // Triangles 1e20 apart: squared distances past single precision, which the k-d searches of the
-    // input's completion do not find.
-    PointSet farApart;
-    for (int c = 0; c < 20; ++c)
-        for (const glm::vec3 e :
-             {glm::vec3(0.0f), glm::vec3(0.0f, 1.0f, 0.0f), glm::vec3(0.0f, 0.5f, 0.9f)}) {
-            farApart.position.push_back(glm::vec3(1e20f * float(c), 0.0f, 0.0f) + 1e14f * e);
-            farApart.normal.emplace_back(1.0f, 0.0f, 0.0f);
-        }
+    const PointSet farApart = farApartTriangles(20);
     bool ok = true;
     for (const PlyFormat format : {PlyFormat::Ascii, PlyFormat::BinaryLittleEndian}) {
         const std::string suffix = format == PlyFormat::Ascii ? "-ascii.ply" : "-binary.ply";

@@ -53,6 +53,11 @@ PointSet sampleTorusUniform(std::size_t n, float R, float r);
 // R > 0, H > 0.
 PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H);
 
+// `count` equilateral triangles of side 1e14, 1e20 apart along x, normals +x: squared distances
+// past single precision, which the k-d searches of the input's completion do not find (the
+// fuzzer's case; tests/hole_detection_test.cpp and the fuzz seeds).
+PointSet farApartTriangles(std::size_t count);
+
 // The embedded default model (the README's first command, scripts/demo.sh): a closed star-shaped
 // surface x(d) = rho(d) d over unit directions d, rho(d) = 1 + body(d) + ridges(d) + horns(d),
 // with detail that a sparse sampling loses: 12 ridges around the y axis (amplitude 0.06, about

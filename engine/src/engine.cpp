@@ -18,6 +18,7 @@
 
 #include "chunk_cache.h"
 #include "gpu_types.h"
+#include "pnsplat/engine/selection.h"
 #include "pnsplat/refine/node_workers.h"
 
 namespace pnsplat::engine {
@@ -29,32 +30,6 @@ double millisecondsSince(Clock::time_point t) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
-constexpr std::uint64_t kNever = 0; // frame stamps are frame index + 1
-constexpr float kHalfPi = 1.57079632679f;
-constexpr float kPi = 3.14159265359f;
-// The level of detail (docs/REALTIME.md, "The level of detail"). A node is drawn through its
-// children while more than kOverShare of its splats drawn are wider than the threshold: its median
-// splat. Splats are drawn and measured with Node::splatRadius, about the local spacing (the
-// refinement's radii are about twice it: docs/REALTIME.md, "Splats of the local spacing"). The 99th
-// percentile (a share of 0.008, before) let the sparsest patches of a node decide for all of it: the
-// refinement's radii spread (the 99th percentile is about 1.9 times the median), so at 2 px the median splat
-// drawn was 0.8 px and a covered pixel held 28 splats (the bunny at 640x480), while away from the silhouettes
-// a picture changes little from one level to the next.
-constexpr double kOverShare = 0.5;
-// At the silhouettes it does: there a coarser level covers more pixels than the next (a splat's
-// disk stands out of a curved surface by about r · bend / 2, node_tree.h, neighbourShapeOf, which the next
-// level's smaller splats shrink), and a pixel of surface against background costs far more than a
-// shade. A splat seen within acos(kRimCosine) of edge-on (its normal's cosine to the ray below
-// kRimCosine) is at the silhouette; a node is also drawn through its children while more than
-// kRimShare of those (at least kRimPoints) stand out by more than kRimBulgePx pixels and are wider
-// than kRimMinPx. The contour of a view moves out by about that on average: at 0.25 px the far
-// Igea of EngineTest (320x240) covered 49 pixels the offline picture does not (PSNR 36.9 dB), at
-// 0.1 px 39.7 dB, at 0.05 px 42.6 dB with 1.5 times the splats (docs/REALTIME.md).
-constexpr float kRimCosine = 0.3f;
-constexpr float kRimBulgePx = 0.1f;
-constexpr float kRimMinPx = 1.0f;
-constexpr double kRimShare = 0.1;
-constexpr std::size_t kRimPoints = 4;
 // Reports of finished frames kept until reports() takes them.
 constexpr std::size_t kKeptReports = 256;
 // The threshold in force stays at most this many times the one asked for (adaptThreshold). Past a
@@ -70,19 +45,6 @@ constexpr float kMaxThresholdRise = 3.0f;
 // (2000) shrank its splats after half a second at rest.
 constexpr double kRestSeconds = 0.5;
 constexpr std::size_t kRestFrames = 2;
-
-// Facing classes: a normal's class is the axis direction nearest it (+x, +y, +z, -x, -y, -z). A
-// chunk holds its splats class after class, so that a frame can leave out the classes of a node none
-// of whose splats faces the eye (Engine::Impl::select, `draw`) before the passes: beside the
-// silhouette a node's normals spread over half a sphere and more, and about a third of the splats
-// of the nodes drawn faced away (the bunny at 640x480).
-constexpr std::uint32_t kFacingClasses = 6;
-using ClassStarts = std::array<std::uint32_t, kFacingClasses + 1>; // offsets in the chunk
-std::uint32_t facingClass(glm::vec3 n) {
-    const glm::vec3 a = glm::abs(n);
-    const std::uint32_t axis = a.x >= a.y && a.x >= a.z ? 0u : a.y >= a.z ? 1u : 2u;
-    return n[static_cast<int>(axis)] < 0.0f ? axis + 3u : axis;
-}
 
 // The splats of a node's points (normals, radii, optional colours), 32 bytes each (gpu::Splat): a
 // chunk's contents, for its upload and its check, and the classes' starts. By facing class, then in
@@ -132,14 +94,10 @@ struct Engine::Impl {
     std::unique_ptr<FrameRing> frames;
 
     // Per node slot of the tree.
-    struct NodeState {
+    struct NodeState : NodeSelection {
         Chunk chunk;
-        ClassStarts classes{}; // where each facing class starts in the chunk
-        bool resident = false;
-        bool descended = false;             // drawn through its children last time it was visited
-        bool jobInFlight = false;           // a refinement of it is with the workers
-        std::uint64_t lastVisited = kNever; // frame + 1 of the last selection that passed through it
-        std::uint64_t uploaded = kNever;    // frame + 1 of its upload
+        bool jobInFlight = false;        // a refinement of it is with the workers
+        std::uint64_t uploaded = kNever; // frame + 1 of its upload
     };
     std::vector<NodeState> state;
 
@@ -176,27 +134,21 @@ struct Engine::Impl {
     // The oldest frame (as frame + 1) that may still read the cache: pinned from there on.
     std::uint64_t oldestInUse() { return frames->completed() + 1; }
 
-    // Selection output.
-    struct Wanted {
-        NodeId node;
-        std::uint32_t level;
-        float size;
-    };
-    struct Selection {
-        std::vector<NodeId> draw;
-        std::vector<std::uint8_t> facing; // per node drawn: the facing classes drawn (bit c: class c)
-        std::vector<Wanted> refine, upload;
-    };
-    Selection select(const Camera& camera);
+    // The frame's view: the scene's splats lie within modelBounds grown by the largest drawn radius.
+    FrameView viewOf(const Camera& camera) const {
+        const float margin = 2.0f * rootMaxRadius * settings.render.radiusScale;
+        return frameView(camera, settings.render.width, settings.render.height, settings.render.radiusScale,
+                         {modelBounds.centre, modelBounds.radius * 1.05f + margin});
+    }
+    Selection select(const FrameView& view);
     void integrate(FrameReport& report);
-    std::size_t dispatch(const std::vector<Wanted>& wanted, bool lockstep);
-    std::size_t upload(const std::vector<Wanted>& wanted, bool lockstep, FrameReport& report,
+    std::size_t dispatch(const std::vector<WantedNode>& wanted, bool lockstep);
+    std::size_t upload(const std::vector<WantedNode>& wanted, bool lockstep, FrameReport& report,
                        VkCommandBuffer& uploads);
     void releaseUnused();
     bool resting(const Camera& camera, Clock::time_point start);
     void adaptThreshold(Clock::time_point start, bool lockstep, bool resting);
     void collectFinished();
-    void measureSplats(const Camera& camera, FrameReport& report) const;
 };
 
 Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points,
@@ -293,176 +245,11 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
 Engine::Engine(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Engine::~Engine() = default;
 
-Engine::Impl::Selection Engine::Impl::select(const Camera& camera) {
-    Selection out;
-    const glm::mat4 view = camera.view();
-    const float aspect = float(settings.render.width) / float(settings.render.height);
-    const float tanY = std::tan(camera.fovY * 0.5f);
-    const DepthRange range =
-        depthRange(camera, {modelBounds.centre,
-                            modelBounds.radius * 1.05f + 2.0f * rootMaxRadius * settings.render.radiusScale});
-    const Frustum frustum{tanY * aspect, tanY, range};
-    const float focal = float(settings.render.height) / (2.0f * tanY); // pixels per unit at depth 1
-    const float scale = settings.render.radiusScale;
-    const std::uint64_t stamp = frames->index() + 1;
-
-    // What the camera sees of a node, from its box and its normal cone (a cone around coneAxis of
-    // half-angle coneAngle holds its normals; the directions from the eye to a sphere of radius R
-    // around the box's centre lie within asin(R / d) of the direction to the centre, d away):
-    struct NodeView {
-        bool visible = true;   // in the frustum, and not seen only from behind
-        bool allFront = false; // every splat faces the eye (n · (p - eye) < 0)
-        bool noRim = false;    // every splat faces the eye within acos(kRimCosine) of its normal
-        bool inView = false;   // the whole box in the frustum, beyond the near plane
-        float nearest = 0.0f, farthest = 0.0f; // depths of the box's corners
-    };
-    const glm::vec3 forward = glm::normalize(camera.target - camera.eye);
-    const glm::vec3 right = glm::vec3(view[0][0], view[1][0], view[2][0]);
-    const glm::vec3 upward = glm::vec3(view[0][1], view[1][1], view[2][1]);
-    const float rimAngle = kPi - std::acos(kRimCosine); // the angle of n to p - eye beyond which no rim
-    const auto see = [&](const Node& node) {
-        NodeView v;
-        v.nearest = std::numeric_limits<float>::max();
-        v.farthest = std::numeric_limits<float>::lowest();
-        v.inView = true;
-        for (int corner = 0; corner < 8; ++corner) {
-            const glm::vec3 d =
-                glm::vec3{corner & 1 ? node.hi.x : node.lo.x, corner & 2 ? node.hi.y : node.lo.y,
-                          corner & 4 ? node.hi.z : node.lo.z} -
-                camera.eye;
-            const float depth = glm::dot(d, forward);
-            v.nearest = std::min(v.nearest, depth);
-            v.farthest = std::max(v.farthest, depth);
-            v.inView = v.inView && depth > range.near &&
-                       std::abs(glm::dot(d, right)) <= frustum.tanX * depth &&
-                       std::abs(glm::dot(d, upward)) <= frustum.tanY * depth;
-        }
-        if (!settings.render.cullNodes) return v;
-        const glm::vec3 centre = (node.lo + node.hi) * 0.5f;
-        const float box = glm::length(node.hi - node.lo) * 0.5f;
-        const float radius = box + node.maxRadius * scale;
-        v.visible = frustum.intersects(glm::vec3(view * glm::vec4(centre, 1.0f)), radius);
-        const glm::vec3 toCentre = centre - camera.eye;
-        const float distance = glm::length(toCentre);
-        if (!v.visible || node.coneAngle >= kHalfPi || !(distance > radius)) return v;
-        const float between =
-            std::acos(std::clamp(glm::dot(toCentre / distance, node.coneAxis), -1.0f, 1.0f));
-        // Seen only from behind: every n · (p - eye) positive (splat_common.glsl skips those).
-        v.visible = between + std::asin(radius / distance) + node.coneAngle >= kHalfPi;
-        const float least = between - std::asin(box / distance) - node.coneAngle; // of n to p - eye
-        v.allFront = least > kHalfPi;
-        v.noRim = least > rimAngle;
-        return v;
-    };
-    // The diameter on screen of a node's splat of radius r, at most: r at the depth of the nearest
-    // corner of its box (depth is linear, so its minimum over the box is at a corner).
-    const auto bound = [&](const NodeView& v, float radius) {
-        return 2.0f * radius * scale * focal / std::max(v.nearest, range.near);
-    };
-    // Whether the node's splats drawn (in view, facing the eye) are too coarse for the threshold in
-    // force times `factor` (the hysteresis, or 1): more than kOverShare of them wider than it (its
-    // median splat), or more than kRimShare of those at the silhouette standing out by more than
-    // kRimBulgePx times the same ratio (the frame-time target and the hysteresis coarsen both
-    // alike). The box settles most nodes at once: none of its splats reaches kRimMinPx or the
-    // limit; or, for a node all in view and facing the eye, its median radii at the nearest and the
-    // farthest corner (Node::medianRadius) and, for the silhouette, its normal cone or its largest
-    // radius and bend (Node::maxBend). The others are measured
-    // splat by splat (no division: r · k > depth), which is exact where a box seen at a grazing
-    // angle or reaching out of the view would refine a node for its nearest corner alone.
-    const float rise = threshold / settings.threshold;
-    const auto exceeds = [&](const Node& node, const NodeView& v, float factor) {
-        const float limit = threshold * factor;
-        if (bound(v, node.maxRadius) <= std::min(limit, kRimMinPx)) return false;
-        const float k = 2.0f * scale * focal / limit; // the diameter over the limit, times depth
-        // The bulge r · bend / 2 over its limit, times depth.
-        const float bulge = scale * focal * 0.5f / (kRimBulgePx * rise * factor);
-        const float rimK = 2.0f * scale * focal / kRimMinPx;
-        const bool rimPossible = !v.noRim && node.maxRadius * node.maxBend * bulge > v.nearest &&
-                                 node.maxRadius * rimK > v.nearest;
-        if (v.inView && v.allFront) { // every splat drawn: the median radii settle the first test
-            if (node.medianRadius[0] * k > v.farthest) return true;                  // more than half wider
-            if (node.medianRadius[1] * k <= v.nearest && !rimPossible) return false; // at most half
-        }
-        const PointSet& points = node.points;
-        std::size_t drawn = 0, over = 0, rim = 0, rimOver = 0;
-        for (std::size_t i = 0; i < points.size(); ++i) {
-            const glm::vec3 d = points.position[i] - camera.eye;
-            const float depth = glm::dot(d, forward);
-            const float facing = -glm::dot(points.normal[i], d); // |d| times the cosine to the ray
-            if (!(depth > range.near && facing > 0.0f &&
-                  std::abs(glm::dot(d, right)) <= frustum.tanX * depth &&
-                  std::abs(glm::dot(d, upward)) <= frustum.tanY * depth))
-                continue;
-            const float r = node.splatRadius[i];
-            ++drawn;
-            over += r * k > depth;
-            if (rimPossible && facing < kRimCosine * glm::length(d)) {
-                ++rim;
-                rimOver += r * node.bend[i] * bulge > depth && r * rimK > depth;
-            }
-        }
-        return double(over) > kOverShare * double(drawn) ||
-               (rim >= kRimPoints && double(rimOver) > kRimShare * double(rim));
-    };
-    // The facing classes of a node that hold a splat facing the eye (the passes skip a splat seen
-    // from behind: the test of frontFacing in splat_common.glsl); the others draw nothing and are
-    // left out before the passes, and so is a node with none. The normal cone settles the nodes that
-    // face the eye whole; the others, beside the silhouette, are tested point by point until every
-    // class of the node is found facing the eye.
-    const auto draw = [&](NodeId id, const Node& node, const NodeView& v) {
-        const ClassStarts& classes = stateOf(id).classes;
-        std::uint32_t present = 0, facing = 0;
-        for (std::uint32_t c = 0; c < kFacingClasses; ++c) present |= (classes[c + 1] > classes[c]) << c;
-        if (!settings.render.cullNodes || v.allFront) facing = present; // (a test switch: everything drawn)
-        const PointSet& points = node.points;
-        for (std::size_t i = 0; i < points.size() && facing != present; ++i)
-            if (glm::dot(points.normal[i], points.position[i] - camera.eye) < 0.0f)
-                facing |= 1u << facingClass(points.normal[i]);
-        if (facing == 0 && present != 0) return;
-        out.draw.push_back(id);
-        out.facing.push_back(static_cast<std::uint8_t>(facing));
-    };
-    const auto visit = [&](const auto& self, NodeId id) -> void {
-        const Node& node = tree.node(id);
-        const NodeView v = see(node);
-        if (!v.visible) return;
-        NodeState& s = stateOf(id);
-        // Hysteresis holds only for a node seen without a break (in the last frame or earlier in
-        // this one): one that left the view (or whose subtree was released meanwhile) decides
-        // afresh, so what a frame draws does not depend on how long ago a node was last seen.
-        const bool descended = s.descended && s.lastVisited + 1 >= stamp;
-        s.lastVisited = stamp;
-        // Order of refinement and upload: the node's 99th percentile splat at its nearest depth.
-        const float size = bound(v, node.drawnRadius);
-        if (!node.isLeaf() && exceeds(node, v, descended ? settings.hysteresis : 1.0f)) {
-            bool ready = true;
-            for (const NodeId c : node.childIds()) {
-                if (stateOf(c).resident || !see(tree.node(c)).visible) continue;
-                out.upload.push_back({c, tree.node(c).level, size});
-                ready = false;
-            }
-            s.descended = true; // wanted, even while its children are uploaded
-            if (ready) {
-                for (const NodeId c : node.childIds()) self(self, c);
-                return;
-            }
-            draw(id, node, v);
-            return;
-        } else if (node.isLeaf() && settings.adaptive && node.level < tree.settings().maxLevel &&
-                   exceeds(node, v, 1.0f)) {
-            out.refine.push_back({id, node.level, size});
-        }
-        s.descended = false;
-        draw(id, node, v);
-    };
-    for (const NodeId root : tree.roots()) visit(visit, root);
-    // Breadth-first: coarsest level first, then largest on screen; ties by id (deterministic).
-    const auto order = [](const Wanted& a, const Wanted& b) {
-        return a.level != b.level ? a.level < b.level : a.size != b.size ? a.size > b.size : a.node < b.node;
-    };
-    std::sort(out.refine.begin(), out.refine.end(), order);
-    std::sort(out.upload.begin(), out.upload.end(), order);
-    return out;
+Selection Engine::Impl::select(const FrameView& view) {
+    const SelectionSettings selection{threshold, settings.threshold, settings.hysteresis, settings.adaptive,
+                                      settings.render.cullNodes};
+    return selectNodes(tree, view, selection, frames->index() + 1,
+                       [this](NodeId id) -> NodeSelection& { return stateOf(id); });
 }
 
 void Engine::Impl::integrate(FrameReport& report) {
@@ -487,13 +274,13 @@ void Engine::Impl::integrate(FrameReport& report) {
 // handed out once a frame, and a node's job (a few milliseconds) must not leave its worker idle for
 // the rest of a frame; with 2 a worker the bunny's orbit generated 181,000 points/s while nodes were
 // queued, with 6 232,000 (docs/REALTIME.md).
-std::size_t Engine::Impl::dispatch(const std::vector<Wanted>& wanted, bool lockstep) {
+std::size_t Engine::Impl::dispatch(const std::vector<WantedNode>& wanted, bool lockstep) {
     const std::size_t capacity =
         lockstep ? std::numeric_limits<std::size_t>::max() : 6 * workers->threads() + 2;
     std::vector<NodeJob> jobs;
     std::vector<NodeId> blockers, pending;
     const auto full = [&] { return workers->outstanding() + jobs.size() >= capacity; };
-    for (const Wanted& w : wanted) {
+    for (const WantedNode& w : wanted) {
         if (full()) break;
         pending.assign(1, w.node);
         // Depth-first through the blockers: each node is ready or names the coarser leaves it waits
@@ -519,7 +306,7 @@ std::size_t Engine::Impl::dispatch(const std::vector<Wanted>& wanted, bool locks
 
 // Uploads the wanted nodes' chunks (within the frame's budget unless in lockstep). Returns the
 // number uploaded.
-std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockstep, FrameReport& report,
+std::size_t Engine::Impl::upload(const std::vector<WantedNode>& wanted, bool lockstep, FrameReport& report,
                                  VkCommandBuffer& uploads) {
     const std::uint64_t pinnedFrom = oldestInUse();
     const std::uint64_t stamp = frames->index() + 1;
@@ -530,7 +317,7 @@ std::size_t Engine::Impl::upload(const std::vector<Wanted>& wanted, bool lockste
     std::vector<std::uint32_t> evicted;
     std::vector<gpu::Splat> splats;
     std::size_t count = 0;
-    for (const Wanted& w : wanted) {
+    for (const WantedNode& w : wanted) {
         NodeState& s = stateOf(w.node);
         if (s.resident) continue;
         const Node& node = tree.node(w.node);
@@ -666,41 +453,6 @@ void Engine::Impl::collectFinished() {
     }
 }
 
-// The splats drawn (in view and facing the eye, as the passes draw them) and their projected
-// diameters: the largest and the share above the threshold asked for.
-void Engine::Impl::measureSplats(const Camera& camera, FrameReport& report) const {
-    const glm::mat4 view = camera.view();
-    const float tanY = std::tan(camera.fovY * 0.5f);
-    const float tanX = tanY * float(settings.render.width) / float(settings.render.height);
-    const float focal = float(settings.render.height) / (2.0f * tanY);
-    const DepthRange range =
-        depthRange(camera, {modelBounds.centre,
-                            modelBounds.radius * 1.05f + 2.0f * rootMaxRadius * settings.render.radiusScale});
-    const float scale = 2.0f * settings.render.radiusScale * focal;
-    std::size_t over = 0;
-    std::vector<float> sizes;
-    for (const NodeId id : drawnNodes) {
-        const Node& node = tree.node(id);
-        const PointSet& points = node.points;
-        for (std::size_t i = 0; i < points.size(); ++i) {
-            const glm::vec3 p = glm::vec3(view * glm::vec4(points.position[i], 1.0f));
-            const float depth = -p.z;
-            if (!(depth > range.near) || std::abs(p.x) > tanX * depth || std::abs(p.y) > tanY * depth ||
-                glm::dot(points.normal[i], points.position[i] - camera.eye) >= 0.0f)
-                continue;
-            const float size = scale * node.splatRadius[i] / depth;
-            sizes.push_back(size);
-            over += size > settings.threshold;
-        }
-    }
-    if (sizes.empty()) return;
-    const auto middle = sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2);
-    std::nth_element(sizes.begin(), middle, sizes.end());
-    report.medianSplatPx = *middle;
-    report.maxSplatPx = *std::max_element(middle, sizes.end());
-    report.overThreshold = double(over) / double(sizes.size());
-}
-
 Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& options) {
     if (!camera.valid())
         return Error{
@@ -721,13 +473,14 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         report.gpuWaitMs = gpuWaitMs;
         report.frame = m.frames->begin();
         VkCommandBuffer uploads = VK_NULL_HANDLE;
-        Impl::Selection selection;
+        const FrameView view = m.viewOf(camera);
+        Selection selection;
         for (std::size_t round = 0;; ++round) {
             const Clock::time_point integrating = Clock::now();
             m.integrate(report);
             report.refineMs += millisecondsSince(integrating);
             const Clock::time_point selecting = Clock::now();
-            selection = m.select(camera);
+            selection = m.select(view);
             report.selectionMs += millisecondsSince(selecting);
             const Clock::time_point dispatching = Clock::now();
             const std::size_t dispatched =
@@ -772,18 +525,21 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         std::sort(ranges.begin(), ranges.end(),
                   [](const DrawRange& a, const DrawRange& b) { return a.first < b.first; });
         report.nodesVisible = m.drawnNodes.size();
-        if (options.measureSplats) m.measureSplats(camera, report);
+        if (options.measureSplats) {
+            const SplatSizes sizes = measureSplats(m.tree, m.drawnNodes, view, m.settings.threshold);
+            report.medianSplatPx = sizes.medianPx;
+            report.maxSplatPx = sizes.maxPx;
+            report.overThreshold = sizes.overThreshold;
+        }
         if (uploads != VK_NULL_HANDLE) m.frames->submit(uploads, false);
-        const DepthRange range = depthRange(
-            camera, {m.modelBounds.centre,
-                     m.modelBounds.radius * 1.05f + 2.0f * m.rootMaxRadius * m.settings.render.radiusScale});
         FrameOutput output = options.output;
         output.readBack = options.readBack;
         m.slotDraws[m.frames->slot()] = ranges;
         m.slotFrame[m.frames->slot()] = report.frame;
         // A model without colours is drawn in kDefaultColour throughout.
         const auto oneColour = m.hasColour ? std::nullopt : std::optional{kDefaultColour};
-        m.renderer->submit(*m.frames, m.cache->buffer(), oneColour, ranges, camera, range, output);
+        m.renderer->submit(*m.frames, m.cache->buffer(), oneColour, ranges, camera, view.frustum.range,
+                           output);
 
         report.cacheBytesUsed = std::size_t{m.cache->used()} * sizeof(gpu::Splat);
         report.thresholdPx = m.threshold;

@@ -40,7 +40,7 @@ struct EngineSettings {
     RenderSettings render;
     bool adaptive = true;
     // The splat diameter wanted on screen, in pixels (> 0): a node whose median splat drawn is wider is
-    // refined, and so is one whose splats at the silhouette stand out of the surface (engine.cpp;
+    // refined, and so is one whose splats at the silhouette stand out of the surface (selection.cpp;
     // docs/REALTIME.md, "The level of detail"). At 3 px the points drawn lie about a pixel apart.
     float threshold = 3.0f;
     // A node drawn refined (its children) goes back to being drawn itself once its own splats are

@@ -48,7 +48,7 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //  - bend: how far the surface turns within one spacing, the largest angle (radians) between its
 //    normal and theirs. A splat at the silhouette stands out of the surface by about r · bend / 2
 //    (the sagitta of a circle turning by bend over r), which the next level's smaller splats halve;
-//    the engine refines the nodes whose silhouette splats stand out visibly (engine.cpp, the level
+//    the engine refines the nodes whose silhouette splats stand out visibly (selection.cpp, the level
 //    of detail).
 //  - splatRadius: the radius its splat is drawn with, the distance to the farthest of them, at most
 //    its own radius (the point's radius when it has no neighbour). Choice (docs/REALTIME.md, "Splats

@@ -1,0 +1,288 @@
+// The nodes a frame draws, refines and uploads (selection.h).
+#include "pnsplat/engine/selection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <glm/vec4.hpp>
+
+namespace pnsplat::engine {
+
+namespace {
+
+constexpr float kHalfPi = 1.57079632679f;
+constexpr float kPi = 3.14159265359f;
+// The level of detail (docs/REALTIME.md, "The level of detail"). A node is drawn through its
+// children while more than kOverShare of its splats drawn are wider than the threshold: its median
+// splat. Splats are drawn and measured with Node::splatRadius, about the local spacing (the
+// refinement's radii are about twice it: docs/REALTIME.md, "Splats of the local spacing"). The 99th
+// percentile (a share of 0.008, before) let the sparsest patches of a node decide for all of it: the
+// refinement's radii spread (the 99th percentile is about 1.9 times the median), so at 2 px the median splat
+// drawn was 0.8 px and a covered pixel held 28 splats (the bunny at 640x480), while away from the silhouettes
+// a picture changes little from one level to the next.
+constexpr double kOverShare = 0.5;
+// At the silhouettes it does: there a coarser level covers more pixels than the next (a splat's
+// disk stands out of a curved surface by about r · bend / 2, node_tree.h, neighbourShapeOf, which the next
+// level's smaller splats shrink), and a pixel of surface against background costs far more than a
+// shade. A splat seen within acos(kRimCosine) of edge-on (its normal's cosine to the ray below
+// kRimCosine) is at the silhouette; a node is also drawn through its children while more than
+// kRimShare of those (at least kRimPoints) stand out by more than kRimBulgePx pixels and are wider
+// than kRimMinPx. The contour of a view moves out by about that on average: at 0.25 px the far
+// Igea of EngineTest (320x240) covered 49 pixels the offline picture does not (PSNR 36.9 dB), at
+// 0.1 px 39.7 dB, at 0.05 px 42.6 dB with 1.5 times the splats (docs/REALTIME.md).
+constexpr float kRimCosine = 0.3f;
+constexpr float kRimBulgePx = 0.1f;
+constexpr float kRimMinPx = 1.0f;
+constexpr double kRimShare = 0.1;
+constexpr std::size_t kRimPoints = 4;
+
+// What the camera sees of a node, from its box and its normal cone (a cone around coneAxis of
+// half-angle coneAngle holds its normals; the directions from the eye to a sphere of radius R
+// around the box's centre lie within asin(R / d) of the direction to the centre, d away).
+struct NodeView {
+    bool visible = true;                   // in the frustum, and not seen only from behind
+    bool allFront = false;                 // every splat faces the eye (n · (p - eye) < 0)
+    bool noRim = false;                    // every splat faces the eye within acos(kRimCosine) of its normal
+    bool inView = false;                   // the whole box in the frustum, beyond the near plane
+    float nearest = 0.0f, farthest = 0.0f; // depths of the box's corners
+};
+
+// One walk of the tree (selectNodes).
+class Walk {
+  public:
+    Walk(const NodeTree& tree, const FrameView& view, const SelectionSettings& settings, std::uint64_t stamp,
+         const std::function<NodeSelection&(NodeId)>& stateOf)
+        : tree_(tree), v_(view), settings_(settings), stamp_(stamp), stateOf_(stateOf) {}
+
+    void visit(NodeId id);
+    Selection& result() { return out_; }
+
+  private:
+    NodeView see(const Node& node) const;
+    float bound(const NodeView& v, float radius) const;
+    bool exceeds(const Node& node, const NodeView& v, float factor) const;
+    void draw(NodeId id, const Node& node, const NodeView& v);
+
+    const NodeTree& tree_;
+    const FrameView& v_;
+    const SelectionSettings& settings_;
+    std::uint64_t stamp_;
+    const std::function<NodeSelection&(NodeId)>& stateOf_;
+    Selection out_;
+};
+
+NodeView Walk::see(const Node& node) const {
+    const Camera& camera = v_.camera;
+    const DepthRange range = v_.frustum.range;
+    NodeView v;
+    v.nearest = std::numeric_limits<float>::max();
+    v.farthest = std::numeric_limits<float>::lowest();
+    v.inView = true;
+    for (int corner = 0; corner < 8; ++corner) {
+        const glm::vec3 d = glm::vec3{corner & 1 ? node.hi.x : node.lo.x, corner & 2 ? node.hi.y : node.lo.y,
+                                      corner & 4 ? node.hi.z : node.lo.z} -
+                            camera.eye;
+        const float depth = glm::dot(d, v_.forward);
+        v.nearest = std::min(v.nearest, depth);
+        v.farthest = std::max(v.farthest, depth);
+        v.inView = v.inView && depth > range.near &&
+                   std::abs(glm::dot(d, v_.right)) <= v_.frustum.tanX * depth &&
+                   std::abs(glm::dot(d, v_.upward)) <= v_.frustum.tanY * depth;
+    }
+    if (!settings_.cullNodes) return v;
+    const glm::vec3 centre = (node.lo + node.hi) * 0.5f;
+    const float box = glm::length(node.hi - node.lo) * 0.5f;
+    const float radius = box + node.maxRadius * v_.radiusScale;
+    v.visible = v_.frustum.intersects(glm::vec3(v_.view * glm::vec4(centre, 1.0f)), radius);
+    const glm::vec3 toCentre = centre - camera.eye;
+    const float distance = glm::length(toCentre);
+    if (!v.visible || node.coneAngle >= kHalfPi || !(distance > radius)) return v;
+    const float between = std::acos(std::clamp(glm::dot(toCentre / distance, node.coneAxis), -1.0f, 1.0f));
+    // Seen only from behind: every n · (p - eye) positive (splat_common.glsl skips those).
+    v.visible = between + std::asin(radius / distance) + node.coneAngle >= kHalfPi;
+    const float least = between - std::asin(box / distance) - node.coneAngle; // of n to p - eye
+    const float rimAngle = kPi - std::acos(kRimCosine); // the angle of n to p - eye beyond which no rim
+    v.allFront = least > kHalfPi;
+    v.noRim = least > rimAngle;
+    return v;
+}
+
+// The diameter on screen of a node's splat of radius r, at most: r at the depth of the nearest
+// corner of its box (depth is linear, so its minimum over the box is at a corner).
+float Walk::bound(const NodeView& v, float radius) const {
+    return 2.0f * radius * v_.radiusScale * v_.focal / std::max(v.nearest, v_.frustum.range.near);
+}
+
+// Whether the node's splats drawn (in view, facing the eye) are too coarse for the threshold in
+// force times `factor` (the hysteresis, or 1): more than kOverShare of them wider than it (its
+// median splat), or more than kRimShare of those at the silhouette standing out by more than
+// kRimBulgePx times the same ratio (the frame-time target and the hysteresis coarsen both
+// alike). The box settles most nodes at once: none of its splats reaches kRimMinPx or the
+// limit; or, for a node all in view and facing the eye, its median radii at the nearest and the
+// farthest corner (Node::medianRadius) and, for the silhouette, its normal cone or its largest
+// radius and bend (Node::maxBend). The others are measured splat by splat (no division:
+// r · k > depth), which is exact where a box seen at a grazing angle or reaching out of the view
+// would refine a node for its nearest corner alone.
+bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
+    const float limit = settings_.threshold * factor;
+    if (bound(v, node.maxRadius) <= std::min(limit, kRimMinPx)) return false;
+    const float scale = v_.radiusScale, focal = v_.focal, rise = settings_.threshold / settings_.asked;
+    const float k = 2.0f * scale * focal / limit; // the diameter over the limit, times depth
+    // The bulge r · bend / 2 over its limit, times depth.
+    const float bulge = scale * focal * 0.5f / (kRimBulgePx * rise * factor);
+    const float rimK = 2.0f * scale * focal / kRimMinPx;
+    const bool rimPossible =
+        !v.noRim && node.maxRadius * node.maxBend * bulge > v.nearest && node.maxRadius * rimK > v.nearest;
+    if (v.inView && v.allFront) { // every splat drawn: the median radii settle the first test
+        if (node.medianRadius[0] * k > v.farthest) return true;                  // more than half wider
+        if (node.medianRadius[1] * k <= v.nearest && !rimPossible) return false; // at most half
+    }
+    const PointSet& points = node.points;
+    const glm::vec3 eye = v_.camera.eye;
+    const Frustum& frustum = v_.frustum;
+    std::size_t drawn = 0, over = 0, rim = 0, rimOver = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const glm::vec3 d = points.position[i] - eye;
+        const float depth = glm::dot(d, v_.forward);
+        const float facing = -glm::dot(points.normal[i], d); // |d| times the cosine to the ray
+        if (!(depth > frustum.range.near && facing > 0.0f &&
+              std::abs(glm::dot(d, v_.right)) <= frustum.tanX * depth &&
+              std::abs(glm::dot(d, v_.upward)) <= frustum.tanY * depth))
+            continue;
+        const float r = node.splatRadius[i];
+        ++drawn;
+        over += r * k > depth;
+        if (rimPossible && facing < kRimCosine * glm::length(d)) {
+            ++rim;
+            rimOver += r * node.bend[i] * bulge > depth && r * rimK > depth;
+        }
+    }
+    return double(over) > kOverShare * double(drawn) ||
+           (rim >= kRimPoints && double(rimOver) > kRimShare * double(rim));
+}
+
+// The facing classes of a node that hold a splat facing the eye (the passes skip a splat seen from
+// behind: the test of frontFacing in splat_common.glsl); the others draw nothing and are left out
+// before the passes, and so is a node with none. The normal cone settles the nodes that face the
+// eye whole; the others, beside the silhouette, are tested point by point until every class of the
+// node is found facing the eye.
+void Walk::draw(NodeId id, const Node& node, const NodeView& v) {
+    const ClassStarts& classes = stateOf_(id).classes;
+    std::uint32_t present = 0, facing = 0;
+    for (std::uint32_t c = 0; c < kFacingClasses; ++c) present |= (classes[c + 1] > classes[c]) << c;
+    if (!settings_.cullNodes || v.allFront) facing = present; // (a test switch: everything drawn)
+    const PointSet& points = node.points;
+    for (std::size_t i = 0; i < points.size() && facing != present; ++i)
+        if (glm::dot(points.normal[i], points.position[i] - v_.camera.eye) < 0.0f)
+            facing |= 1u << facingClass(points.normal[i]);
+    if (facing == 0 && present != 0) return;
+    out_.draw.push_back(id);
+    out_.facing.push_back(static_cast<std::uint8_t>(facing));
+}
+
+void Walk::visit(NodeId id) {
+    const Node& node = tree_.node(id);
+    const NodeView v = see(node);
+    if (!v.visible) return;
+    NodeSelection& s = stateOf_(id);
+    // Hysteresis holds only for a node seen without a break (in the last frame or earlier in
+    // this one): one that left the view (or whose subtree was released meanwhile) decides
+    // afresh, so what a frame draws does not depend on how long ago a node was last seen.
+    const bool descended = s.descended && s.lastVisited + 1 >= stamp_;
+    s.lastVisited = stamp_;
+    // Order of refinement and upload: the node's 99th percentile splat at its nearest depth.
+    const float size = bound(v, node.drawnRadius);
+    if (!node.isLeaf() && exceeds(node, v, descended ? settings_.hysteresis : 1.0f)) {
+        bool ready = true;
+        for (const NodeId c : node.childIds()) {
+            if (stateOf_(c).resident || !see(tree_.node(c)).visible) continue;
+            out_.upload.push_back({c, tree_.node(c).level, size});
+            ready = false;
+        }
+        stateOf_(id).descended = true; // wanted, even while its children are uploaded
+        if (ready) {
+            for (const NodeId c : node.childIds()) visit(c);
+            return;
+        }
+        draw(id, node, v);
+        return;
+    }
+    if (node.isLeaf() && settings_.adaptive && node.level < tree_.settings().maxLevel &&
+        exceeds(node, v, 1.0f))
+        out_.refine.push_back({id, node.level, size});
+    stateOf_(id).descended = false;
+    draw(id, node, v);
+}
+
+} // namespace
+
+std::uint32_t facingClass(glm::vec3 n) {
+    const glm::vec3 a = glm::abs(n);
+    const std::uint32_t axis = a.x >= a.y && a.x >= a.z ? 0u : a.y >= a.z ? 1u : 2u;
+    return n[static_cast<int>(axis)] < 0.0f ? axis + 3u : axis;
+}
+
+FrameView frameView(const Camera& camera, std::uint32_t width, std::uint32_t height, float radiusScale,
+                    const Sphere& bounds) {
+    FrameView v;
+    v.camera = camera;
+    v.view = camera.view();
+    v.forward = glm::normalize(camera.target - camera.eye);
+    v.right = glm::vec3(v.view[0][0], v.view[1][0], v.view[2][0]);
+    v.upward = glm::vec3(v.view[0][1], v.view[1][1], v.view[2][1]);
+    const float tanY = std::tan(camera.fovY * 0.5f);
+    v.frustum = Frustum{tanY * float(width) / float(height), tanY, depthRange(camera, bounds)};
+    v.focal = float(height) / (2.0f * tanY);
+    v.radiusScale = radiusScale;
+    return v;
+}
+
+Selection selectNodes(const NodeTree& tree, const FrameView& view, const SelectionSettings& settings,
+                      std::uint64_t stamp, const std::function<NodeSelection&(NodeId)>& stateOf) {
+    Walk walk(tree, view, settings, stamp, stateOf);
+    for (const NodeId root : tree.roots()) walk.visit(root);
+    Selection out = std::move(walk.result());
+    // Breadth-first: coarsest level first, then largest on screen; ties by id (deterministic).
+    const auto order = [](const WantedNode& a, const WantedNode& b) {
+        return a.level != b.level ? a.level < b.level : a.size != b.size ? a.size > b.size : a.node < b.node;
+    };
+    std::sort(out.refine.begin(), out.refine.end(), order);
+    std::sort(out.upload.begin(), out.upload.end(), order);
+    return out;
+}
+
+SplatSizes measureSplats(const NodeTree& tree, std::span<const NodeId> drawn, const FrameView& view,
+                         float threshold) {
+    const Frustum& frustum = view.frustum;
+    const float scale = 2.0f * view.radiusScale * view.focal;
+    std::size_t over = 0;
+    std::vector<float> sizes;
+    for (const NodeId id : drawn) {
+        const Node& node = tree.node(id);
+        const PointSet& points = node.points;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            const glm::vec3 p = glm::vec3(view.view * glm::vec4(points.position[i], 1.0f));
+            const float depth = -p.z;
+            if (!(depth > frustum.range.near) || std::abs(p.x) > frustum.tanX * depth ||
+                std::abs(p.y) > frustum.tanY * depth ||
+                glm::dot(points.normal[i], points.position[i] - view.camera.eye) >= 0.0f)
+                continue;
+            const float size = scale * node.splatRadius[i] / depth;
+            sizes.push_back(size);
+            over += size > threshold;
+        }
+    }
+    SplatSizes out;
+    if (sizes.empty()) return out;
+    const auto middle = sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2);
+    std::nth_element(sizes.begin(), middle, sizes.end());
+    out.medianPx = *middle;
+    out.maxPx = *std::max_element(middle, sizes.end());
+    out.overThreshold = double(over) / double(sizes.size());
+    return out;
+}
+
+} // namespace pnsplat::engine

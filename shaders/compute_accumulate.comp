@@ -10,7 +10,7 @@
 
 layout(constant_id = 0) const bool kOneColour = false;
 
-layout(set = 0, binding = 4, std430) buffer AccumBlock { uint64_t accum[]; };
+layout(set = 0, binding = kBindingAccum, std430) buffer AccumBlock { uint64_t accum[]; };
 
 // Two values in [0, 1] (times the weight) as one 64-bit word of two 32-bit fixed-point halves.
 uint64_t pack(float low, float high) {

@@ -13,8 +13,8 @@ layout(local_size_x = 32, local_size_y = 32) in;
 // Every splat has the colour frame.colour (compute_accumulate.comp).
 layout(constant_id = 0) const bool kOneColour = false;
 
-layout(set = 0, binding = 4, std430) buffer AccumBlock { uint64_t accum[]; };
-layout(set = 0, binding = 5, std430) writeonly buffer OutputBlock { uint pixels[]; }; // RGBA8
+layout(set = 0, binding = kBindingAccum, std430) buffer AccumBlock { uint64_t accum[]; };
+layout(set = 0, binding = kBindingOutput, std430) writeonly buffer OutputBlock { uint pixels[]; }; // RGBA8
 
 vec2 unpack(uint64_t word) {
     return vec2(float(uint(word & 0xFFFFFFFFul)), float(uint(word >> 32))) / kFixedScale;

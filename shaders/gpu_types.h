@@ -46,6 +46,20 @@ PNSPLAT_CONST float kOneColourScale = 4096.0f;
 // splat landed.
 PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 
+// The bindings of the one descriptor set (set 0) that all passes of a path share
+// (splat_renderer.cpp makes it): the frame's uniforms and the splats on every path, then the
+// path's own. Named once here, for the C++ that binds and the GLSL that reads.
+PNSPLAT_CONST uint kBindingFrame = 0;  // FrameUniforms (uniform buffer)
+PNSPLAT_CONST uint kBindingSplats = 1; // the cache's Splats (storage buffer)
+// Compute path: storage buffers.
+PNSPLAT_CONST uint kBindingItems = 2;  // the work items: (first splat, count) per node range
+PNSPLAT_CONST uint kBindingDepth = 3;  // the nearest depth per pixel, as float bits
+PNSPLAT_CONST uint kBindingAccum = 4;  // the fixed-point sums per pixel (kAccumStride words, or one)
+PNSPLAT_CONST uint kBindingOutput = 5; // the picture, RGBA8 per pixel
+// Graphics path: the accumulation targets, sampled by the normalization pass.
+PNSPLAT_CONST uint kBindingAccumColour = 2; // w·rgb, w
+PNSPLAT_CONST uint kBindingAccumNormal = 3; // w·normal
+
 // One splat: an oriented disk. colour is sRGB, packed as R | G << 8 | B << 16 (alpha unused).
 struct Splat {
     vec3 position;

@@ -4,8 +4,8 @@
 // compute path's normalization).
 #include "splat_common.glsl"
 
-layout(set = 0, binding = 2) uniform sampler2D accumColour; // w·rgb, w
-layout(set = 0, binding = 3) uniform sampler2D accumNormal; // w·normal
+layout(set = 0, binding = kBindingAccumColour) uniform sampler2D accumColour; // w·rgb, w
+layout(set = 0, binding = kBindingAccumNormal) uniform sampler2D accumNormal; // w·normal
 
 layout(location = 0) out vec4 outColour;
 

@@ -2,8 +2,8 @@
 // paths differ only in how footprints reach pixels (ALGORITHM.md §11).
 #include "gpu_types.h"
 
-layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; };
-layout(set = 0, binding = 1, std430) readonly buffer SplatBlock { Splat splats[]; };
+layout(set = 0, binding = kBindingFrame, std140) uniform FrameBlock { FrameUniforms frame; };
+layout(set = 0, binding = kBindingSplats, std430) readonly buffer SplatBlock { Splat splats[]; };
 
 // A splat in view space: centre, unit normal, radius (after the radius scale).
 struct ViewSplat {

@@ -5,8 +5,8 @@
 
 layout(local_size_x = kLocalSize) in;
 
-layout(set = 0, binding = 2, std430) readonly buffer ItemBlock { uvec2 items[]; }; // first, count
-layout(set = 0, binding = 3, std430) buffer DepthBlock { uint depthBits[]; };         // float bits
+layout(set = 0, binding = kBindingItems, std430) readonly buffer ItemBlock { uvec2 items[]; }; // first, count
+layout(set = 0, binding = kBindingDepth, std430) buffer DepthBlock { uint depthBits[]; };         // float bits
 
 // The index of this invocation's splat, or false when the node has no splat for it.
 bool invocationSplat(out uint index) {

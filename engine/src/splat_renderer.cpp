@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gpu_types.h"
@@ -210,14 +211,15 @@ void SplatRenderer::Impl::createCommon() {
     const auto add = [&](std::uint32_t binding, VkDescriptorType type) {
         bindings.push_back({binding, type, 1, VK_SHADER_STAGE_ALL, nullptr});
     };
-    add(0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
-    add(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
+    add(gpu::kBindingFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+    add(gpu::kBindingSplats, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
     if (compute()) {
-        for (std::uint32_t b = 2; b <= 5; ++b)
-            add(b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER); // ranges, depth, accum, output
+        for (const std::uint32_t b :
+             {gpu::kBindingItems, gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput})
+            add(b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
     } else if (!plain()) {
-        add(2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
-        add(3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
+        add(gpu::kBindingAccumColour, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
+        add(gpu::kBindingAccumNormal, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
     }
     VkDescriptorSetLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     layoutInfo.bindingCount = static_cast<std::uint32_t>(bindings.size());
@@ -496,17 +498,17 @@ void SplatRenderer::Impl::writeDescriptors(const Slot& slot, const Buffer& splat
         buffers.push_back({buffer.buffer.get(), 0, VK_WHOLE_SIZE});
         write(binding, type).pBufferInfo = &buffers.back();
     };
-    writeBuffer(0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, slot.uniforms);
-    writeBuffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, splats);
+    writeBuffer(gpu::kBindingFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, slot.uniforms);
+    writeBuffer(gpu::kBindingSplats, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, splats);
     if (compute()) {
-        writeBuffer(2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slot.ranges);
-        writeBuffer(3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits);
-        writeBuffer(4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum);
-        writeBuffer(5, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output);
+        writeBuffer(gpu::kBindingItems, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slot.ranges);
+        writeBuffer(gpu::kBindingDepth, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits);
+        writeBuffer(gpu::kBindingAccum, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum);
+        writeBuffer(gpu::kBindingOutput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output);
     } else if (!plain()) {
-        for (std::uint32_t binding : {2u, 3u}) {
-            images.push_back({sampler.get(), (binding == 2 ? accumColour : accumNormal).view.get(),
-                              VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
+        for (const auto& [binding, image] : {std::pair{gpu::kBindingAccumColour, &accumColour},
+                                             std::pair{gpu::kBindingAccumNormal, &accumNormal}}) {
+            images.push_back({sampler.get(), image->view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
             write(binding, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo = &images.back();
         }
     }

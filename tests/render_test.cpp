@@ -1,6 +1,7 @@
 // Rendering on lavapipe: analytic single-disk and occlusion oracles, the two paths against each
 // other, golden images that a broken pass fails, culling, and bad input.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -226,6 +227,35 @@ TEST_F(RenderTest, ComputeAndGraphicsPathsAgree) {
     EXPECT_LT(d.rmse, 1.0);
     EXPECT_LT(d.differingShare, 0.002);
     EXPECT_GT(d.ssim, 0.999);
+}
+
+// The plain points (the benchmark's baseline, a render path of its own): each splat centre is the
+// one pixel that holds its projection, in its colour as stored; every other pixel stays cleared.
+TEST_F(RenderTest, PlainPointsDrawEachCentreAsOnePixel) {
+    const Camera camera = lookingDownZ(5.0f);
+    const float extent = 5.0f * std::tan(camera.fovY * 0.5f); // x and y at the view's edges, at z = 0
+    PointSet points;
+    std::vector<std::array<int, 2>> pixels;
+    for (const auto [column, row] : {std::array{3, 5}, {30, 31}, {60, 2}, {17, 44}, {50, 58}}) {
+        // The centre of pixel (column, row) of a 64 x 64 image: rows run downwards.
+        const float x = ((float(column) + 0.5f) / 32.0f - 1.0f) * extent;
+        const float y = -((float(row) + 0.5f) / 32.0f - 1.0f) * extent;
+        points.position.emplace_back(x, y, 0.0f);
+        points.normal.emplace_back(0.0f, 0.0f, 1.0f);
+        points.radius.push_back(0.01f);
+        points.colour.emplace_back(40 * points.size(), 255 - 30 * points.size(), 77);
+        pixels.push_back({column, row});
+    }
+    const RgbaImage image = render(points, small(RenderPath::PlainPoints, 64, 64), camera);
+    for (int row = 0; row < 64; ++row) {
+        for (int column = 0; column < 64; ++column) {
+            const auto found = std::ranges::find(pixels, std::array{column, row});
+            const glm::u8vec3 want =
+                found == pixels.end() ? glm::u8vec3(0) : points.colour[std::size_t(found - pixels.begin())];
+            const std::uint8_t* at = &image.pixels[4 * (std::size_t(row) * 64 + std::size_t(column))];
+            EXPECT_EQ(glm::u8vec3(at[0], at[1], at[2]), want) << "pixel " << column << ", " << row;
+        }
+    }
 }
 
 // Disks tilted up to 80 degrees, at several depths, over a wide view (70 degrees, so that

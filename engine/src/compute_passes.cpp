@@ -1,0 +1,139 @@
+// The compute path's passes (render_passes.h; ALGORITHM.md §11.5): one invocation per splat walks
+// the pixels of its footprint, with atomics on storage buffers of one word (depth) and one or four
+// words (sums) a pixel.
+#include <algorithm>
+#include <array>
+
+#include "gpu_types.h"
+#include "pnsplat/engine/buffer.h"
+#include "render_passes.h"
+#include "spirv/compute_accumulate_comp.h"
+#include "spirv/compute_normalize_comp.h"
+#include "spirv/compute_visibility_comp.h"
+
+namespace pnsplat::engine {
+
+namespace {
+
+class ComputePasses final : public RenderPasses {
+  public:
+    ComputePasses(Context& context, const RenderSettings& settings)
+        : context_(context), settings_(settings), device_(context.device()) {}
+
+    int count() const override { return 3; }
+    std::vector<VkDescriptorSetLayoutBinding> bindings() const override {
+        std::vector<VkDescriptorSetLayoutBinding> out;
+        for (const std::uint32_t b :
+             {gpu::kBindingItems, gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput})
+            out.push_back({b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
+        return out;
+    }
+    void create(VkPipelineLayout layout) override;
+    void write(DescriptorWrites& writes, const PathFrame& frame) const override {
+        writes.buffer(gpu::kBindingItems, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, frame.items);
+        writes.buffer(gpu::kBindingDepth, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits_.buffer.get());
+        writes.buffer(gpu::kBindingAccum, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum_.buffer.get());
+        writes.buffer(gpu::kBindingOutput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output_.buffer.get());
+    }
+    void record(VkCommandBuffer cmd, int pass, const PathFrame& frame) override;
+    FrameOutput::Source output(VkCommandBuffer cmd) override {
+        bufferBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
+        return {output_.buffer.get(), VK_NULL_HANDLE};
+    }
+    void copyOutput(VkCommandBuffer cmd, VkBuffer readback) const override {
+        const VkBufferCopy region{0, 0, std::size_t{settings_.width} * settings_.height * 4};
+        vkCmdCopyBuffer(cmd, output_.buffer.get(), readback, 1, &region);
+    }
+    void submitted() override { cleared_ = true; }
+
+  private:
+    // `oneColour` sets the shader's specialization constant 0 (kOneColour of compute_accumulate.comp
+    // and compute_normalize.comp).
+    Unique<VkPipeline> pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour = false) const;
+
+    Context& context_;
+    const RenderSettings& settings_;
+    VkDevice device_;
+    Buffer depthBits_, accum_, output_;
+    std::array<Unique<VkPipeline>, 3> pipelines_; // visibility, accumulation, normalization
+    // Splats of one colour: accumulation and normalization.
+    std::array<Unique<VkPipeline>, 2> oneColourPipelines_;
+    // The sum buffer is cleared (by the last frame's normalization pass, which runs before the next
+    // frame's passes on the one queue); false at first and after a frame that failed part-way. (The
+    // depth buffer is filled at every frame's start.)
+    bool cleared_ = false;
+};
+
+Unique<VkPipeline> ComputePasses::pipeline(VkShaderModule module, VkPipelineLayout layout,
+                                           bool oneColour) const {
+    const VkBool32 value = oneColour ? VK_TRUE : VK_FALSE;
+    const VkSpecializationMapEntry entry{0, 0, sizeof(value)};
+    const VkSpecializationInfo specialization{1, &entry, sizeof(value), &value};
+    VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    info.stage.module = module;
+    info.stage.pName = "main";
+    info.stage.pSpecializationInfo = oneColour ? &specialization : nullptr;
+    info.layout = layout;
+    VkPipeline made = VK_NULL_HANDLE;
+    PNSPLAT_VK_CHECK(vkCreateComputePipelines(device_, VK_NULL_HANDLE, 1, &info, nullptr, &made));
+    return {device_, made, vkDestroyPipeline};
+}
+
+void ComputePasses::create(VkPipelineLayout layout) {
+    constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    const std::size_t pixels = std::size_t{settings_.width} * settings_.height;
+    depthBits_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
+    accum_ = createBuffer(context_, pixels * gpu::kAccumStride * 8, kStorage, MemoryUse::Device);
+    output_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
+    const auto visibility = shaderModule(device_, k_compute_visibility_comp);
+    const auto accumulate = shaderModule(device_, k_compute_accumulate_comp);
+    const auto normalize = shaderModule(device_, k_compute_normalize_comp);
+    pipelines_ = {pipeline(visibility.get(), layout), pipeline(accumulate.get(), layout),
+                  pipeline(normalize.get(), layout)};
+    oneColourPipelines_ = {pipeline(accumulate.get(), layout, true), pipeline(normalize.get(), layout, true)};
+}
+
+void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame) {
+    constexpr VkPipelineStageFlags kCompute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
+    constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+    if (pass == 0) {
+        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+        vkCmdFillBuffer(cmd, depthBits_.buffer.get(), 0, VK_WHOLE_SIZE, gpu::kDepthCleared);
+        if (!cleared_) vkCmdFillBuffer(cmd, accum_.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
+        cleared_ = false; // until the normalization pass has been submitted
+        bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
+    } else if (pass == 2) {
+        // The output buffer was last read by the previous frame's copies.
+        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_SHADER_WRITE_BIT, kCompute,
+                      kRW);
+    } else {
+        bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
+    }
+    const VkPipeline pipeline =
+        pass > 0 && frame.oneColour ? oneColourPipelines_[pass - 1].get() : pipelines_[pass].get();
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, frame.layout, 0, 1, &frame.set, 0, nullptr);
+    if (pass < 2) {
+        // Work items in rows of at most maxComputeWorkGroupCount[0] groups.
+        const std::uint32_t row =
+            std::min(frame.workItems, context_.properties().limits.maxComputeWorkGroupCount[0]);
+        if (frame.workItems > 0) vkCmdDispatch(cmd, row, (frame.workItems + row - 1) / row, 1);
+    } else {
+        vkCmdDispatch(cmd, (settings_.width + 31) / 32, (settings_.height + 31) / 32, 1);
+    }
+}
+
+} // namespace
+
+std::unique_ptr<RenderPasses> makeComputePasses(Context& context, const RenderSettings& settings) {
+    return std::make_unique<ComputePasses>(context, settings);
+}
+
+} // namespace pnsplat::engine

@@ -243,7 +243,8 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
             vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, slot.timestamps.get(),
                                 std::uint32_t(2 * pass + 1));
         if (last) {
-            const FrameOutput::Source source = passes->output(cmd);
+            FrameOutput::Source source = passes->output(cmd);
+            source.slot = frames.slot();
             if (out.readBack) {
                 passes->copyOutput(cmd, slot.readback.buffer.get());
                 bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,

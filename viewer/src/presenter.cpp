@@ -211,7 +211,7 @@ void Presenter::finished() {
 }
 
 void Presenter::record(VkCommandBuffer cmd, const engine::FrameOutput::Source& source,
-                       std::span<const PlacedPanel> panels, std::uint32_t slot) {
+                       std::span<const PlacedPanel> panels) {
     constexpr VkPipelineStageFlags kTransfer = VK_PIPELINE_STAGE_TRANSFER_BIT;
     const VkImage canvas = canvas_.image.get();
     const VkExtent2D size = canvasExtent_;
@@ -236,7 +236,7 @@ void Presenter::record(VkCommandBuffer cmd, const engine::FrameOutput::Source& s
     for (const PlacedPanel& p : panels) bytes += p.pixels.pixels.size();
     std::vector<VkBufferImageCopy> regions;
     if (bytes > 0) {
-        engine::Buffer& staging = panelBuffers_[slot];
+        engine::Buffer& staging = panelBuffers_[source.slot];
         if (staging.size < bytes)
             staging = engine::createBuffer(context_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                            engine::MemoryUse::Upload);
@@ -266,7 +266,7 @@ void Presenter::record(VkCommandBuffer cmd, const engine::FrameOutput::Source& s
         barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
         barrier.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
         vkCmdPipelineBarrier(cmd, kTransfer, kTransfer, 0, 1, &barrier, 0, nullptr, 0, nullptr);
-        vkCmdCopyBufferToImage(cmd, panelBuffers_[slot].buffer.get(), canvas,
+        vkCmdCopyBufferToImage(cmd, panelBuffers_[source.slot].buffer.get(), canvas,
                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, std::uint32_t(regions.size()),
                                regions.data());
     }

@@ -49,10 +49,10 @@ class Presenter {
     VkSemaphore wait() const { return acquired_; }
     VkSemaphore signal() const { return renderFinished_[image_].get(); }
     // Records the copies of a frame into `cmd` (the engine's FrameOutput::record): the engine's
-    // picture `source`, then `panels` over it, into the acquired image. `slot` is the caller's frame
-    // count modulo kFramesInFlight (the engine has waited for the frame that last used it).
+    // picture `source`, then `panels` over it (staged in the buffer of the source's frame slot), into
+    // the acquired image.
     void record(VkCommandBuffer cmd, const engine::FrameOutput::Source& source,
-                std::span<const PlacedPanel> panels, std::uint32_t slot);
+                std::span<const PlacedPanel> panels);
     // The engine's frame that waits on the semaphore of the last acquire (its semaphore comes back
     // once finished() passes it).
     void submitted(std::uint64_t frame);

@@ -146,7 +146,6 @@ class Session {
     };
     std::vector<Screenshot> screenshots_;
     std::size_t framesDrawn_ = 0;
-    std::uint64_t calls_ = 0; // frames asked of the presenter, for its slots
     Clock::time_point firstFrame_{}, lastTick_{};
     bool settledView_ = false;      // the last frame drawn was settled and nothing changed since
     std::size_t stalledFrames_ = 0; // frames in a row that changed nothing, unsettled (kStalledFrames)
@@ -735,9 +734,8 @@ Result<ViewerSummary> Session::run() {
             engine::FrameOptions frameOptions;
             frameOptions.readBack = finalShot || !screenshots_.empty();
             frameOptions.measureSplats = static_cast<bool>(sink_);
-            const std::uint32_t slot = std::uint32_t(calls_++ % engine::kFramesInFlight);
             frameOptions.output.record = [&](VkCommandBuffer cmd, const engine::FrameOutput::Source& source) {
-                presenter_->record(cmd, source, shown, slot);
+                presenter_->record(cmd, source, shown);
             };
             frameOptions.output.wait = presenter_->wait();
             frameOptions.output.waitStage = VK_PIPELINE_STAGE_TRANSFER_BIT;

@@ -77,6 +77,9 @@ struct FrameOutput {
     struct Source {
         VkBuffer buffer = VK_NULL_HANDLE;
         VkImage image = VK_NULL_HANDLE;
+        // The frame's slot of its FrameRing (frames.h): what `record` keeps per frame in flight is
+        // free again in a slot, since the frame that used it last has finished before this one began.
+        std::uint32_t slot = 0;
     };
     bool readBack = false; // keep the frame's image for image()
     std::function<void(VkCommandBuffer, const Source&)> record;

@@ -88,10 +88,10 @@ struct SplatRenderer::Impl {
         bool readBack = false;
     };
     std::array<Slot, kFramesInFlight> slots;
-    std::unique_ptr<RenderPasses> passes; // the path's
     Unique<VkDescriptorSetLayout> setLayout;
     Unique<VkPipelineLayout> pipelineLayout;
     Unique<VkDescriptorPool> descriptorPool;
+    std::unique_ptr<RenderPasses> passes; // the path's; destroyed first, its pipelines before the layout
 
     Impl(Context& c, const RenderSettings& s) : context(c), settings(s), device(c.device()) {}
 

@@ -247,6 +247,8 @@ TEST_F(RenderTest, PlainPointsDrawEachCentreAsOnePixel) {
         pixels.push_back({column, row});
     }
     const RgbaImage image = render(points, small(RenderPath::PlainPoints, 64, 64), camera);
+    ASSERT_EQ(image.width, 64u);
+    ASSERT_EQ(image.height, 64u);
     for (int row = 0; row < 64; ++row) {
         for (int column = 0; column < 64; ++column) {
             const auto found = std::ranges::find(pixels, std::array{column, row});

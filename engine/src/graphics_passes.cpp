@@ -129,6 +129,8 @@ class RasterPasses : public RenderPasses {
     VkDevice device_;
     VkPipelineLayout layout_ = VK_NULL_HANDLE;
     Image depth_, outputImage_;
+    Image accumColour_, accumNormal_; // the graphics path's (destroyed after the framebuffers)
+    Unique<VkSampler> sampler_;
     std::array<Unique<VkRenderPass>, 3> renderPasses_;
     std::array<Unique<VkFramebuffer>, 3> framebuffers_;
     std::array<Unique<VkPipeline>, 3> pipelines_;
@@ -223,10 +225,6 @@ class GraphicsPasses final : public RasterPasses {
         }
         vkCmdEndRenderPass(cmd);
     }
-
-  private:
-    Image accumColour_, accumNormal_;
-    Unique<VkSampler> sampler_;
 };
 
 void GraphicsPasses::create(VkPipelineLayout layout) {

@@ -234,7 +234,8 @@ FrameView frameView(const Camera& camera, std::uint32_t width, std::uint32_t hei
     v.right = glm::vec3(v.view[0][0], v.view[1][0], v.view[2][0]);
     v.upward = glm::vec3(v.view[0][1], v.view[1][1], v.view[2][1]);
     const float tanY = std::tan(camera.fovY * 0.5f);
-    v.frustum = Frustum{tanY * float(width) / float(height), tanY, depthRange(camera, bounds)};
+    const float aspect = float(width) / float(height);
+    v.frustum = Frustum{tanY * aspect, tanY, depthRange(camera, bounds)};
     v.focal = float(height) / (2.0f * tanY);
     v.radiusScale = radiusScale;
     return v;

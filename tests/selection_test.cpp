@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <set>
 #include <vector>
 
@@ -119,6 +121,62 @@ TEST(Selection, ChildrenAreDrawnOnceResidentAndCoarseLeavesAreWantedRefined) {
     SelectionSettings fixed = thresholdOf(1.0f);
     fixed.adaptive = false;
     EXPECT_TRUE(run(tree, close, fixed, 3, states).refine.empty());
+}
+
+// The level of detail against the rule written out splat by splat (selection.cpp): a node is drawn
+// through its children while more than half of its splats drawn are wider than the threshold in
+// force T, or while more than a tenth of those within acos(0.3) of edge-on (at least 4) stand out by
+// more than 0.1 px · sqrt(T / asked) and are wider than 1 px. Each root of the sphere, first seen
+// (no hysteresis), at thresholds raised from the one asked; the cases where the silhouettes decide
+// differently from a median alone, and from a bulge limit that grows with T / asked itself, are
+// counted so that the test shows something.
+TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquareRootOfTheRise) {
+    const NodeTree tree = sphereTree(1);
+    const auto rule = [](const FrameView& view, const Node& node, float threshold, float bulgeLimit) {
+        std::size_t drawn = 0, over = 0, rim = 0, rimOver = 0;
+        for (std::size_t i = 0; i < node.points.size(); ++i) {
+            const glm::vec3 d = node.points.position[i] - view.camera.eye;
+            const float depth = glm::dot(d, view.forward);
+            const float facing = -glm::dot(node.points.normal[i], d);
+            if (!(depth > view.frustum.range.near && facing > 0.0f &&
+                  std::abs(glm::dot(d, view.right)) <= view.frustum.tanX * depth &&
+                  std::abs(glm::dot(d, view.upward)) <= view.frustum.tanY * depth))
+                continue;
+            const float px = 2.0f * node.splatRadius[i] * view.focal / depth;
+            ++drawn;
+            over += px > threshold;
+            if (facing < 0.3f * glm::length(d)) {
+                ++rim;
+                rimOver += px * node.bend[i] / 4.0f > bulgeLimit && px > 1.0f;
+            }
+        }
+        return std::array<bool, 2>{double(over) > 0.5 * double(drawn),
+                                   rim >= 4 && double(rimOver) > 0.1 * double(rim)};
+    };
+    std::size_t roots = 0, bySilhouette = 0, bySquareRoot = 0;
+    for (const float distance : {2.2f, 6.0f, 12.0f, 24.0f})
+        for (const float asked : {0.5f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f})
+            for (const float rise : {1.0f, 1.5f, 2.0f, 3.0f, 4.0f}) {
+                const FrameView view = viewFrom(distance);
+                SelectionSettings settings = thresholdOf(asked * rise);
+                settings.asked = asked;
+                std::vector<NodeSelection> states = allResident(tree);
+                run(tree, view, settings, 1, states);
+                for (const NodeId id : tree.roots()) {
+                    if (states[id].lastVisited != 1) continue; // culled
+                    const Node& node = tree.node(id);
+                    const auto [median, silhouette] = rule(view, node, asked * rise, 0.1f * std::sqrt(rise));
+                    EXPECT_EQ(states[id].descended, median || silhouette)
+                        << "root " << id << " from " << distance << " at " << asked * rise << " px, asked "
+                        << asked;
+                    ++roots;
+                    bySilhouette += silhouette && !median;
+                    bySquareRoot += !median && silhouette != rule(view, node, asked * rise, 0.1f * rise)[1];
+                }
+            }
+    EXPECT_GT(roots, 0u);
+    EXPECT_GT(bySilhouette, 0u) << "no root refined for its silhouette alone: the test shows nothing";
+    EXPECT_GT(bySquareRoot, 0u) << "no root where the square root decides: the test shows nothing";
 }
 
 // Frame 2 at a coarser threshold T keeps a node that frame 1 drew through its children while its

@@ -186,6 +186,10 @@ class NearestGrid {
                     near2.resize(blockSize + 1);
                     nearAt.resize(blockSize + 1);
                     const bool whole = first == glm::ivec3(0) && last == dims_ - 1;
+                    // The last point's K-th nearest distance, squared and doubled: a first, narrower
+                    // bound (the points of one cell lie at like spacings), which leaves fewer
+                    // candidates to sort; where fewer than K lie within it, the block's bound.
+                    float guess2 = std::numeric_limits<float>::infinity();
                     for (std::uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
                         const float px = x_[k], py = y_[k], pz = z_[k];
                         // Every point outside the block is farther than `clear`: the K nearest are
@@ -194,27 +198,33 @@ class NearestGrid {
                         const auto limit2 = whole ? std::numeric_limits<float>::infinity()
                                                   : static_cast<float>(clear * clear);
                         std::size_t count = 0;
-                        for (int ox = first.x; ox <= last.x; ++ox)
-                            for (int oy = first.y; oy <= last.y; ++oy) {
-                                const std::size_t row = cellIndex({ox, oy, 0});
-                                for (std::uint32_t j = start_[row + first.z]; j < start_[row + last.z + 1];
-                                     ++j) {
-                                    const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
-                                    const float d2 = dx * dx + dy * dy + dz * dz;
-                                    near2[count] = d2;
-                                    nearAt[count] = j;
-                                    count += static_cast<std::size_t>(d2 < limit2 || whole);
+                        const auto gather = [&](float bound2, bool all) {
+                            count = 0;
+                            for (int ox = first.x; ox <= last.x; ++ox)
+                                for (int oy = first.y; oy <= last.y; ++oy) {
+                                    const std::size_t row = cellIndex({ox, oy, 0});
+                                    for (std::uint32_t j = start_[row + first.z];
+                                         j < start_[row + last.z + 1]; ++j) {
+                                        const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
+                                        const float d2 = dx * dx + dy * dy + dz * dz;
+                                        near2[count] = d2;
+                                        nearAt[count] = j;
+                                        count += static_cast<std::size_t>(d2 < bound2 || all);
+                                    }
                                 }
-                            }
+                        };
+                        const bool narrowed = guess2 < limit2 && (gather(guess2, false), count >= K);
+                        if (!narrowed) gather(limit2, whole);
                         std::size_t found = 0;
-                        if (count >= K || whole) {
-                            std::array<float, K> kept{};
+                        std::array<float, K> kept{};
+                        if (narrowed || count >= K || whole) {
                             for (std::size_t m = 0; m < count; ++m)
                                 if (found < K || near2[m] <= kept[K - 1])
                                     keep(near2[m], sorted_[nearAt[m]], kept, nearest, found);
                         } else {
                             found = this->nearest(sorted_[k], nearest);
                         }
+                        guess2 = found == K ? 2.0f * kept[K - 1] : std::numeric_limits<float>::infinity();
                         visit(sorted_[k], nearest, found);
                     }
                 }

@@ -351,6 +351,44 @@ TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
     EXPECT_TRUE(neighbourShapeOf(PointSet{}).bend.empty());
 }
 
+// A splat at an open boundary is drawn with the distance to its kOpenNearest-th nearest point, the
+// spacing its inside neighbours' sixth nearest give, not with its own sixth nearest, which reaches
+// past the boundary (node_tree.h, drawRadius); the level of detail keeps measuring splatRadius. On
+// a square grid of spacing 1 in the plane: inside, the sixth nearest lie at √2 (four at 1, four at
+// √2); on an edge, three lie at 1, two at √2 and the sixth at 2, all on one side (180° free).
+TEST(NodeDetail, SplatsAtAnOpenBoundaryAreDrawnWithTheSpacingInside) {
+    PointSet grid;
+    constexpr int kSide = 20;
+    for (int y = 0; y < kSide; ++y)
+        for (int x = 0; x < kSide; ++x) {
+            grid.position.push_back({float(x), float(y), 0.0f});
+            grid.normal.push_back({0.0f, 0.0f, 1.0f});
+        }
+    grid.radius.assign(grid.size(), 10.0f); // beyond every sixth nearest
+    const NeighbourShape shape = neighbourShapeOf(grid);
+    ASSERT_EQ(shape.drawRadius.size(), grid.size());
+    const float diagonal = std::sqrt(2.0f);
+    std::size_t inside = 0, edge = 0;
+    for (int y = 0; y < kSide; ++y)
+        for (int x = 0; x < kSide; ++x) {
+            const std::size_t i = std::size_t(y) * kSide + std::size_t(x);
+            const bool onEdge = x == 0 || y == 0 || x == kSide - 1 || y == kSide - 1;
+            const bool nearCorner = std::min(x, kSide - 1 - x) < 2 && std::min(y, kSide - 1 - y) < 2;
+            if (nearCorner) continue;
+            if (onEdge) {
+                EXPECT_FLOAT_EQ(shape.splatRadius[i], 2.0f) << x << ", " << y;
+                EXPECT_FLOAT_EQ(shape.drawRadius[i], diagonal) << x << ", " << y;
+                ++edge;
+            } else {
+                EXPECT_FLOAT_EQ(shape.splatRadius[i], diagonal) << x << ", " << y;
+                EXPECT_FLOAT_EQ(shape.drawRadius[i], diagonal) << x << ", " << y;
+                ++inside;
+            }
+        }
+    EXPECT_EQ(edge, 4u * (kSide - 4));
+    EXPECT_EQ(inside, std::size_t(kSide - 2) * (kSide - 2) - 4u);
+}
+
 // neighbourShapeOf's nearest points (a grid searched cell block by cell block, node_tree.cpp) are exactly a
 // brute-force search's, ties in distance to the lower index: random normals make the widest
 // angle depend on which points are taken. A plane grid (every distance tied many times over), and

@@ -218,7 +218,7 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
             const auto chunk = impl->cache->allocatePermanent(static_cast<std::uint32_t>(node.points.size()));
             assert(chunk);
             splats.resize(node.points.size());
-            const ClassStarts classes = packSplats(node.points, node.splatRadius, splats.data());
+            const ClassStarts classes = packSplats(node.points, node.drawRadius, splats.data());
             impl->cache->write(*chunk, splats, *impl->frames, uploads);
             Impl::NodeState& s = impl->stateOf(root);
             s.chunk = *chunk;
@@ -341,7 +341,7 @@ std::size_t Engine::Impl::upload(const std::vector<WantedNode>& wanted, bool loc
                 if (d.first < chunk->first + chunk->count && chunk->first < d.first + d.count) ++overwrites;
         }
         splats.resize(node.points.size());
-        s.classes = packSplats(node.points, node.splatRadius, splats.data());
+        s.classes = packSplats(node.points, node.drawRadius, splats.data());
         cache->write(*chunk, splats, *frames, uploads);
         s.chunk = *chunk;
         s.resident = true;
@@ -660,7 +660,7 @@ Result<std::size_t> Engine::verifyCache() {
                 return Error{fmt::format("node {}: chunk of {} splats for {} points", id, chunk.count,
                                          node.points.size())};
             expected.resize(chunk.count);
-            packSplats(node.points, node.splatRadius, expected.data());
+            packSplats(node.points, node.drawRadius, expected.data());
             if (std::memcmp(expected.data(), gpu + chunk.first, chunk.count * sizeof(gpu::Splat)) != 0)
                 return Error{fmt::format("node {} (level {}): its chunk at splat {} differs from its points",
                                          id, node.level, chunk.first)};

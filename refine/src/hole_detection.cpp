@@ -22,21 +22,6 @@ namespace {
 
 constexpr std::size_t kBatch = 256; // points per task
 
-// The widest angle that `angles` (radians in [-π, π], sorted) leave free around the circle, and
-// its bisector (the whole circle when there is none).
-std::pair<float, float> widestGap(std::span<const float> angles) {
-    constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
-    if (angles.empty()) return {kTwoPi, 0.0f};
-    float gap = kTwoPi - (angles.back() - angles.front());
-    float bisector = angles.back() + 0.5f * gap;
-    for (std::size_t k = 1; k < angles.size(); ++k)
-        if (angles[k] - angles[k - 1] > gap) {
-            gap = angles[k] - angles[k - 1];
-            bisector = angles[k - 1] + 0.5f * gap;
-        }
-    return {gap, bisector};
-}
-
 struct Proposal {
     std::uint32_t point = 0;
     glm::vec3 centre{0.0f};

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include <glm/geometric.hpp>
 
@@ -18,6 +19,19 @@ TangentFrame::TangentFrame(glm::vec3 normal) : n(normal) {
     const float b = n.x * n.y * a;
     u = glm::vec3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
     v = glm::vec3(b, sign + n.y * n.y * a, -n.y);
+}
+
+std::pair<float, float> widestGap(std::span<const float> angles) {
+    constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
+    if (angles.empty()) return {kTwoPi, 0.0f};
+    float gap = kTwoPi - (angles.back() - angles.front());
+    float bisector = angles.back() + 0.5f * gap;
+    for (std::size_t k = 1; k < angles.size(); ++k)
+        if (angles[k] - angles[k - 1] > gap) {
+            gap = angles[k] - angles[k - 1];
+            bisector = angles[k - 1] + 0.5f * gap;
+        }
+    return {gap, bisector};
 }
 
 void NeighbourSet::clear() {

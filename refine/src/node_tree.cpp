@@ -5,15 +5,17 @@
 #include <algorithm>
 #include <array>
 #include <cassert>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <span>
 #include <string>
 #include <vector>
 
-#include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+
+#include "pnsplat/refine/neighbourhood.h"
 
 namespace pnsplat {
 
@@ -347,6 +349,7 @@ NeighbourShape neighbourShapeOf(const PointSet& points) {
     NeighbourShape shape;
     shape.bend.assign(points.size(), 0.0f);
     shape.splatRadius.assign(points.radius.begin(), points.radius.end()); // none without radii
+    shape.drawRadius = shape.splatRadius;
     if (points.size() < 2) return shape;
     const NearestGrid grid(points.position);
     grid.forEachNearest<kBendNeighbours + 1>([&](std::uint32_t i, const auto& nearest, std::size_t found) {
@@ -357,6 +360,22 @@ NeighbourShape neighbourShapeOf(const PointSet& points) {
         const float farthest = glm::length(points.position[nearest[found - 1]] - points.position[i]);
         if (points.hasRadius() && farthest > 0.0f)
             shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
+        if (!points.hasRadius()) return;
+        shape.drawRadius[i] = shape.splatRadius[i];
+        if (found < kOpenNearest + 1) return;
+        // Its nearest but itself, by angle around its normal (an insertion sort of at most 6).
+        const TangentFrame frame(points.normal[i]);
+        std::array<float, kBendNeighbours> angle{};
+        const std::size_t around = std::min(found - 1, angle.size());
+        for (std::size_t k = 0; k < around; ++k) {
+            const float a = frame.angleOf(points.position[nearest[k + 1]] - points.position[i]);
+            std::size_t at = k;
+            for (; at > 0 && angle[at - 1] > a; --at) angle[at] = angle[at - 1];
+            angle[at] = a;
+        }
+        if (widestGap({angle.data(), around}).first <= kOpenAngle) return;
+        const float inward = glm::length(points.position[nearest[kOpenNearest]] - points.position[i]);
+        if (inward > 0.0f) shape.drawRadius[i] = std::min(shape.drawRadius[i], inward);
     });
     return shape;
 }
@@ -461,6 +480,7 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
             node.points.appendFrom(input, i);
             node.bend.push_back(shape.bend[i]);
             node.splatRadius.push_back(splatRadius[i]);
+            node.drawRadius.push_back(forRefinement ? shape.drawRadius[i] : splatRadius[i]);
         }
         for (const SegmentEnds& segment : segments)
             if (part.region.contains(segment.a)) node.segments.push_back(segment);
@@ -560,10 +580,12 @@ NodeJobResult NodeTree::run(NodeJob job, const NodeSettings& settings) {
         child.points.reserve(part.indices.size());
         child.bend.reserve(part.indices.size());
         child.splatRadius.reserve(part.indices.size());
+        child.drawRadius.reserve(part.indices.size());
         for (const std::uint32_t i : part.indices) {
             child.points.appendFrom(refined.points, i);
             child.bend.push_back(shape.bend[i]);
             child.splatRadius.push_back(shape.splatRadius[i]);
+            child.drawRadius.push_back(shape.drawRadius[i]);
         }
         for (const SegmentEnds& segment : refined.segments)
             if (part.region.contains(segment.a)) child.segments.push_back(segment);
@@ -586,6 +608,7 @@ bool NodeTree::attach(NodeJobResult&& result) {
         child.points = std::move(made.points);
         child.bend = std::move(made.bend);
         child.splatRadius = std::move(made.splatRadius);
+        child.drawRadius = std::move(made.drawRadius);
         child.segments = std::move(made.segments);
         describePoints(child);
         pointCount_ += child.points.size();
@@ -606,6 +629,7 @@ void NodeTree::release(NodeId id) {
         child.points = PointSet{};
         child.bend = {};
         child.splatRadius = {};
+        child.drawRadius = {};
         child.segments = {};
         live_[c] = 0;
         --liveCount_;

@@ -13,6 +13,9 @@
 #include <numbers>
 #include <vector>
 
+#include <span>
+#include <utility>
+
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
@@ -28,6 +31,10 @@ struct TangentFrame {
     // Angle of d's projection onto the tangent plane, in (-π, π] (within 2e-5 rad).
     float angleOf(glm::vec3 d) const { return fastAtan2(glm::dot(d, v), glm::dot(d, u)); }
 };
+
+// The widest angle that `angles` (radians in [-π, π], sorted) leave free around the circle, and
+// its bisector (the whole circle when there is none).
+std::pair<float, float> widestGap(std::span<const float> angles);
 
 // Neighbours of one point as flat arrays. `index` is opaque to this module (the caller's id).
 struct NeighbourSet {

@@ -55,9 +55,19 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    of the local spacing"): the refinement's radius reaches the farthest member of the point's
 //    next one-ring, about twice the spacing, so that its disk covers each pixel many times over; the
 //    sixth nearest point lies about 1.3 spacings away and still covers the surface.
+//  - drawRadius: the radius its splat is drawn with: splatRadius, except at an open boundary (its
+//    nearest leave more than kOpenAngle free around it in its tangent plane), where it is at most
+//    the distance to its kOpenNearest-th nearest. Choice (docs/REALTIME.md, "Splats of the local
+//    spacing"): there the six nearest lie on one side and reach about √3 spacings (on a hexagonal
+//    sampling: two along the boundary and two inwards at one spacing, then two at √3), so its disk
+//    reached past the last points by that; the fourth nearest is the spacing an inside point's sixth
+//    nearest gives. The level of detail still measures splatRadius: drawn smaller, the boundary's
+//    splats would let the nodes there settle a level coarser, whose rim reaches farther.
 inline constexpr std::size_t kBendNeighbours = 6;
+inline constexpr std::size_t kOpenNearest = 4;
+inline constexpr float kOpenAngle = 2.61799388f; // 150 degrees
 struct NeighbourShape {
-    std::vector<float> bend, splatRadius;
+    std::vector<float> bend, splatRadius, drawRadius;
 };
 NeighbourShape neighbourShapeOf(const PointSet& points);
 // The cone of `normals` (unit): axis their normalised sum, half-angle the largest angle to it (π
@@ -96,8 +106,9 @@ struct Node {
     std::uint32_t generation = 0; // counts the uses of this slot: jobs check it
     PointSet points;              // its points (normals, radii, colours, creases as P0's)
     // Per point, neighbourShapeOf over its level's points of its parent's region (a root: of the
-    // input); a tree only drawn draws points.radius.
-    std::vector<float> bend, splatRadius;
+    // input); a tree only drawn draws points.radius. Selection measures splatRadius; the cache's
+    // splats are drawn with drawRadius.
+    std::vector<float> bend, splatRadius, drawRadius;
     std::vector<SegmentEnds> segments; // boundary and crease segments whose first point is its own
 
     bool isLeaf() const { return childCount == 0; }
@@ -115,7 +126,7 @@ struct NodeJob {
 struct NodeChild {
     Region region;
     PointSet points;
-    std::vector<float> bend, splatRadius;
+    std::vector<float> bend, splatRadius, drawRadius;
     std::vector<SegmentEnds> segments;
 };
 struct NodeJobResult {

@@ -49,14 +49,15 @@ constexpr float kMaxThresholdRise = 4.0f;
 constexpr double kRestSeconds = 0.5;
 constexpr std::size_t kRestFrames = 2;
 
-// The splats of a node's points (normals, radii, optional colours), 32 bytes each (gpu::Splat): a
-// chunk's contents, for its upload and its check, and the classes' starts. By facing class, then in
-// order of radius (then of index): the compute path gives each splat one invocation, and invocations run in
-// lockstep in groups (8 lanes of a SIMD batch on lavapipe, a subgroup on a GPU), each group as long as its
-// largest footprint; splats of like radii side by side waste fewer lanes (the bunny close-up at 640x480 on
-// lavapipe: visibility 25.5 -> 21.6 ms). The compute path's sums are integers and its depth a minimum, so its
-// picture does not depend on the order (the graphics path's float blending does, in the last bits).
-ClassStarts packSplats(const PointSet& points, std::span<const float> splatRadius, gpu::Splat* splats) {
+// The splats of a node's points (normals, radii drawn: Node::drawRadius, optional colours), 32 bytes
+// each (gpu::Splat): a chunk's contents, for its upload and its check, and the classes' starts. By facing
+// class, then in order of radius (then of index): the compute path gives each splat one invocation, and
+// invocations run in lockstep in groups (8 lanes of a SIMD batch on lavapipe, a subgroup on a GPU), each
+// group as long as its largest footprint; splats of like radii side by side waste fewer lanes (the bunny
+// close-up at 640x480 on lavapipe: visibility 25.5 -> 21.6 ms). The compute path's sums are integers and its
+// depth a minimum, so its picture does not depend on the order (the graphics path's float blending does, in
+// the last bits).
+ClassStarts packSplats(const PointSet& points, std::span<const float> radius, gpu::Splat* splats) {
     // Radii are positive: their bits order as the floats do.
     struct Key {
         std::uint32_t facing, radius, index;
@@ -66,7 +67,7 @@ ClassStarts packSplats(const PointSet& points, std::span<const float> splatRadiu
     ClassStarts starts{};
     for (std::size_t i = 0; i < points.size(); ++i) {
         const std::uint32_t facing = facingClass(points.normal[i]);
-        order[i] = {facing, std::bit_cast<std::uint32_t>(splatRadius[i]), static_cast<std::uint32_t>(i)};
+        order[i] = {facing, std::bit_cast<std::uint32_t>(radius[i]), static_cast<std::uint32_t>(i)};
         ++starts[facing + 1];
     }
     for (std::uint32_t c = 0; c < kFacingClasses; ++c) starts[c + 1] += starts[c];
@@ -78,7 +79,7 @@ ClassStarts packSplats(const PointSet& points, std::span<const float> splatRadiu
             const glm::u8vec3 c = points.colour[i];
             colour = std::uint32_t{c.x} | std::uint32_t{c.y} << 8 | std::uint32_t{c.z} << 16;
         }
-        splats[k] = gpu::Splat{points.position[i], splatRadius[i], points.normal[i], colour};
+        splats[k] = gpu::Splat{points.position[i], radius[i], points.normal[i], colour};
     }
     return starts;
 }

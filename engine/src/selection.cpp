@@ -122,8 +122,10 @@ float Walk::bound(const NodeView& v, float radius) const {
 // kRimBulgePx times `factor` and the square root of the frame-time target's rise (threshold /
 // asked). The silhouettes coarsen more slowly than the median because they decide most of a
 // picture's difference from the settled one: the bunny's and the lion's zooms in bench view at
-// 640x480 gave 38.0 and 35.3 dB median with the rise itself, 40.4 and 39.3 with its square root,
-// for 3 and 5 ms more a frame (docs/REALTIME.md, "Frame-time target"). The box settles most nodes at once:
+// 640x480, the threshold in force at most 3 times the one asked, gave 38.0 and 35.3 dB median with
+// the rise itself, 40.4 and 39.3 with its square root, for 3 and 5 ms more a frame; with the square
+// root and at most 4 times (engine.cpp, kMaxThresholdRise), 39.3 and 37.4 dB for 2 and 4 ms more
+// (docs/REALTIME.md, "Frame-time target"). The box settles most nodes at once:
 // none of its splats reaches kRimMinPx or the limit; or, for a node all in view and facing the eye, its
 // median radii at the nearest and the farthest corner (Node::medianRadius) and, for the silhouette, its
 // normal cone or its largest radius and bend (Node::maxBend). The others are measured splat by splat (no

@@ -254,6 +254,31 @@ TEST(NodeTree, ChildrenDoNotDependOnHistory) {
     }
 }
 
+// The radii a node's splats are drawn with reach every node, the roots and the children of jobs:
+// one per point, none above the radius measured, and smaller at the open rim of a hemisphere.
+TEST(NodeTree, NodesCarryTheRadiiTheirSplatsAreDrawnWith) {
+    const PointSet sphere = sampleSphereRandom(3000, 1.0f, 5);
+    PointSet dome;
+    for (std::size_t i = 0; i < sphere.size(); ++i)
+        if (sphere.position[i].z > 0.0f) dome.appendFrom(sphere, i);
+    auto tree = NodeTree::create(withRadii(std::move(dome)), smallNodes());
+    ASSERT_TRUE(tree);
+    refineEverywhere(*tree, 2);
+    std::size_t smaller = 0, levels = 0;
+    for (NodeId id = 0; id < tree->slotCount(); ++id) {
+        if (!tree->isLive(id)) continue;
+        const Node& node = tree->node(id);
+        ASSERT_EQ(node.drawRadius.size(), node.points.size()) << "node " << id;
+        for (std::size_t i = 0; i < node.points.size(); ++i) {
+            EXPECT_LE(node.drawRadius[i], node.splatRadius[i]) << "node " << id;
+            smaller += node.drawRadius[i] < node.splatRadius[i];
+        }
+        levels = std::max<std::size_t>(levels, node.level + 1);
+    }
+    EXPECT_EQ(levels, 3u);
+    EXPECT_GT(smaller, 0u) << "no splat at the rim drawn smaller: the test shows nothing";
+}
+
 // Acceptance 3 of the real-time issue: where neighbouring nodes sit at different levels, every
 // point of level l+1 is made from points of P(l) only. The parents recorded by the refinement are
 // checked against the points of the level-l nodes (an independent record: the tree's own nodes).

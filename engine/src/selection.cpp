@@ -17,8 +17,9 @@ constexpr float kHalfPi = 1.57079632679f;
 constexpr float kPi = 3.14159265359f;
 // The level of detail (docs/REALTIME.md, "The level of detail"). A node is drawn through its
 // children while more than kOverShare of its splats drawn are wider than the threshold: its median
-// splat. Splats are drawn and measured with Node::splatRadius, about the local spacing (the
-// refinement's radii are about twice it: docs/REALTIME.md, "Splats of the local spacing"). The 99th
+// splat. Splats are measured with Node::splatRadius, about the local spacing (the refinement's
+// radii are about twice it: docs/REALTIME.md, "Splats of the local spacing"), and drawn with it
+// but at open boundaries (Node::drawRadius, smaller there). The 99th
 // percentile (a share of 0.008, before) let the sparsest patches of a node decide for all of it: the
 // refinement's radii spread (the 99th percentile is about 1.9 times the median), so at 2 px the median splat
 // drawn was 0.8 px and a covered pixel held 28 splats (the bunny at 640x480), while away from the silhouettes
@@ -123,7 +124,7 @@ float Walk::bound(const NodeView& v, float radius) const {
 // asked). The silhouettes coarsen more slowly than the median because they decide most of a
 // picture's difference from the settled one: the bunny's and the lion's zooms in bench view at
 // 640x480, the threshold in force at most 3 times the one asked, gave 38.0 and 35.3 dB median with
-// the rise itself, 40.4 and 39.3 with its square root, for 3 and 5 ms more a frame; with the square
+// the rise itself, 40.4 and 39.3 with its square root, for 3 and 9 ms more a frame; with the square
 // root and at most 4 times (engine.cpp, kMaxThresholdRise), 39.3 and 37.4 dB for 2 and 4 ms more
 // (docs/REALTIME.md, "Frame-time target"). The box settles most nodes at once:
 // none of its splats reaches kRimMinPx or the limit; or, for a node all in view and facing the eye, its

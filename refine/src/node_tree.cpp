@@ -83,7 +83,7 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
     return parts;
 }
 
-// What a node's selection reads of its points (non-empty; bend and splatRadius filled): its box,
+// What a node's selection reads of its points (non-empty; bend, splatRadius and drawRadius filled): its box,
 // largest, 99th percentile and median splat radii, largest point radius, largest bend and normal
 // cone. For the roots and for a job's children.
 void describePoints(Node& node) {
@@ -188,8 +188,8 @@ class NearestGrid {
                     near2.resize(blockSize + 1);
                     nearAt.resize(blockSize + 1);
                     const bool whole = first == glm::ivec3(0) && last == dims_ - 1;
-                    // The last point's K-th nearest distance, squared and doubled: a first, narrower
-                    // bound (the points of one cell lie at like spacings), which leaves fewer
+                    // The previous point's K-th nearest distance, squared and doubled: a first,
+                    // narrower bound (the points of one cell lie at like spacings), which leaves fewer
                     // candidates to sort; where fewer than K lie within it, the block's bound.
                     float guess2 = std::numeric_limits<float>::infinity();
                     for (std::uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
@@ -215,18 +215,20 @@ class NearestGrid {
                                     }
                                 }
                         };
-                        const bool narrowed = guess2 < limit2 && (gather(guess2, false), count >= K);
+                        if (guess2 < limit2) gather(guess2, false);
+                        const bool narrowed = guess2 < limit2 && count >= K;
                         if (!narrowed) gather(limit2, whole);
                         std::size_t found = 0;
-                        std::array<float, K> kept{};
+                        guess2 = std::numeric_limits<float>::infinity(); // unless the block gives one
                         if (narrowed || count >= K || whole) {
+                            std::array<float, K> kept{};
                             for (std::size_t m = 0; m < count; ++m)
                                 if (found < K || near2[m] <= kept[K - 1])
                                     keep(near2[m], sorted_[nearAt[m]], kept, nearest, found);
+                            if (found == K) guess2 = 2.0f * kept[K - 1];
                         } else {
                             found = this->nearest(sorted_[k], nearest);
                         }
-                        guess2 = found == K ? 2.0f * kept[K - 1] : std::numeric_limits<float>::infinity();
                         visit(sorted_[k], nearest, found);
                     }
                 }
@@ -362,7 +364,9 @@ NeighbourShape neighbourShapeOf(const PointSet& points) {
             shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
         if (!points.hasRadius()) return;
         shape.drawRadius[i] = shape.splatRadius[i];
-        if (found < kOpenNearest + 1) return;
+        // A crease point's nearest across the crease lie off its plane (as for hole_detection.cpp's
+        // rim points): it is left as it is.
+        if (found < kOpenNearest + 1 || points.isCrease(i)) return;
         // Its nearest but itself, by angle around its normal (an insertion sort of at most 6).
         const TangentFrame frame(points.normal[i]);
         std::array<float, kBendNeighbours> angle{};

@@ -11,10 +11,9 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
-#include <vector>
-
 #include <span>
 #include <utility>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>

@@ -50,13 +50,15 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    (the sagitta of a circle turning by bend over r), which the next level's smaller splats halve;
 //    the engine refines the nodes whose silhouette splats stand out visibly (selection.cpp, the level
 //    of detail).
-//  - splatRadius: the radius its splat is drawn with, the distance to the farthest of them, at most
+//  - splatRadius: the radius its splat is measured with (and drawn with, drawRadius below), the distance to
+//  the farthest of them, at most
 //    its own radius (the point's radius when it has no neighbour). Choice (docs/REALTIME.md, "Splats
 //    of the local spacing"): the refinement's radius reaches the farthest member of the point's
 //    next one-ring, about twice the spacing, so that its disk covers each pixel many times over; the
 //    sixth nearest point lies about 1.3 spacings away and still covers the surface.
 //  - drawRadius: the radius its splat is drawn with: splatRadius, except at an open boundary (its
-//    nearest leave more than kOpenAngle free around it in its tangent plane), where it is at most
+//    nearest leave more than kOpenAngle free around it in its tangent plane; not a crease point,
+//    whose nearest across the crease lie off its plane), where it is at most
 //    the distance to its kOpenNearest-th nearest. Choice (docs/REALTIME.md, "Splats of the local
 //    spacing"): there the six nearest lie on one side and reach about √3 spacings (on a hexagonal
 //    sampling: two along the boundary and two inwards at one spacing, then two at √3), so its disk

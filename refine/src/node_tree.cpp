@@ -359,10 +359,9 @@ NeighbourShape neighbourShapeOf(const PointSet& points) {
         for (std::size_t k = 0; k < found; ++k)
             lowest = std::min(lowest, glm::dot(points.normal[i], points.normal[nearest[k]]));
         shape.bend[i] = std::acos(std::clamp(lowest, -1.0f, 1.0f));
+        if (!points.hasRadius()) return; // no radii to draw with: the bend only
         const float farthest = glm::length(points.position[nearest[found - 1]] - points.position[i]);
-        if (points.hasRadius() && farthest > 0.0f)
-            shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
-        if (!points.hasRadius()) return;
+        if (farthest > 0.0f) shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
         shape.drawRadius[i] = shape.splatRadius[i];
         // A crease point's nearest across the crease lie off its plane (as for hole_detection.cpp's
         // rim points): it is left as it is.

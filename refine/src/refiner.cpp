@@ -755,17 +755,6 @@ struct Refiner::State {
     PNSPLAT_V3_CLONE NewPoint newPointFrom(std::uint32_t p, const NeighbourSet& fan,
                                            const Candidate& c) const;
     void insertIntoRing(std::vector<RingMember>& ring, const RingMember& m) const;
-    // The steps of refinePoint, in order; always inlined into its x86-64-v3 clone.
-    [[gnu::always_inline]] void findOneRing(std::uint32_t p, const TangentFrame& frame,
-                                            const FuzzyParams& fuzzy, Clock::time_point& t0,
-                                            WorkerScratch& s);
-    [[gnu::always_inline]] std::size_t chooseCandidate(glm::vec3 x, WorkerScratch& s) const;
-    [[gnu::always_inline]] bool substituteIfDiscarded(std::uint32_t p, const TangentFrame& frame,
-                                                      const Candidate& c, WorkerScratch& s) const;
-    [[gnu::always_inline]] void insertCandidate(std::uint32_t p, std::uint32_t cell,
-                                                const TangentFrame& frame, const Candidate& c,
-                                                std::uint32_t& phantoms, WorkerScratch& s);
-    [[gnu::always_inline]] void updateRadii(std::uint32_t p, std::span<const RingMember> ring);
     void splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t firstChild, WorkerScratch& s);
     NewPoint& newPoint(const RingMember& m) { return cellBase[m.cell][m.local]; }
     // Whether q may join N'_p: r' = kRadiusMargin·|q - p| stays within c_β,max·r (the convergence
@@ -1286,12 +1275,16 @@ void Refiner::State::findSegments() {
                    segments.end());
 }
 
-// The one-ring of p (section 4.1): its Euclidean neighbourhood within r, filtered (fuzzy, eq. 4).
-// Adds the profile's times since t0, which a wider second look restarts.
-inline void Refiner::State::findOneRing(std::uint32_t p, const TangentFrame& frame, const FuzzyParams& fuzzy,
-                                        Clock::time_point& t0, WorkerScratch& s) {
+void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) {
     const bool profile = options.profile;
-    const glm::vec3 x = points.position[p], n = frame.n;
+    Clock::time_point t0;
+    if (profile) t0 = Clock::now();
+
+    const glm::vec3 x = points.position[p];
+    const glm::vec3 n = planeNormal(p);
+    const FuzzyParams fuzzy =
+        fuzzyParams(options.smoothing && !options.centroidCandidates); // PN-centre candidates
+    const TangentFrame frame(n);
     std::span<const NearbyPoint> nearby = s.nearby;
     if (s.groupCell) {
         s.nearbyGrid.select(x, levelRadius[p], s.pointNearby);
@@ -1317,190 +1310,7 @@ inline void Refiner::State::findOneRing(std::uint32_t p, const TangentFrame& fra
         if (profile) s.times.filtering += secondsSince(t0);
     }
     s.neighbours += neighbours;
-}
 
-namespace {
-
-// Step 2 of the selection (section 4.2): the candidate that best balances the sampling of the gap
-// after ring[j]: max of min(∠p_j p p_k, ∠p_k p p_j+1), or candidates.size() when none is inside
-// it; with `anyInside`, the first candidate found inside instead of the best.
-// Choice: angles measured around n_p in the tangent plane (the plane that orders the fan), and
-// only candidates inside the gap compete, so a point is never put into a gap other than the one
-// being filled.
-[[gnu::always_inline]] inline std::size_t candidateIn(std::span<const RingMember> ring,
-                                                      std::span<const Candidate> candidates, std::size_t j,
-                                                      bool anyInside) {
-    const RingMember& a = ring[j];
-    const float gapSweep = ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(j, ring.size())].angle);
-    std::size_t best = candidates.size();
-    float bestScore = -1.0f;
-    for (std::size_t k = 0; k < candidates.size(); ++k) {
-        if (candidates[k].taken) continue;
-        const float into = sweep(a.angle, candidates[k].angle);
-        const float score = std::min(into, gapSweep - into);
-        if (score >= kMinSplitAngle && score > bestScore) {
-            if (anyInside) return k;
-            bestScore = score;
-            best = k;
-        }
-    }
-    return best;
-}
-
-} // namespace
-
-// Steps 1 and 2 of the selection (section 4.2): the next candidate of L_p to insert, or
-// candidates.size() when N'_p is complete or no candidate fills what is open.
-// Step 1: the pair of consecutive members of N'_p with the largest curved angle that is not below
-// θc (N'_p complete otherwise) and still has a candidate inside it. A gap with no candidate inside
-// can never be chosen, and candidates only leave: it may be marked exhausted at once, and its
-// curved angle is then never measured (the same choice).
-inline std::size_t Refiner::State::chooseCandidate(glm::vec3 x, WorkerScratch& s) const {
-    std::vector<RingMember>& ring = s.ring;
-    const std::span<const Candidate> candidates = s.candidates;
-    if (ring.empty()) {
-        // An empty N'_p is incomplete; every candidate fills it equally: the first one left.
-        std::size_t chosen = 0;
-        while (candidates[chosen].taken) ++chosen;
-        return chosen;
-    }
-    // For speed only: a curved angle costs more than looking for a candidate in its gap, a plain
-    // angle (variant 2) less, so only the first is looked at first.
-    const bool candidatesFirst = !options.plainAngle;
-    for (std::size_t j = 0; j < ring.size(); ++j) {
-        if (!ring[j].gapStale) continue;
-        ring[j].gapStale = false;
-        ring[j].gapExhausted = candidatesFirst && candidateIn(ring, candidates, j, true) == candidates.size();
-        if (!ring[j].gapExhausted)
-            ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
-    }
-    for (;;) {
-        std::size_t widest = ring.size();
-        for (std::size_t j = 0; j < ring.size(); ++j) {
-            if (ring[j].gapExhausted || ring[j].gapToNext < kThetaC) continue;
-            if (widest == ring.size() || ring[j].gapToNext > ring[widest].gapToNext) widest = j;
-        }
-        if (widest == ring.size()) return candidates.size();
-        const std::size_t chosen = candidateIn(ring, candidates, widest, false);
-        if (chosen < candidates.size()) return chosen;
-        ring[widest].gapExhausted = true;
-    }
-}
-
-// Step 3 of the selection, the discard space D_p (eq. 11): whether candidate c falls into it; if
-// so, the closest point of Y_p joins N'_p instead (ties broken by storage position).
-inline bool Refiner::State::substituteIfDiscarded(std::uint32_t p, const TangentFrame& frame,
-                                                  const Candidate& c, WorkerScratch& s) const {
-    std::size_t closest = s.outer.size();
-    float closestDistance = std::numeric_limits<float>::max();
-    bool discarded = false;
-    for (std::size_t h = 0; h < s.outer.size(); ++h) {
-        const float distance = glm::length(c.position - s.outer[h].position);
-        if (distance < s.outer[h].discardRadius) discarded = true;
-        const bool tie = distance == closestDistance && closest < s.outer.size() &&
-                         storedBefore(s.outer[h], s.outer[closest]);
-        if (distance < closestDistance || tie) {
-            closestDistance = distance;
-            closest = h;
-        }
-    }
-    if (!discarded) return false;
-    ++s.discarded;
-    RingMember& y = s.outer[closest];
-    y.angle = frame.angleOf(y.position - points.position[p]);
-    const bool present = std::any_of(s.ring.begin(), s.ring.end(), [&](const RingMember& m) {
-        return m.cell == y.cell && m.local == y.local;
-    });
-    // Choice: a substitute farther than c_β,max · r from p would break the convergence bound of
-    // section 8.1 (the proof assumes the farthest new neighbour is a PN centre); such a point is
-    // left out and nothing joins N'_p.
-    if (!present && withinConvergenceBound(p, y.position)) insertIntoRing(s.ring, y);
-    return true;
-}
-
-// Step 3 of the selection for a candidate outside D_p: its new point (section 4.3) is stored in
-// `cell` and joins N'_p, unless one of the choices below leaves it out. `phantoms` counts the
-// members of N'_p left to the neighbouring region.
-inline void Refiner::State::insertCandidate(std::uint32_t p, std::uint32_t cell, const TangentFrame& frame,
-                                            const Candidate& c, std::uint32_t& phantoms, WorkerScratch& s) {
-    const glm::vec3 x = points.position[p];
-    const NewPoint np = newPointFrom(p, s.fan, c);
-    // Choice: a candidate farther than c_β,max · r from p is not inserted, as Y_p's substitutes
-    // and the segments' first points are not put into N'_p: it would break the convergence
-    // bound of section 8.1. The bound assumes a fan within r; after the wider second look (up
-    // to kRetryReach · r) a PN centre can lie beyond it (1 in 118,000 on the fandisk). The
-    // gap stays open for p's other candidates, and the far triangle's other corners, which
-    // are closer to it, insert their own.
-    if (!withinConvergenceBound(p, np.position)) {
-        ++s.beyondBound;
-        return;
-    }
-    // Choice: a point that would coincide with p or a point near it (of P(l) within reach, of
-    // N'_p or of Y_p) is not inserted. The fuzzy filter can drop p's own child of the previous
-    // level from its fan (normals far apart, as in noisy scans), and the fan triangle that
-    // made that child then makes it again: one such duplicate in the nefertiti's 214,257
-    // points, and in a quarter of small sets with normals tilted by up to 50° (fuzz_refine: its
-    // radius then collapsed to 0). Such a point lies within p's reach, where the points of
-    // P(l) were just scanned (collectNeighbourhood); with centroid candidates (variant 4) a
-    // twin in Y_p can escape D_p, which is measured on the centroid.
-    if (coincidesWithNearby(np.position, x, s) || madeByCorner(np.position, s.fan.index[c.a]) ||
-        madeByCorner(np.position, s.fan.index[c.b])) {
-        ++s.coincident;
-        return;
-    }
-    // refineRegion: the neighbouring region inserts what lies in it (see refiner.h). Choice: the
-    // candidate joins N'_p all the same, unstored, as the point the whole level would insert
-    // there: p's radius reaches it, and the members beside it grow to reach it rather than
-    // each other across the gap it leaves.
-    if (outsideRegion(np.position)) {
-        ++s.outsideRegion;
-        insertIntoRing(s.ring, RingMember{kPhantomCell, phantoms++, np.position, np.normal,
-                                          frame.angleOf(np.position - x)});
-        return;
-    }
-    const std::uint32_t local = store(cell, np, PointSource{{p, s.fan.index[c.a], s.fan.index[c.b]}}, s);
-    ++s.inserted;
-    insertIntoRing(s.ring, RingMember{cell, local, np.position, np.normal, frame.angleOf(np.position - x)});
-}
-
-// Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
-// neighbours in the new ring. Choice for an empty N'_p (nothing found, nothing inserted: the
-// paper's maximum is undefined): r' = c_β,max · r, so every radius still converges (8.1).
-inline void Refiner::State::updateRadii(std::uint32_t p, std::span<const RingMember> ring) {
-    if (ring.empty()) {
-        points.radius[p] = kCBetaMax * levelRadius[p];
-        return;
-    }
-    const glm::vec3 x = points.position[p];
-    float newRadius = 0.0f;
-    const std::size_t m = ring.size();
-    // Each side of the ring measured once: |p_j - p_j+1| reaches both of its members.
-    float before = glm::length(ring[0].position - ring[m - 1].position);
-    for (std::size_t j = 0; j < m; ++j) {
-        const glm::vec3 pj = ring[j].position;
-        const float toP = glm::length(pj - x);
-        newRadius = std::max(newRadius, toP);
-        const float after = glm::length(pj - ring[nextIndex(j, m)].position);
-        if (ring[j].cell != kPhantomCell) {
-            float& rj = newPoint(ring[j]).radius;
-            rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
-        }
-        before = after;
-    }
-    points.radius[p] = kRadiusMargin * newRadius;
-}
-
-// The refinement of one point of P(l) (sections 4 and 5), as a script of its steps.
-void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) {
-    const bool profile = options.profile;
-    Clock::time_point t0;
-    if (profile) t0 = Clock::now();
-
-    const glm::vec3 x = points.position[p];
-    const FuzzyParams fuzzy =
-        fuzzyParams(options.smoothing && !options.centroidCandidates); // PN-centre candidates
-    const TangentFrame frame(planeNormal(p));
-    findOneRing(p, frame, fuzzy, t0, s);
     makeCandidates(p, frame, s);
     if (profile) s.times.interpolation += secondsSince(t0);
 
@@ -1508,25 +1318,172 @@ void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScra
     std::sort(s.ring.begin(), s.ring.end(), [](const RingMember& a, const RingMember& b) {
         return a.angle != b.angle ? a.angle < b.angle : storedBefore(a, b);
     });
+
+    std::vector<RingMember>& ring = s.ring;
+    std::uint32_t phantoms = 0;
+    std::vector<Candidate>& candidates = s.candidates;
     const std::uint32_t firstChild = cellCount[cell];
+    double interpolationSeconds = 0;
     if (splitsSegments()) splitSegments(p, cell, firstChild, s);
 
+    // 2. (below) The candidate that best balances the sampling of the gap after ring[j]:
+    //    max of min(∠p_j p p_k, ∠p_k p p_j+1), or candidates.size() when none is inside it; with
+    //    `anyInside`, the first candidate found inside instead of the best.
+    //    Choice: angles measured around n_p in the tangent plane (the plane that orders the fan),
+    //    and only candidates inside the gap compete, so a point is never put into a gap other than
+    //    the one being filled.
+    const auto candidateIn = [&](std::size_t j, bool anyInside) {
+        const RingMember& a = ring[j];
+        const float gapSweep =
+            ring.size() == 1 ? kTwoPi : sweep(a.angle, ring[nextIndex(j, ring.size())].angle);
+        std::size_t best = candidates.size();
+        float bestScore = -1.0f;
+        for (std::size_t k = 0; k < candidates.size(); ++k) {
+            if (candidates[k].taken) continue;
+            const float into = sweep(a.angle, candidates[k].angle);
+            const float score = std::min(into, gapSweep - into);
+            if (score >= kMinSplitAngle && score > bestScore) {
+                if (anyInside) return k;
+                bestScore = score;
+                best = k;
+            }
+        }
+        return best;
+    };
+    // For speed only: a curved angle costs more than looking for a candidate in its gap, a plain
+    // angle (variant 2) less, so only the first is looked at first.
+    const bool candidatesFirst = !options.plainAngle;
+
     // Candidates leave L_p by being marked taken; the others keep their order.
-    std::uint32_t phantoms = 0;
-    double interpolationSeconds = 0;
-    for (std::size_t remaining = s.candidates.size(); remaining > 0; --remaining) {
-        const std::size_t chosen = chooseCandidate(x, s);
-        if (chosen == s.candidates.size()) break;
-        Candidate& c = s.candidates[chosen];
-        c.taken = true;
-        if (substituteIfDiscarded(p, frame, c, s)) continue;
+    for (std::size_t remaining = candidates.size(); remaining > 0; --remaining) {
+        // 1. The pair of consecutive members of N'_p with the largest curved angle that is not
+        //    below θc (N'_p complete otherwise) and still has a candidate inside it. A gap with no
+        //    candidate inside can never be chosen, and candidates only leave: it may be marked
+        //    exhausted at once, and its curved angle is then never measured (the same choice).
+        std::size_t chosen = candidates.size();
+        if (ring.empty()) {
+            // An empty N'_p is incomplete; every candidate fills it equally: the first one left.
+            chosen = 0;
+            while (candidates[chosen].taken) ++chosen;
+        } else {
+            for (std::size_t j = 0; j < ring.size(); ++j) {
+                if (!ring[j].gapStale) continue;
+                ring[j].gapStale = false;
+                ring[j].gapExhausted = candidatesFirst && candidateIn(j, true) == candidates.size();
+                if (!ring[j].gapExhausted)
+                    ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
+            }
+            for (;;) {
+                std::size_t widest = ring.size();
+                for (std::size_t j = 0; j < ring.size(); ++j) {
+                    if (ring[j].gapExhausted || ring[j].gapToNext < kThetaC) continue;
+                    if (widest == ring.size() || ring[j].gapToNext > ring[widest].gapToNext) widest = j;
+                }
+                if (widest == ring.size()) break; // complete, or no candidate fills what is open
+                chosen = candidateIn(widest, false);
+                if (chosen < candidates.size()) break;
+                ring[widest].gapExhausted = true;
+            }
+            if (chosen == candidates.size()) break;
+        }
+
+        // 3. Insert the candidate unless it falls into the discard space D_p (eq. 11); then the
+        //    closest point of Y_p joins N'_p instead (ties broken by storage position).
+        candidates[chosen].taken = true;
+        const Candidate& c = candidates[chosen];
+        std::size_t closest = s.outer.size();
+        float closestDistance = std::numeric_limits<float>::max();
+        bool discarded = false;
+        for (std::size_t h = 0; h < s.outer.size(); ++h) {
+            const float distance = glm::length(c.position - s.outer[h].position);
+            if (distance < s.outer[h].discardRadius) discarded = true;
+            const bool tie = distance == closestDistance && closest < s.outer.size() &&
+                             storedBefore(s.outer[h], s.outer[closest]);
+            if (distance < closestDistance || tie) {
+                closestDistance = distance;
+                closest = h;
+            }
+        }
+        if (discarded) {
+            ++s.discarded;
+            RingMember& y = s.outer[closest];
+            y.angle = frame.angleOf(y.position - x);
+            const bool present = std::any_of(ring.begin(), ring.end(), [&](const RingMember& m) {
+                return m.cell == y.cell && m.local == y.local;
+            });
+            // Choice: a substitute farther than c_β,max · r from p would break the convergence
+            // bound of section 8.1 (the proof assumes the farthest new neighbour is a PN centre);
+            // such a point is left out and nothing joins N'_p.
+            if (!present && withinConvergenceBound(p, y.position)) insertIntoRing(ring, y);
+            continue;
+        }
         Clock::time_point ti;
         if (profile) ti = Clock::now();
-        insertCandidate(p, cell, frame, c, phantoms, s);
+        const NewPoint np = newPointFrom(p, s.fan, c);
+        // Choice: a candidate farther than c_β,max · r from p is not inserted, as Y_p's substitutes
+        // and the segments' first points are not put into N'_p: it would break the convergence
+        // bound of section 8.1. The bound assumes a fan within r; after the wider second look (up
+        // to kRetryReach · r) a PN centre can lie beyond it (1 in 118,000 on the fandisk). The
+        // gap stays open for p's other candidates, and the far triangle's other corners, which
+        // are closer to it, insert their own.
+        if (!withinConvergenceBound(p, np.position)) {
+            ++s.beyondBound;
+            if (profile) interpolationSeconds += secondsSince(ti);
+            continue;
+        }
+        // Choice: a point that would coincide with p or a point near it (of P(l) within reach, of
+        // N'_p or of Y_p) is not inserted. The fuzzy filter can drop p's own child of the previous
+        // level from its fan (normals far apart, as in noisy scans), and the fan triangle that
+        // made that child then makes it again: one such duplicate in the nefertiti's 214,257
+        // points, and in a quarter of small sets with normals tilted by up to 50° (fuzz_refine: its
+        // radius then collapsed to 0). Such a point lies within p's reach, where the points of
+        // P(l) were just scanned (collectNeighbourhood); with centroid candidates (variant 4) a
+        // twin in Y_p can escape D_p, which is measured on the centroid.
+        if (coincidesWithNearby(np.position, x, s) || madeByCorner(np.position, s.fan.index[c.a]) ||
+            madeByCorner(np.position, s.fan.index[c.b])) {
+            ++s.coincident;
+            if (profile) interpolationSeconds += secondsSince(ti);
+            continue;
+        }
+        // refineRegion: the neighbouring region inserts what lies in it (see refiner.h). Choice: the
+        // candidate joins N'_p all the same, unstored, as the point the whole level would insert
+        // there: p's radius reaches it, and the members beside it grow to reach it rather than
+        // each other across the gap it leaves.
+        if (outsideRegion(np.position)) {
+            ++s.outsideRegion;
+            insertIntoRing(ring, RingMember{kPhantomCell, phantoms++, np.position, np.normal,
+                                            frame.angleOf(np.position - x)});
+            continue;
+        }
+        const std::uint32_t local = store(cell, np, PointSource{{p, s.fan.index[c.a], s.fan.index[c.b]}}, s);
+        ++s.inserted;
+        RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
+        insertIntoRing(ring, m);
         if (profile) interpolationSeconds += secondsSince(ti);
     }
 
-    updateRadii(p, s.ring);
+    // Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
+    // neighbours in the new ring. Choice for an empty N'_p (nothing found, nothing inserted: the
+    // paper's maximum is undefined): r' = c_β,max · r, so every radius still converges (8.1).
+    if (ring.empty()) points.radius[p] = kCBetaMax * levelRadius[p];
+    if (!ring.empty()) {
+        float newRadius = 0.0f;
+        const std::size_t m = ring.size();
+        // Each side of the ring measured once: |p_j - p_j+1| reaches both of its members.
+        float before = glm::length(ring[0].position - ring[m - 1].position);
+        for (std::size_t j = 0; j < m; ++j) {
+            const glm::vec3 pj = ring[j].position;
+            const float toP = glm::length(pj - x);
+            newRadius = std::max(newRadius, toP);
+            const float after = glm::length(pj - ring[nextIndex(j, m)].position);
+            if (ring[j].cell != kPhantomCell) {
+                float& rj = newPoint(ring[j]).radius;
+                rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
+            }
+            before = after;
+        }
+        points.radius[p] = kRadiusMargin * newRadius;
+    }
     s.reachable = 0; // reachableFrom may point into storage that the next point reuses
     childRange[p] = ChildRange{cell, firstChild, cellCount[cell] - firstChild};
     refined[p] = 1;

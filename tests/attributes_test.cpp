@@ -25,12 +25,12 @@
 #include <gtest/gtest.h>
 
 #include "oracles.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/point_file.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/io/point_file.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "program.h"
 #include "temp_dir.h"
 

@@ -11,9 +11,9 @@
 
 #include "oracles.h"
 #include "pnsplat/engine/image.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/point_file.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/io/point_file.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "program.h"
 
 namespace pnsplat {

@@ -36,9 +36,9 @@
 
 #include "pnsplat/engine/image.h"
 #include "pnsplat/refine/angles.h"
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "program.h"
 #include "test_data.h"
 

@@ -14,7 +14,7 @@
 #include "pnsplat/engine/engine.h"
 #include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/input.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 
 namespace pnsplat {
 namespace {

@@ -16,9 +16,9 @@
 #include "gpu_test.h"
 #include "pnsplat/engine/engine.h"
 #include "pnsplat/refine/input.h"
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/refiner.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 
 namespace pnsplat {

@@ -7,8 +7,8 @@
 
 #include "pnsplat/refine/hole_detection.h"
 #include "pnsplat/refine/input.h"
-#include "pnsplat/refine/point_file.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/io/point_file.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 
 namespace pnsplat {

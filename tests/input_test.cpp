@@ -18,13 +18,13 @@
 #include <gtest/gtest.h>
 
 #include "oracles.h"
+#include "pnsplat/refine/evaluation/quality.h"
 #include "pnsplat/refine/input.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/normal_estimation.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/quality.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 #include "test_random.h"
 

@@ -7,9 +7,9 @@
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/input.h"
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/refiner.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 
 namespace pnsplat {

@@ -21,7 +21,7 @@
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/radius_estimation.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_random.h"
 
 namespace pnsplat {

@@ -14,10 +14,10 @@
 
 #include "oracles.h"
 #include "pnsplat/refine/input.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/node_tree.h"
 #include "pnsplat/refine/node_workers.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 
 namespace pnsplat {

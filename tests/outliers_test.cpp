@@ -19,10 +19,10 @@
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/input.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/io/point_file.h"
 #include "pnsplat/refine/outliers.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/point_file.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "program.h"
 #include "temp_dir.h"
 #include "test_data.h"

@@ -1,7 +1,7 @@
 // The one writer of every output (output_file.h): a file appears complete or not at all, links are
 // followed, devices and pipes are written through and never replaced, and a named temporary (the
 // fallback where O_TMPFILE is missing) goes away on failure and on SIGINT, SIGTERM and SIGHUP.
-#include "pnsplat/refine/output_file.h"
+#include "pnsplat/refine/io/output_file.h"
 
 #include <csignal>
 #include <cstdlib>

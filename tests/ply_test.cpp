@@ -1,6 +1,6 @@
 // Tests of PLY reading and writing: bit-exact round trips, property order and types, byte orders,
 // faces, every rejected input, and atomic writes.
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 
 #include <array>
 #include <atomic>
@@ -26,7 +26,7 @@
 #include "oracles.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 
 namespace pnsplat {

@@ -2,7 +2,7 @@
 // through every kind, columns named by a header (any order, CloudCompare's), by the options and by
 // their count, .pts count lines, colour scales, PCD's fields, packed colours, NaN points and LZF
 // data, the kind by extension and content, and one-line errors naming the line.
-#include "pnsplat/refine/point_file.h"
+#include "pnsplat/refine/io/point_file.h"
 
 #include <bit>
 #include <cstdint>
@@ -14,9 +14,9 @@
 #include <gtest/gtest.h>
 
 #include "oracles.h"
-#include "pnsplat/refine/pcd.h"
-#include "pnsplat/refine/point_text.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/io/pcd.h"
+#include "pnsplat/refine/io/point_text.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "program.h"
 #include "temp_dir.h"
 

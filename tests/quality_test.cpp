@@ -11,9 +11,9 @@
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/angles.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/quality.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/evaluation/quality.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 #include "test_random.h"
 

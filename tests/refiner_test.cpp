@@ -29,14 +29,14 @@
 
 #include "oracles.h"
 #include "pnsplat/refine/angles.h"
+#include "pnsplat/refine/evaluation/quality.h"
 #include "pnsplat/refine/input.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/neighbourhood.h"
-#include "pnsplat/refine/ply.h"
 #include "pnsplat/refine/pn_triangle.h"
-#include "pnsplat/refine/quality.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 #include "test_random.h"
 

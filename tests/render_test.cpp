@@ -16,10 +16,10 @@
 #include "gpu_test.h"
 #include "pnsplat/engine/camera.h"
 #include "pnsplat/refine/angles.h"
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "test_data.h"
 #include "test_random.h"
 

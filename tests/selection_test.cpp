@@ -11,7 +11,7 @@
 #include "pnsplat/engine/selection.h"
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/node_tree.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 
 using namespace pnsplat;
 using namespace pnsplat::engine;

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "pnsplat/refine/angles.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 
 namespace pnsplat {
 namespace {

@@ -7,9 +7,9 @@
 #include <fmt/core.h>
 
 #include "commands.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/point_file.h"
-#include "pnsplat/refine/quality.h"
+#include "pnsplat/refine/evaluation/quality.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/io/point_file.h"
 #include "refine_run.h"
 
 namespace pnsplat::tools {

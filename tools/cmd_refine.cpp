@@ -12,10 +12,10 @@
 
 #include "commands.h"
 #include "pnsplat/refine/angles.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/point_file.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/io/point_file.h"
 #include "pnsplat/refine/refiner.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "pnsplat/refine/text.h"
 #include "refine_run.h"
 

@@ -18,7 +18,7 @@
 #pragma GCC diagnostic pop
 
 #include "command_error.h"
-#include "pnsplat/refine/output_file.h"
+#include "pnsplat/refine/io/output_file.h"
 #include "pnsplat/refine/result.h"
 
 namespace pnsplat::tools {

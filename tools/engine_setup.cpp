@@ -4,8 +4,8 @@
 
 #include "commands.h"
 #include "pnsplat/refine/angles.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/shapes/shapes.h"
 #include "refine_run.h"
 
 namespace pnsplat::tools {

@@ -12,11 +12,11 @@
 #include "commands.h"
 #include "pnsplat/refine/hole_detection.h"
 #include "pnsplat/refine/input.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/io/point_file.h"
 #include "pnsplat/refine/memory_budget.h"
 #include "pnsplat/refine/normal_estimation.h"
 #include "pnsplat/refine/outliers.h"
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/point_file.h"
 #include "pnsplat/refine/text.h"
 #include "progress.h"
 

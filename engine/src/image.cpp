@@ -9,7 +9,7 @@
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
-#include "pnsplat/refine/output_file.h"
+#include "pnsplat/refine/io/output_file.h"
 
 namespace pnsplat::engine {
 

@@ -10,9 +10,9 @@
 #include <iterator>
 #include <string>
 
-#include "pnsplat/refine/ply.h"
-#include "pnsplat/refine/point_file.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/io/point_file.h"
+#include "pnsplat/refine/shapes/shapes.h"
 
 using namespace pnsplat;
 namespace fs = std::filesystem;

@@ -9,7 +9,7 @@
 
 #include "fuzz_check.h"
 #include "oracles.h"
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 
 using pnsplat::fuzz::check;
 

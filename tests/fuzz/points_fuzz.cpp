@@ -11,7 +11,7 @@
 
 #include "fuzz_check.h"
 #include "oracles.h"
-#include "pnsplat/refine/point_file.h"
+#include "pnsplat/refine/io/point_file.h"
 
 using pnsplat::fuzz::check;
 

@@ -18,7 +18,7 @@
 #include "fuzz_check.h"
 #include "oracles.h"
 #include "pnsplat/refine/input.h"
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/refiner.h"
 
 using namespace pnsplat;

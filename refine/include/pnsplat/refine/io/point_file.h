@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
 

@@ -18,7 +18,7 @@
 #include <fmt/core.h>
 #include <glm/vec3.hpp>
 
-#include "pnsplat/refine/output_file.h"
+#include "pnsplat/refine/io/output_file.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
 

@@ -3,7 +3,7 @@
 //
 // Everything is computed in double and rounded to float once, so positions lie on the surface
 // to float precision and normals are exact to float precision.
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 
 #include <algorithm>
 #include <array>

@@ -1,7 +1,7 @@
 // PCD files (pcd.h): a header parser, the fields the points use mapped to the slots of a row
 // (point_rows.h), an ascii reader on std::from_chars, a binary reader of rows, an LZF decoder for
 // binary_compressed columns, and a writer through OutputFile.
-#include "pnsplat/refine/pcd.h"
+#include "pnsplat/refine/io/pcd.h"
 
 #include <algorithm>
 #include <array>
@@ -21,7 +21,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "pnsplat/refine/output_file.h"
+#include "pnsplat/refine/io/output_file.h"
 #include "point_rows.h"
 
 namespace pnsplat {

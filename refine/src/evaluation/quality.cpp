@@ -6,7 +6,7 @@
 // on the thread count. Closest points on a mesh come from a bounding-volume hierarchy of
 // triangles searched branch and bound (exact: no search radius to guess, robust to a few huge
 // triangles); nearest points come from nanoflann kd-trees.
-#include "pnsplat/refine/quality.h"
+#include "pnsplat/refine/evaluation/quality.h"
 
 #include <algorithm>
 #include <array>
@@ -22,9 +22,9 @@
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
 
-#include "kd_tree.h"
+#include "../kd_tree.h"
 #include "pnsplat/refine/angles.h"
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/text.h"
 #include "pnsplat/refine/worker_pool.h"
 

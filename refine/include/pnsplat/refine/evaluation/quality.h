@@ -44,7 +44,7 @@
 
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
-#include "pnsplat/refine/shapes.h"
+#include "pnsplat/refine/shapes/shapes.h"
 
 namespace pnsplat {
 

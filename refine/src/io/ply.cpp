@@ -1,7 +1,7 @@
 // PLY input and output of oriented point sets: a header parser, a binary reader (either byte
 // order) that walks rows through a precomputed offset/type table, an ascii reader on
 // std::from_chars, validation of every point, and a writer through OutputFile (output_file.h).
-#include "pnsplat/refine/ply.h"
+#include "pnsplat/refine/io/ply.h"
 
 #include <algorithm>
 #include <array>
@@ -28,7 +28,7 @@
 
 #include <fmt/core.h>
 
-#include "pnsplat/refine/output_file.h"
+#include "pnsplat/refine/io/output_file.h"
 #include "point_rows.h"
 
 namespace pnsplat {

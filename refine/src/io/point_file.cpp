@@ -1,11 +1,11 @@
 // Point files of every format (point_file.h): the kind by extension or content, then the reader
 // or writer of that kind (ply.h, pcd.h, point_text.h).
-#include "pnsplat/refine/point_file.h"
+#include "pnsplat/refine/io/point_file.h"
 
 #include <string>
 
-#include "pnsplat/refine/pcd.h"
-#include "pnsplat/refine/point_text.h"
+#include "pnsplat/refine/io/pcd.h"
+#include "pnsplat/refine/io/point_text.h"
 #include "point_rows.h"
 
 namespace pnsplat {

@@ -2,7 +2,7 @@
 // by the options, a header line or their count, numbers parsed with std::from_chars (no allocation
 // per line), every row checked and stored as the PLY reader stores it (point_rows.h); a writer
 // through OutputFile.
-#include "pnsplat/refine/point_text.h"
+#include "pnsplat/refine/io/point_text.h"
 
 #include <algorithm>
 #include <array>
@@ -21,7 +21,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "pnsplat/refine/output_file.h"
+#include "pnsplat/refine/io/output_file.h"
 #include "point_rows.h"
 
 namespace pnsplat {

@@ -1,6 +1,6 @@
 // The one writer of pnsplat's outputs (output_file.h): unnamed temporary files linked in when
 // complete, links followed, streams and devices written through.
-#include "pnsplat/refine/output_file.h"
+#include "pnsplat/refine/io/output_file.h"
 
 #include <array>
 #include <atomic>

@@ -35,7 +35,7 @@
 #include <filesystem>
 #include <string_view>
 
-#include "pnsplat/refine/point_file.h"
+#include "pnsplat/refine/io/point_file.h"
 
 namespace pnsplat {
 

@@ -263,7 +263,7 @@ void runRender(const RenderArgs& args) {
     fmt::print(
         summary,
         "{}: {} splats ({} in view) at {}x{} on {} ({} path): visibility {:.1f} ms, accumulation {:.1f} ms, "
-        "normalization {:.1f} ms; {} pixels covered, {:.2f} splats each -> {}\n",
+        "normalization {:.1f} ms; {} pixels covered, {:.3g} splats each -> {}\n",
         name, splats, drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(), path,
         gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, covered, perCovered,
         outputName(args.output));

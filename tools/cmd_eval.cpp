@@ -1,5 +1,5 @@
 // `pnsplat eval`: measures a refined point set against the true surface (an analytic sphere or
-// torus, or a dense reference PLY) and prints the metrics of refine/quality.h as JSON.
+// torus, or a dense reference PLY) and prints the metrics of refine/evaluation/quality.h as JSON.
 #include <filesystem>
 #include <memory>
 #include <string>

@@ -25,7 +25,7 @@ struct RgbaImage {
     }
 };
 
-// Writes an RGBA PNG through OutputFile (refine/output_file.h): complete or not at all, "-" for
+// Writes an RGBA PNG through OutputFile (refine/io/output_file.h): complete or not at all, "-" for
 // standard output, links followed, devices and pipes written through, never to a terminal.
 Result<void> writePng(const std::filesystem::path& path, const RgbaImage& image);
 // Reads any PNG (converted to RGBA); a one-line error names the file.

@@ -1275,6 +1275,9 @@ void Refiner::State::findSegments() {
                    segments.end());
 }
 
+// One function on purpose, though long: split into steps (always inlined) it ran 2.5-5 %
+// slower on one thread, twice (d86c966, 61ad2ac: bench refine of the lion at level 5, binaries
+// alternated), and so did the smallest change measured, its lambda candidateIn made a function.
 void Refiner::State::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) {
     const bool profile = options.profile;
     Clock::time_point t0;

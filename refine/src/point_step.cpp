@@ -566,19 +566,14 @@ std::array<std::uint32_t, 2> PointStep::creaseNeighbours(std::uint32_t p,
     return ends;
 }
 
-// One function on purpose, though long: split into steps (always inlined) it ran 2.5-5 %
-// slower on one thread, twice (d86c966, 61ad2ac: bench refine of the lion at level 5, binaries
-// alternated), and so did the smallest change measured, its lambda candidateIn made a function.
-void PointStep::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) const {
+// Nε_p filtered into p's fan (s.fan), N'_p and Y_p (s.ring, s.outer), with the wider second look
+// at an open fan. `t0`: the profile's clock, advanced past the time counted.
+void PointStep::findOneRing(std::uint32_t p, const TangentFrame& frame, Clock::time_point& t0,
+                            WorkerScratch& s) const {
     const bool profile = level_.options.profile;
-    Clock::time_point t0;
-    if (profile) t0 = Clock::now();
-
-    const glm::vec3 x = level_.points.position[p];
-    const glm::vec3 n = planeNormal(p);
+    const glm::vec3 x = level_.points.position[p], n = frame.n;
     const FuzzyParams fuzzy =
         fuzzyParams(level_.options.smoothing && !level_.options.centroidCandidates); // PN-centre candidates
-    const TangentFrame frame(n);
     std::span<const NearbyPoint> nearby = s.nearby;
     if (s.groupCell) {
         s.nearbyGrid.select(x, level_.levelRadius[p], s.pointNearby);
@@ -604,23 +599,15 @@ void PointStep::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& 
         if (profile) s.times.filtering += secondsSince(t0);
     }
     s.neighbours += neighbours;
+}
 
-    makeCandidates(p, frame, s);
-    if (profile) s.times.interpolation += secondsSince(t0);
-
-    // N'_p sorted around n_p; ties broken by storage position, which is deterministic.
-    std::sort(s.ring.begin(), s.ring.end(), [](const RingMember& a, const RingMember& b) {
-        return a.angle != b.angle ? a.angle < b.angle : storedBefore(a, b);
-    });
-
+// Steps 1 and 2 of §4.6: the next candidate to insert into N'_p, or s.candidates.size() when N'_p
+// is complete or no candidate fills what is open. Candidates leave L_p by being marked taken; the
+// others keep their order; at least one is left.
+std::size_t PointStep::nextCandidate(glm::vec3 x, WorkerScratch& s) const {
     std::vector<RingMember>& ring = s.ring;
-    std::uint32_t phantoms = 0;
-    std::vector<Candidate>& candidates = s.candidates;
-    const std::uint32_t firstChild = out_.cellCount[cell];
-    double interpolationSeconds = 0;
-    if (level_.splitsSegments) splitSegments(p, cell, firstChild, s);
-
-    // 2. (below) The candidate that best balances the sampling of the gap after ring[j]:
+    const std::vector<Candidate>& candidates = s.candidates;
+    // 2. The candidate that best balances the sampling of the gap after ring[j]:
     //    max of min(∠p_j p p_k, ∠p_k p p_j+1), or candidates.size() when none is inside it; with
     //    `anyInside`, the first candidate found inside instead of the best.
     //    Choice: angles measured around n_p in the tangent plane (the plane that orders the fan),
@@ -644,140 +631,172 @@ void PointStep::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& 
         }
         return best;
     };
-    // For speed only: a curved angle costs more than looking for a candidate in its gap, a plain
-    // angle (variant 2) less, so only the first is looked at first.
+    // An empty N'_p is incomplete; every candidate fills it equally: the first one left.
+    if (ring.empty()) {
+        std::size_t first = 0;
+        while (candidates[first].taken) ++first;
+        return first;
+    }
+    // 1. The pair of consecutive members of N'_p with the largest curved angle that is not below
+    //    θc (N'_p complete otherwise) and still has a candidate inside it. A gap with no candidate
+    //    inside can never be chosen, and candidates only leave: it may be marked exhausted at once,
+    //    and its curved angle is then never measured (the same choice). For speed only: a curved
+    //    angle costs more than looking for a candidate in its gap, a plain angle (variant 2) less,
+    //    so only the first is looked at first.
     const bool candidatesFirst = !level_.options.plainAngle;
+    for (std::size_t j = 0; j < ring.size(); ++j) {
+        if (!ring[j].gapStale) continue;
+        ring[j].gapStale = false;
+        ring[j].gapExhausted = candidatesFirst && candidateIn(j, true) == candidates.size();
+        if (!ring[j].gapExhausted)
+            ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
+    }
+    for (;;) {
+        std::size_t widest = ring.size();
+        for (std::size_t j = 0; j < ring.size(); ++j) {
+            if (ring[j].gapExhausted || ring[j].gapToNext < kThetaC) continue;
+            if (widest == ring.size() || ring[j].gapToNext > ring[widest].gapToNext) widest = j;
+        }
+        if (widest == ring.size()) return candidates.size(); // complete, or nothing fills what is open
+        const std::size_t chosen = candidateIn(widest, false);
+        if (chosen < candidates.size()) return chosen;
+        ring[widest].gapExhausted = true;
+    }
+}
 
-    // Candidates leave L_p by being marked taken; the others keep their order.
-    for (std::size_t remaining = candidates.size(); remaining > 0; --remaining) {
-        // 1. The pair of consecutive members of N'_p with the largest curved angle that is not
-        //    below θc (N'_p complete otherwise) and still has a candidate inside it. A gap with no
-        //    candidate inside can never be chosen, and candidates only leave: it may be marked
-        //    exhausted at once, and its curved angle is then never measured (the same choice).
-        std::size_t chosen = candidates.size();
-        if (ring.empty()) {
-            // An empty N'_p is incomplete; every candidate fills it equally: the first one left.
-            chosen = 0;
-            while (candidates[chosen].taken) ++chosen;
-        } else {
-            for (std::size_t j = 0; j < ring.size(); ++j) {
-                if (!ring[j].gapStale) continue;
-                ring[j].gapStale = false;
-                ring[j].gapExhausted = candidatesFirst && candidateIn(j, true) == candidates.size();
-                if (!ring[j].gapExhausted)
-                    ring[j].gapToNext = gapValue(x, ring[j], ring[nextIndex(j, ring.size())], ring.size());
-            }
-            for (;;) {
-                std::size_t widest = ring.size();
-                for (std::size_t j = 0; j < ring.size(); ++j) {
-                    if (ring[j].gapExhausted || ring[j].gapToNext < kThetaC) continue;
-                    if (widest == ring.size() || ring[j].gapToNext > ring[widest].gapToNext) widest = j;
-                }
-                if (widest == ring.size()) break; // complete, or no candidate fills what is open
-                chosen = candidateIn(widest, false);
-                if (chosen < candidates.size()) break;
-                ring[widest].gapExhausted = true;
-            }
-            if (chosen == candidates.size()) break;
+// Step 3 of §4.6: whether candidate c falls into the discard space D_p (eq. 11); then the closest
+// point of Y_p joins N'_p instead (ties broken by storage position).
+bool PointStep::substituteIfDiscarded(std::uint32_t p, const TangentFrame& frame, const Candidate& c,
+                                      WorkerScratch& s) const {
+    std::size_t closest = s.outer.size();
+    float closestDistance = std::numeric_limits<float>::max();
+    bool discarded = false;
+    for (std::size_t h = 0; h < s.outer.size(); ++h) {
+        const float distance = glm::length(c.position - s.outer[h].position);
+        if (distance < s.outer[h].discardRadius) discarded = true;
+        const bool tie = distance == closestDistance && closest < s.outer.size() &&
+                         storedBefore(s.outer[h], s.outer[closest]);
+        if (distance < closestDistance || tie) {
+            closestDistance = distance;
+            closest = h;
         }
+    }
+    if (!discarded) return false;
+    ++s.discarded;
+    RingMember& y = s.outer[closest];
+    y.angle = frame.angleOf(y.position - level_.points.position[p]);
+    const bool present = std::any_of(s.ring.begin(), s.ring.end(), [&](const RingMember& m) {
+        return m.cell == y.cell && m.local == y.local;
+    });
+    // Choice: a substitute farther than c_β,max · r from p would break the convergence bound of
+    // section 8.1 (the proof assumes the farthest new neighbour is a PN centre); such a point is
+    // left out and nothing joins N'_p.
+    if (!present && withinConvergenceBound(p, y.position)) insertIntoRing(s.ring, y);
+    return true;
+}
 
-        // 3. Insert the candidate unless it falls into the discard space D_p (eq. 11); then the
-        //    closest point of Y_p joins N'_p instead (ties broken by storage position).
-        candidates[chosen].taken = true;
-        const Candidate& c = candidates[chosen];
-        std::size_t closest = s.outer.size();
-        float closestDistance = std::numeric_limits<float>::max();
-        bool discarded = false;
-        for (std::size_t h = 0; h < s.outer.size(); ++h) {
-            const float distance = glm::length(c.position - s.outer[h].position);
-            if (distance < s.outer[h].discardRadius) discarded = true;
-            const bool tie = distance == closestDistance && closest < s.outer.size() &&
-                             storedBefore(s.outer[h], s.outer[closest]);
-            if (distance < closestDistance || tie) {
-                closestDistance = distance;
-                closest = h;
-            }
+// Step 3 of §4.6, the candidate kept: the new point made from c, stored in `cell` and put into
+// N'_p, unless one of the choices below leaves it out. `phantoms` counts the members of N'_p that
+// refineRegion does not store.
+void PointStep::insertCandidate(std::uint32_t p, std::uint32_t cell, const TangentFrame& frame,
+                                const Candidate& c, std::uint32_t& phantoms, WorkerScratch& s) const {
+    const glm::vec3 x = level_.points.position[p];
+    const NewPoint np = newPointFrom(p, s.fan, c);
+    // Choice: a candidate farther than c_β,max · r from p is not inserted, as Y_p's substitutes
+    // and the segments' first points are not put into N'_p: it would break the convergence
+    // bound of section 8.1. The bound assumes a fan within r; after the wider second look (up
+    // to kRetryReach · r) a PN centre can lie beyond it (1 in 118,000 on the fandisk). The
+    // gap stays open for p's other candidates, and the far triangle's other corners, which
+    // are closer to it, insert their own.
+    if (!withinConvergenceBound(p, np.position)) {
+        ++s.beyondBound;
+        return;
+    }
+    // Choice: a point that would coincide with p or a point near it (of P(l) within reach, of
+    // N'_p or of Y_p) is not inserted. The fuzzy filter can drop p's own child of the previous
+    // level from its fan (normals far apart, as in noisy scans), and the fan triangle that
+    // made that child then makes it again: one such duplicate in the nefertiti's 214,257
+    // points, and in a quarter of small sets with normals tilted by up to 50° (fuzz_refine: its
+    // radius then collapsed to 0). Such a point lies within p's reach, where the points of
+    // P(l) were just scanned (collectNeighbourhood); with centroid candidates (variant 4) a
+    // twin in Y_p can escape D_p, which is measured on the centroid.
+    if (coincidesWithNearby(np.position, x, s) || madeByCorner(np.position, s.fan.index[c.a]) ||
+        madeByCorner(np.position, s.fan.index[c.b])) {
+        ++s.coincident;
+        return;
+    }
+    // refineRegion: the neighbouring region inserts what lies in it (see refiner.h). Choice: the
+    // candidate joins N'_p all the same, unstored, as the point the whole level would insert
+    // there: p's radius reaches it, and the members beside it grow to reach it rather than
+    // each other across the gap it leaves.
+    if (outsideRegion(np.position)) {
+        ++s.outsideRegion;
+        insertIntoRing(s.ring, RingMember{kPhantomCell, phantoms++, np.position, np.normal,
+                                          frame.angleOf(np.position - x)});
+        return;
+    }
+    const std::uint32_t local = store(cell, np, PointSource{{p, s.fan.index[c.a], s.fan.index[c.b]}}, s);
+    ++s.inserted;
+    insertIntoRing(s.ring, RingMember{cell, local, np.position, np.normal, frame.angleOf(np.position - x)});
+}
+
+// Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
+// neighbours in the new ring. Choice for an empty N'_p (nothing found, nothing inserted: the
+// paper's maximum is undefined): r' = c_β,max · r, so every radius still converges (8.1).
+void PointStep::updateRadii(std::uint32_t p, std::span<const RingMember> ring) const {
+    const glm::vec3 x = level_.points.position[p];
+    if (ring.empty()) {
+        out_.radius[p] = kCBetaMax * level_.levelRadius[p];
+        return;
+    }
+    float newRadius = 0.0f;
+    const std::size_t m = ring.size();
+    // Each side of the ring measured once: |p_j - p_j+1| reaches both of its members.
+    float before = glm::length(ring[0].position - ring[m - 1].position);
+    for (std::size_t j = 0; j < m; ++j) {
+        const glm::vec3 pj = ring[j].position;
+        const float toP = glm::length(pj - x);
+        newRadius = std::max(newRadius, toP);
+        const float after = glm::length(pj - ring[nextIndex(j, m)].position);
+        if (ring[j].cell != kPhantomCell) {
+            float& rj = newPoint(ring[j]).radius;
+            rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
         }
-        if (discarded) {
-            ++s.discarded;
-            RingMember& y = s.outer[closest];
-            y.angle = frame.angleOf(y.position - x);
-            const bool present = std::any_of(ring.begin(), ring.end(), [&](const RingMember& m) {
-                return m.cell == y.cell && m.local == y.local;
-            });
-            // Choice: a substitute farther than c_β,max · r from p would break the convergence
-            // bound of section 8.1 (the proof assumes the farthest new neighbour is a PN centre);
-            // such a point is left out and nothing joins N'_p.
-            if (!present && withinConvergenceBound(p, y.position)) insertIntoRing(ring, y);
-            continue;
-        }
+        before = after;
+    }
+    out_.radius[p] = kRadiusMargin * newRadius;
+}
+
+// Refines p (§4): its one-ring, its segments' points, then candidates into N'_p until it is
+// complete, and the radii.
+void PointStep::refinePoint(std::uint32_t p, std::uint32_t cell, WorkerScratch& s) const {
+    const bool profile = level_.options.profile;
+    Clock::time_point t0;
+    if (profile) t0 = Clock::now();
+    const glm::vec3 x = level_.points.position[p];
+    const TangentFrame frame(planeNormal(p));
+    findOneRing(p, frame, t0, s);
+    makeCandidates(p, frame, s);
+    if (profile) s.times.interpolation += secondsSince(t0);
+    // N'_p sorted around n_p; ties broken by storage position, which is deterministic.
+    std::sort(s.ring.begin(), s.ring.end(), [](const RingMember& a, const RingMember& b) {
+        return a.angle != b.angle ? a.angle < b.angle : storedBefore(a, b);
+    });
+    const std::uint32_t firstChild = out_.cellCount[cell];
+    if (level_.splitsSegments) splitSegments(p, cell, firstChild, s);
+    std::uint32_t phantoms = 0;
+    double interpolationSeconds = 0;
+    for (std::size_t remaining = s.candidates.size(); remaining > 0; --remaining) {
+        const std::size_t chosen = nextCandidate(x, s);
+        if (chosen == s.candidates.size()) break;
+        s.candidates[chosen].taken = true;
+        if (substituteIfDiscarded(p, frame, s.candidates[chosen], s)) continue;
         Clock::time_point ti;
         if (profile) ti = Clock::now();
-        const NewPoint np = newPointFrom(p, s.fan, c);
-        // Choice: a candidate farther than c_β,max · r from p is not inserted, as Y_p's substitutes
-        // and the segments' first points are not put into N'_p: it would break the convergence
-        // bound of section 8.1. The bound assumes a fan within r; after the wider second look (up
-        // to kRetryReach · r) a PN centre can lie beyond it (1 in 118,000 on the fandisk). The
-        // gap stays open for p's other candidates, and the far triangle's other corners, which
-        // are closer to it, insert their own.
-        if (!withinConvergenceBound(p, np.position)) {
-            ++s.beyondBound;
-            if (profile) interpolationSeconds += secondsSince(ti);
-            continue;
-        }
-        // Choice: a point that would coincide with p or a point near it (of P(l) within reach, of
-        // N'_p or of Y_p) is not inserted. The fuzzy filter can drop p's own child of the previous
-        // level from its fan (normals far apart, as in noisy scans), and the fan triangle that
-        // made that child then makes it again: one such duplicate in the nefertiti's 214,257
-        // points, and in a quarter of small sets with normals tilted by up to 50° (fuzz_refine: its
-        // radius then collapsed to 0). Such a point lies within p's reach, where the points of
-        // P(l) were just scanned (collectNeighbourhood); with centroid candidates (variant 4) a
-        // twin in Y_p can escape D_p, which is measured on the centroid.
-        if (coincidesWithNearby(np.position, x, s) || madeByCorner(np.position, s.fan.index[c.a]) ||
-            madeByCorner(np.position, s.fan.index[c.b])) {
-            ++s.coincident;
-            if (profile) interpolationSeconds += secondsSince(ti);
-            continue;
-        }
-        // refineRegion: the neighbouring region inserts what lies in it (see refiner.h). Choice: the
-        // candidate joins N'_p all the same, unstored, as the point the whole level would insert
-        // there: p's radius reaches it, and the members beside it grow to reach it rather than
-        // each other across the gap it leaves.
-        if (outsideRegion(np.position)) {
-            ++s.outsideRegion;
-            insertIntoRing(ring, RingMember{kPhantomCell, phantoms++, np.position, np.normal,
-                                            frame.angleOf(np.position - x)});
-            continue;
-        }
-        const std::uint32_t local = store(cell, np, PointSource{{p, s.fan.index[c.a], s.fan.index[c.b]}}, s);
-        ++s.inserted;
-        RingMember m{cell, local, np.position, np.normal, frame.angleOf(np.position - x)};
-        insertIntoRing(ring, m);
+        insertCandidate(p, cell, frame, s.candidates[chosen], phantoms, s);
         if (profile) interpolationSeconds += secondsSince(ti);
     }
-
-    // Radii (section 5): r' = max_{j ∈ N'_p} |p - p_j|; each member grows to reach p and its two
-    // neighbours in the new ring. Choice for an empty N'_p (nothing found, nothing inserted: the
-    // paper's maximum is undefined): r' = c_β,max · r, so every radius still converges (8.1).
-    if (ring.empty()) out_.radius[p] = kCBetaMax * level_.levelRadius[p];
-    if (!ring.empty()) {
-        float newRadius = 0.0f;
-        const std::size_t m = ring.size();
-        // Each side of the ring measured once: |p_j - p_j+1| reaches both of its members.
-        float before = glm::length(ring[0].position - ring[m - 1].position);
-        for (std::size_t j = 0; j < m; ++j) {
-            const glm::vec3 pj = ring[j].position;
-            const float toP = glm::length(pj - x);
-            newRadius = std::max(newRadius, toP);
-            const float after = glm::length(pj - ring[nextIndex(j, m)].position);
-            if (ring[j].cell != kPhantomCell) {
-                float& rj = newPoint(ring[j]).radius;
-                rj = std::max(rj, kRadiusMargin * std::max({toP, before, after}));
-            }
-            before = after;
-        }
-        out_.radius[p] = kRadiusMargin * newRadius;
-    }
+    updateRadii(p, s.ring);
     s.reachable = 0; // reachableFrom may point into storage that the next point reuses
     out_.childRange[p] = ChildRange{cell, firstChild, out_.cellCount[cell] - firstChild};
     out_.refined[p] = 1;

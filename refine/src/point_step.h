@@ -207,6 +207,7 @@ struct alignas(64) WorkerScratch {          // one cache line apart: workers wri
     // LevelStats::scannedCandidates and neighbourhoodPoints
     std::size_t scanned = 0, neighbours = 0;
 };
+
 // What the one-point step reads of the level: P(l) as the level started (scaled), unchanged while
 // the level runs. The new radii of P(l) go to NewLevel::radius; `points.radius` is not read.
 struct LevelView {
@@ -215,7 +216,7 @@ struct LevelView {
     const PointHierarchy& hierarchy;    // over P(l)'s positions: a large point's surroundings
     std::span<const float> levelRadius; // r of each point of P(l)
     // Every point of P(l) by colour cell (LevelCells::gridKey, gridPoint); empty when the level
-    // refines no group of cells (findSegments, before the cells are made).
+    // refines no group of cells (findSegmentsOf, before the cells are made).
     std::span<const std::uint64_t> gridKey;
     std::span<const std::uint32_t> gridPoint;
     std::optional<Region> region; // refineRegion: its region, scaled; none for the whole level

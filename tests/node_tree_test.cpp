@@ -268,10 +268,10 @@ TEST(NodeTree, NodesCarryTheRadiiTheirSplatsAreDrawnWith) {
     for (NodeId id = 0; id < tree->slotCount(); ++id) {
         if (!tree->isLive(id)) continue;
         const Node& node = tree->node(id);
-        ASSERT_EQ(node.drawRadius.size(), node.points.size()) << "node " << id;
+        ASSERT_EQ(node.shape.drawRadius.size(), node.points.size()) << "node " << id;
         for (std::size_t i = 0; i < node.points.size(); ++i) {
-            EXPECT_LE(node.drawRadius[i], node.splatRadius[i]) << "node " << id;
-            smaller += node.drawRadius[i] < node.splatRadius[i];
+            EXPECT_LE(node.shape.drawRadius[i], node.shape.splatRadius[i]) << "node " << id;
+            smaller += node.shape.drawRadius[i] < node.shape.splatRadius[i];
         }
         levels = std::max<std::size_t>(levels, node.level + 1);
     }

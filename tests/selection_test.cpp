@@ -142,12 +142,12 @@ TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquare
                   std::abs(glm::dot(d, view.right)) <= view.frustum.tanX * depth &&
                   std::abs(glm::dot(d, view.upward)) <= view.frustum.tanY * depth))
                 continue;
-            const float px = 2.0f * node.splatRadius[i] * view.focal / depth;
+            const float px = 2.0f * node.shape.splatRadius[i] * view.focal / depth;
             ++drawn;
             over += px > threshold;
             if (facing < 0.3f * glm::length(d)) {
                 ++rim;
-                rimOver += px * node.bend[i] / 4.0f > bulgeLimit && px > 1.0f;
+                rimOver += px * node.shape.bend[i] / 4.0f > bulgeLimit && px > 1.0f;
             }
         }
         return std::array<bool, 2>{double(over) > 0.5 * double(drawn),
@@ -245,7 +245,7 @@ TEST(Selection, MeasuredSplatsMatchTheQuantilesOfTheDrawnPoints) {
         const Node& node = tree.node(id);
         positions.insert(positions.end(), node.points.position.begin(), node.points.position.end());
         normals.insert(normals.end(), node.points.normal.begin(), node.points.normal.end());
-        for (const float r : node.splatRadius) radii.push_back(1.5f * r);
+        for (const float r : node.shape.splatRadius) radii.push_back(1.5f * r);
     }
     const auto quantile = [&](float q) {
         return splatDiameterQuantile(positions, normals, radii, view.camera, kWidth, kHeight, q);

@@ -17,9 +17,9 @@ constexpr float kHalfPi = 1.57079632679f;
 constexpr float kPi = 3.14159265359f;
 // The level of detail (docs/REALTIME.md, "The level of detail"). A node is drawn through its
 // children while more than kOverShare of its splats drawn are wider than the threshold: its median
-// splat. Splats are measured with Node::splatRadius, about the local spacing (the refinement's
-// radii are about twice it: docs/REALTIME.md, "Splats of the local spacing"), and drawn with it
-// but at open boundaries (Node::drawRadius, smaller there). The 99th
+// splat. Splats are measured with Node::shape.splatRadius, about the local spacing (the
+// refinement's radii are about twice it: docs/REALTIME.md, "Splats of the local spacing"), and drawn
+// with it but at open boundaries (Node::shape.drawRadius, smaller there). The 99th
 // percentile (a share of 0.008, before) let the sparsest patches of a node decide for all of it: the
 // refinement's radii spread (the 99th percentile is about 1.9 times the median), so at 2 px the median splat
 // drawn was 0.8 px and a covered pixel held 28 splats (the bunny at 640x480), while away from the silhouettes
@@ -155,8 +155,8 @@ bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
     const std::size_t n = points.size();
     const glm::vec3* position = points.position.data();
     const glm::vec3* normal = points.normal.data();
-    const float* radius = node.splatRadius.data();
-    const float* bend = node.bend.data();
+    const float* radius = node.shape.splatRadius.data();
+    const float* bend = node.shape.bend.data();
     const glm::vec3 forward = v_.forward, right = v_.right, upward = v_.upward;
     const float near = frustum.range.near, tanX = frustum.tanX, tanY = frustum.tanY;
     // Squared, without a square root (whose errno path is a branch): facing > 0 where seen.
@@ -285,7 +285,7 @@ SplatSizes measureSplats(const NodeTree& tree, std::span<const NodeId> drawn, co
                 std::abs(p.y) > frustum.tanY * depth ||
                 glm::dot(points.normal[i], points.position[i] - view.camera.eye) >= 0.0f)
                 continue;
-            const float size = scale * node.splatRadius[i] / depth;
+            const float size = scale * node.shape.splatRadius[i] / depth;
             sizes.push_back(size);
             over += size > threshold;
         }

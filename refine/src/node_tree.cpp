@@ -83,7 +83,7 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
     return parts;
 }
 
-// What a node's selection reads of its points (non-empty; bend, splatRadius and drawRadius filled): its box,
+// What a node's selection reads of its points (non-empty; its shape filled): its box,
 // largest, 99th percentile and median splat radii, largest point radius, largest bend and normal
 // cone. For the roots and for a job's children.
 void describePoints(Node& node) {
@@ -92,11 +92,11 @@ void describePoints(Node& node) {
     const Box box = boxOf(node.points.position, all);
     node.lo = box.lo;
     node.hi = box.hi;
-    node.maxRadius = std::ranges::max(node.splatRadius);
+    node.maxRadius = std::ranges::max(node.shape.splatRadius);
     node.maxPointRadius = std::ranges::max(node.points.radius);
-    node.drawnRadius = drawnRadiusOf(node.splatRadius);
-    node.medianRadius = medianRadiiOf(node.splatRadius);
-    node.maxBend = node.bend.empty() ? 0.0f : std::ranges::max(node.bend);
+    node.drawnRadius = drawnRadiusOf(node.shape.splatRadius);
+    node.medianRadius = medianRadiiOf(node.shape.splatRadius);
+    node.maxBend = node.shape.bend.empty() ? 0.0f : std::ranges::max(node.shape.bend);
     normalConeOf(node.points.normal, node.coneAxis, node.coneAngle);
 }
 
@@ -347,6 +347,18 @@ float drawnRadiusOf(std::span<const float> radii) {
     return *at;
 }
 
+void NeighbourShape::reserve(std::size_t count) {
+    bend.reserve(count);
+    splatRadius.reserve(count);
+    drawRadius.reserve(count);
+}
+
+void NeighbourShape::appendFrom(const NeighbourShape& from, std::size_t i) {
+    bend.push_back(from.bend[i]);
+    splatRadius.push_back(from.splatRadius[i]);
+    drawRadius.push_back(from.drawRadius[i]);
+}
+
 NeighbourShape neighbourShapeOf(const PointSet& points) {
     NeighbourShape shape;
     shape.bend.assign(points.size(), 0.0f);
@@ -471,19 +483,17 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         pending.push_back(std::move(halves[0]));
     }
     // A tree only drawn draws the radii it was given.
-    const NeighbourShape shape = neighbourShapeOf(input);
-    const std::span<const float> splatRadius =
-        forRefinement ? std::span<const float>(shape.splatRadius) : std::span<const float>(input.radius);
+    NeighbourShape shape = neighbourShapeOf(input);
+    if (!forRefinement) shape.splatRadius = shape.drawRadius = {input.radius.begin(), input.radius.end()};
     for (SplitPart& part : roots) {
         const NodeId id = tree.allocate();
         Node& node = tree.nodes_[id];
         node.region = part.region;
         node.points.reserve(part.indices.size());
+        node.shape.reserve(part.indices.size());
         for (const std::uint32_t i : part.indices) {
             node.points.appendFrom(input, i);
-            node.bend.push_back(shape.bend[i]);
-            node.splatRadius.push_back(splatRadius[i]);
-            node.drawRadius.push_back(forRefinement ? shape.drawRadius[i] : splatRadius[i]);
+            node.shape.appendFrom(shape, i);
         }
         for (const SegmentEnds& segment : segments)
             if (part.region.contains(segment.a)) node.segments.push_back(segment);
@@ -581,14 +591,10 @@ NodeJobResult NodeTree::run(NodeJob job, const NodeSettings& settings) {
         NodeChild& child = out.children.emplace_back();
         child.region = part.region;
         child.points.reserve(part.indices.size());
-        child.bend.reserve(part.indices.size());
-        child.splatRadius.reserve(part.indices.size());
-        child.drawRadius.reserve(part.indices.size());
+        child.shape.reserve(part.indices.size());
         for (const std::uint32_t i : part.indices) {
             child.points.appendFrom(refined.points, i);
-            child.bend.push_back(shape.bend[i]);
-            child.splatRadius.push_back(shape.splatRadius[i]);
-            child.drawRadius.push_back(shape.drawRadius[i]);
+            child.shape.appendFrom(shape, i);
         }
         for (const SegmentEnds& segment : refined.segments)
             if (part.region.contains(segment.a)) child.segments.push_back(segment);
@@ -609,9 +615,7 @@ bool NodeTree::attach(NodeJobResult&& result) {
         child.level = nodes_[result.node].level + 1;
         child.parent = result.node;
         child.points = std::move(made.points);
-        child.bend = std::move(made.bend);
-        child.splatRadius = std::move(made.splatRadius);
-        child.drawRadius = std::move(made.drawRadius);
+        child.shape = std::move(made.shape);
         child.segments = std::move(made.segments);
         describePoints(child);
         pointCount_ += child.points.size();
@@ -630,9 +634,7 @@ void NodeTree::release(NodeId id) {
         assert(child.isLeaf());
         pointCount_ -= child.points.size();
         child.points = PointSet{};
-        child.bend = {};
-        child.splatRadius = {};
-        child.drawRadius = {};
+        child.shape = {};
         child.segments = {};
         live_[c] = 0;
         --liveCount_;

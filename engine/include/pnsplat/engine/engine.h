@@ -108,7 +108,7 @@ struct FrameReport {
     bool resting = false;
     float thresholdPx = 0.0f; // the threshold in force (EngineSettings::targetFrameMs)
     // With measureSplats: the median and the largest projected splat diameter drawn, as the level of
-    // detail measures it (Node::splatRadius; pixels), and the
+    // detail measures it (Node::shape.splatRadius; pixels), and the
     // share of the splats drawn (in view, facing the eye) above the threshold (about half of a
     // node's splats may be: its median is what the level of detail holds to).
     float medianSplatPx = 0.0f;

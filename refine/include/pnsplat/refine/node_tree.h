@@ -50,9 +50,9 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    (the sagitta of a circle turning by bend over r), which the next level's smaller splats halve;
 //    the engine refines the nodes whose silhouette splats stand out visibly (selection.cpp, the level
 //    of detail).
-//  - splatRadius: the radius its splat is measured with (and drawn with, drawRadius below), the distance to
-//  the farthest of them, at most
-//    its own radius (the point's radius when it has no neighbour). Choice (docs/REALTIME.md, "Splats
+//  - splatRadius: the radius its splat is measured with (and drawn with, drawRadius below), the
+//    distance to the farthest of them, at most its own radius (the point's radius when it has no
+//    neighbour). Choice (docs/REALTIME.md, "Splats
 //    of the local spacing"): the refinement's radius reaches the farthest member of the point's
 //    next one-ring, about twice the spacing, so that its disk covers each pixel many times over; the
 //    sixth nearest point lies about 1.3 spacings away and still covers the surface.
@@ -68,8 +68,12 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 inline constexpr std::size_t kBendNeighbours = 6;
 inline constexpr std::size_t kOpenNearest = 4;
 inline constexpr float kOpenAngle = 2.61799388f; // 150 degrees
+// Arrays apart (the selection's per-splat loop reads two of them in SIMD lanes).
 struct NeighbourShape {
     std::vector<float> bend, splatRadius, drawRadius;
+
+    void reserve(std::size_t count);
+    void appendFrom(const NeighbourShape& from, std::size_t i); // point i of `from`
 };
 NeighbourShape neighbourShapeOf(const PointSet& points);
 // The cone of `normals` (unit): axis their normalised sum, half-angle the largest angle to it (π
@@ -108,9 +112,9 @@ struct Node {
     std::uint32_t generation = 0; // counts the uses of this slot: jobs check it
     PointSet points;              // its points (normals, radii, colours, creases as P0's)
     // Per point, neighbourShapeOf over its level's points of its parent's region (a root: of the
-    // input); a tree only drawn draws points.radius. Selection measures splatRadius; the cache's
-    // splats are drawn with drawRadius.
-    std::vector<float> bend, splatRadius, drawRadius;
+    // input); a tree only drawn draws points.radius. Selection measures shape.splatRadius; the
+    // cache's splats are drawn with shape.drawRadius.
+    NeighbourShape shape;
     std::vector<SegmentEnds> segments; // boundary and crease segments whose first point is its own
 
     bool isLeaf() const { return childCount == 0; }
@@ -128,7 +132,7 @@ struct NodeJob {
 struct NodeChild {
     Region region;
     PointSet points;
-    std::vector<float> bend, splatRadius, drawRadius;
+    NeighbourShape shape;
     std::vector<SegmentEnds> segments;
 };
 struct NodeJobResult {

@@ -27,4 +27,12 @@ fi
 export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp
-ctest --test-dir "build-$kind" --output-on-failure -j "$(nproc)"
+# Under TSan the lockstep comparison of settled pictures with the offline refinement, which runs
+# in release and under ASan, is left out: it took 558 of the suite's 2,823 test-seconds there (on a
+# 2-core AMD EPYC host, 2026-11-27), for threaded code that the engine's other lockstep, worker and
+# cache tests run under TSan too.
+skip=()
+if [ "$kind" = thread ]; then
+  skip=(-E '^EngineTest\.SettledPictureMatchesTheOfflineRefinement$')
+fi
+ctest --test-dir "build-$kind" --output-on-failure -j "$(nproc)" "${skip[@]}"

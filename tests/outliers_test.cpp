@@ -115,6 +115,28 @@ TEST(Outliers, PointAboveAPlaneIsFoundByTheOffsetRule) {
     EXPECT_EQ(findOutliers(plane.position, 2, densityOnly).outliers, (std::vector<std::uint32_t>{901}));
 }
 
+// Stray points shield each other: a point 2.5 spacings above a plane is found by the offset rule
+// alone, but with a second one 2.5 spacings above it, the second (the more isolated) is all the
+// first pass finds: the first's nearest then include it, whose plane tilts up towards the first and
+// whose distance raises the first's bound. The next pass, without the second, finds the first, and
+// the one after that nothing more (no point of the plane).
+TEST(Outliers, PointsThatShieldEachOtherAreFoundInTheNextPass) {
+    PointSet plane;
+    for (int y = 0; y < 30; ++y)
+        for (int x = 0; x < 30; ++x) plane.position.emplace_back(float(x), float(y), 0.0f);
+    PointSet alone = plane;
+    alone.position.emplace_back(15.0f, 15.0f, 2.5f);
+    EXPECT_EQ(findOutliers(alone.position, 2).outliers, (std::vector<std::uint32_t>{900}));
+
+    plane.position.emplace_back(15.0f, 15.0f, 2.5f); // 900, shielded
+    plane.position.emplace_back(15.0f, 15.0f, 5.0f); // 901, above it
+    OutlierParams onePass;
+    onePass.passes = 1;
+    EXPECT_EQ(findOutliers(plane.position, 2, onePass).outliers, (std::vector<std::uint32_t>{901}));
+    EXPECT_EQ(findOutliers(plane.position, 2).outliers, (std::vector<std::uint32_t>{900, 901}));
+    EXPECT_EQ(findOutliers(plane.position, 1).outliers, (std::vector<std::uint32_t>{900, 901}));
+}
+
 // Spacings whose squares overflow single precision (a fuzzed file's): the k-d tree finds fewer than
 // k neighbours, or none. Such points are not measured (infinity) and nothing is called an outlier
 // for it; the input's completion stops with its one-line error about the spacing.

@@ -6,6 +6,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include <glm/geometric.hpp>
@@ -70,8 +71,11 @@ std::vector<double> outlierDistances(std::span<const glm::vec3> positions, unsig
     return meanDistances(tree, positions, k, pool);
 }
 
-OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned threads,
-                           const OutlierParams& params) {
+namespace {
+
+// One pass of rules 1 and 2 over `positions`.
+OutlierSearch searchOnce(std::span<const glm::vec3> positions, WorkerPool& pool,
+                         const OutlierParams& params) {
     OutlierSearch search;
     const std::size_t count = positions.size();
     const unsigned k = params.nearest;
@@ -80,7 +84,6 @@ OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned thread
     const KdCloud cloud{positions};
     KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     tree.buildIndex();
-    WorkerPool pool(threads);
     std::vector<std::uint32_t> nearest(count * (k + 1));
     const std::vector<double> distance = meanDistances(tree, positions, k, pool, nearest);
     // The statistics and both rules take the measured points only; the others are left to the
@@ -129,6 +132,34 @@ OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned thread
     });
     for (std::size_t i = 0; i < count; ++i)
         if (outlier[i]) search.outliers.push_back(static_cast<std::uint32_t>(i));
+    return search;
+}
+
+} // namespace
+
+OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned threads,
+                           const OutlierParams& params) {
+    WorkerPool pool(threads);
+    OutlierSearch search = searchOnce(positions, pool, params);
+    std::vector<std::uint32_t> left, found = search.outliers, merged;
+    std::vector<glm::vec3> leftPositions;
+    for (unsigned pass = 1; pass < params.passes && !found.empty(); ++pass) {
+        left.clear();
+        leftPositions.clear();
+        for (std::uint32_t i = 0, k = 0; i < positions.size(); ++i) {
+            if (k < search.outliers.size() && search.outliers[k] == i) {
+                ++k;
+                continue;
+            }
+            left.push_back(i);
+            leftPositions.push_back(positions[i]);
+        }
+        found = searchOnce(leftPositions, pool, params).outliers;
+        for (std::uint32_t& i : found) i = left[i];
+        merged.clear();
+        std::ranges::merge(search.outliers, found, std::back_inserter(merged));
+        std::swap(search.outliers, merged);
+    }
     return search;
 }
 

@@ -117,9 +117,9 @@ TEST(Outliers, PointAboveAPlaneIsFoundByTheOffsetRule) {
 
 // Stray points shield each other: a point 2.5 spacings above a plane is found by the offset rule
 // alone, but with a second one 2.5 spacings above it, the second (the more isolated) is all the
-// first pass finds: the first's nearest then include it, whose plane tilts up towards the first and
-// whose distance raises the first's bound. The next pass, without the second, finds the first, and
-// the one after that nothing more (no point of the plane).
+// first pass finds: with it among the first's nearest, the vertical is a direction of large
+// variance, and their plane stands up through the first. The second pass, without the second
+// point, finds the first, and the next nothing more (no point of the plane).
 TEST(Outliers, PointsThatShieldEachOtherAreFoundInTheNextPass) {
     PointSet plane;
     for (int y = 0; y < 30; ++y)
@@ -133,6 +133,9 @@ TEST(Outliers, PointsThatShieldEachOtherAreFoundInTheNextPass) {
     OutlierParams onePass;
     onePass.passes = 1;
     EXPECT_EQ(findOutliers(plane.position, 2, onePass).outliers, (std::vector<std::uint32_t>{901}));
+    OutlierParams twoPasses;
+    twoPasses.passes = 2;
+    EXPECT_EQ(findOutliers(plane.position, 2, twoPasses).outliers, (std::vector<std::uint32_t>{900, 901}));
     EXPECT_EQ(findOutliers(plane.position, 2).outliers, (std::vector<std::uint32_t>{900, 901}));
     EXPECT_EQ(findOutliers(plane.position, 1).outliers, (std::vector<std::uint32_t>{900, 901}));
 }

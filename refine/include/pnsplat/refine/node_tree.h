@@ -52,10 +52,10 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    of detail).
 //  - splatRadius: the radius its splat is measured with (and drawn with, drawRadius below), the
 //    distance to the farthest of them, at most its own radius (the point's radius when it has no
-//    neighbour). Choice (docs/REALTIME.md, "Splats
-//    of the local spacing"): the refinement's radius reaches the farthest member of the point's
-//    next one-ring, about twice the spacing, so that its disk covers each pixel many times over; the
-//    sixth nearest point lies about 1.3 spacings away and still covers the surface.
+//    neighbour). Choice (docs/REALTIME.md, "Splats of the local spacing"): the refinement's radius
+//    reaches the farthest member of the point's next one-ring, about twice the spacing, so that its
+//    disk covers each pixel many times over; the sixth nearest point lies about 1.3 spacings away
+//    and still covers the surface.
 //  - drawRadius: the radius its splat is drawn with: splatRadius, except at an open boundary (its
 //    nearest leave more than kOpenAngle free around it in its tangent plane; not a crease point,
 //    whose nearest across the crease lie off its plane), where it is at most
@@ -93,7 +93,7 @@ struct NodeSettings {
 struct Node {
     Region region;                // the part of space the node owns
     glm::vec3 lo{0.0f}, hi{0.0f}; // the box of its points (refit)
-    float maxRadius = 0.0f;       // of its splats (splatRadius)
+    float maxRadius = 0.0f;       // of its splats (shape.splatRadius)
     float maxPointRadius = 0.0f;  // of its points (the refinement's radii): the reach of its refinement
     // The splat radius that kDrawnRadiusQuantile of its points do not exceed: the order in which
     // nodes are refined and uploaded (a few points of much larger radius, such as those whose new

@@ -15,8 +15,9 @@
 //      centroid and direction of least variance): a point a few spacings above the surface, which
 //      its density alone does not give away.
 // Both rules then run again over the points left, up to kOutlierPasses passes in all, until a pass
-// finds none: stray points near each other shield each other (one tilts the plane of another's
-// nearest towards it, or keeps its d_i down), and the first pass finds the more isolated of them.
+// finds none: stray points near each other shield each other (one among another's nearest tilts
+// their plane until it passes near the other, and keeps the other's d_i down), and the first pass
+// finds the more isolated of them.
 // The constants and the measurements behind them: ALGORITHM.md §9.7.
 //
 // Thread use: any thread; runs on the given number of worker threads (0 = all), with a result that
@@ -70,7 +71,7 @@ struct OutlierParams {
     double deviations = kOutlierDeviations;    // alpha
     double ratio = kOutlierRatio;              // rho
     double offset = kOutlierOffset;            // beta (0: rule 2 off)
-    unsigned passes = kOutlierPasses;          // at least 1
+    unsigned passes = kOutlierPasses;          // 0 or 1: one pass
     std::size_t minPoints = kOutlierMinPoints; // at most this many points: none is an outlier
 };
 

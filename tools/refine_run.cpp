@@ -265,8 +265,7 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
             stderr,
             "pnsplat: {}: {} outlier(s) left out: points far from their {} nearest (a mean distance "
             "above {:.4g}, {:.1f} times the median, in the first pass) or off their plane (the first at "
-            "{:.6g} {:.6g} "
-            "{:.6g}); --keep-outliers keeps them\n",
+            "{:.6g} {:.6g} {:.6g}); --keep-outliers keeps them\n",
             inputName, done->outliers, kOutlierNearest, done->outlierThreshold,
             done->outlierThreshold / done->outlierMedian, done->firstOutlier.x, done->firstOutlier.y,
             done->firstOutlier.z);

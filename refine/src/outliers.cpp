@@ -6,8 +6,8 @@
 #include <array>
 #include <cassert>
 #include <cmath>
-#include <iterator>
 #include <limits>
+#include <numeric>
 
 #include <glm/geometric.hpp>
 
@@ -140,26 +140,33 @@ OutlierSearch searchOnce(std::span<const glm::vec3> positions, WorkerPool& pool,
 OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned threads,
                            const OutlierParams& params) {
     WorkerPool pool(threads);
-    OutlierSearch search = searchOnce(positions, pool, params);
-    std::vector<std::uint32_t> left, found = search.outliers, merged;
-    std::vector<glm::vec3> leftPositions;
-    for (unsigned pass = 1; pass < params.passes && !found.empty(); ++pass) {
-        left.clear();
-        leftPositions.clear();
-        for (std::uint32_t i = 0, k = 0; i < positions.size(); ++i) {
-            if (k < search.outliers.size() && search.outliers[k] == i) {
-                ++k;
+    // The points still in (their indices in `positions`, and their positions), compacted after
+    // each pass.
+    std::vector<std::uint32_t> left(positions.size());
+    std::iota(left.begin(), left.end(), 0u);
+    std::vector<glm::vec3> leftPositions(positions.begin(), positions.end());
+    OutlierSearch search;
+    for (unsigned pass = 0; pass == 0 || pass < params.passes; ++pass) {
+        const OutlierSearch found = searchOnce(leftPositions, pool, params);
+        if (pass == 0) {
+            search.median = found.median;
+            search.threshold = found.threshold;
+        }
+        if (found.outliers.empty()) break;
+        std::size_t kept = 0;
+        for (std::size_t i = 0, f = 0; i < left.size(); ++i) {
+            if (f < found.outliers.size() && found.outliers[f] == i) {
+                search.outliers.push_back(left[i]);
+                ++f;
                 continue;
             }
-            left.push_back(i);
-            leftPositions.push_back(positions[i]);
+            left[kept] = left[i];
+            leftPositions[kept++] = leftPositions[i];
         }
-        found = searchOnce(leftPositions, pool, params).outliers;
-        for (std::uint32_t& i : found) i = left[i];
-        merged.clear();
-        std::ranges::merge(search.outliers, found, std::back_inserter(merged));
-        std::swap(search.outliers, merged);
+        left.resize(kept);
+        leftPositions.resize(kept);
     }
+    std::ranges::sort(search.outliers);
     return search;
 }
 

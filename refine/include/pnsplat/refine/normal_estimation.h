@@ -72,11 +72,13 @@ inline constexpr unsigned kFlippedFits = 2;
 inline constexpr unsigned kFlipRounds = 4;
 
 // The unit eigenvector of the smallest eigenvalue of the symmetric 3×3 matrix m (m[r][c]; only
-// the upper triangle is read), by cyclic Jacobi rotations in double precision, and the three
-// eigenvalues in increasing order. The vector's sign is unspecified. A pure function; any thread.
+// the upper triangle is read), by cyclic Jacobi rotations in double precision, the three
+// eigenvalues in increasing order, and the unit eigenvector of the largest. The vectors' signs are
+// unspecified. A pure function; any thread.
 struct SmallestEigen {
     glm::dvec3 vector;
     double values[3];
+    glm::dvec3 largest;
 };
 SmallestEigen smallestEigenvector(const double (&m)[3][3]);
 

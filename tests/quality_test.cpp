@@ -4,6 +4,8 @@
 // --reference syntax.
 #include <algorithm>
 #include <cmath>
+#include <iostream>
+#include <limits>
 #include <numeric>
 #include <random>
 
@@ -334,36 +336,23 @@ TEST(SphereEval, RemovedPatchReportsHoles) {
     EXPECT_GT(report.holes, 0.07);
     EXPECT_LT(report.holes, 0.1);
     EXPECT_NEAR(report.uniformityCv, fullReport.uniformityCv, 0.01);
-    // The holes are the samples of the cap, gaps in the tangent plane too, except in a thin band
-    // along the rim: there the sphere curves away from the sample's tangent plane, and the points
-    // below the rim come closer in it than in space.
+    // The holes are the samples of the cap, and gaps each (the points lie on the sphere, their own
+    // projections).
     ASSERT_EQ(report.holePoints.size(), report.holeReferencePoints);
     EXPECT_TRUE(fullReport.holePoints.empty());
-    const float rimReach = static_cast<float>(2.0 * report.spacingMean);
-    std::size_t gaps = 0;
-    float highestOffSurface = 0.0f;
     for (std::size_t i = 0; i < report.holePoints.size(); ++i) {
         const glm::vec3 q = report.holePoints.position[i];
         EXPECT_GT(q.z, 0.8f) << "hole " << i;
         EXPECT_NEAR(glm::length(q), 1.0f, 1e-5f);
         EXPECT_GT(glm::dot(report.holePoints.normal[i], q), 0.999f);
-        if (report.holePoints.colour[i] == kGapColour) {
-            ++gaps;
-        } else {
-            EXPECT_EQ(report.holePoints.colour[i], kOffSurfaceColour);
-            highestOffSurface = std::max(highestOffSurface, q.z);
-        }
+        EXPECT_EQ(report.holePoints.colour[i], kGapColour) << "hole " << i;
     }
-    std::cout << "[sphere without its cap] " << report.holeReferencePoints << " holes, " << gaps
-              << " gaps; off-surface up to z = " << highestOffSurface << " (rim 0.8, hole distance "
-              << rimReach << ")\n";
-    EXPECT_EQ(gaps, static_cast<std::size_t>(std::lround(report.holesTangential * 200000.0)));
-    EXPECT_GT(gaps, report.holePoints.size() * 9 / 10);
-    EXPECT_LT(highestOffSurface, 0.8f + rimReach);
+    EXPECT_EQ(report.gaps, report.holes);
 }
 
 // A sampling lifted off the true surface by more than twice its spacing covers it in the tangent
-// plane: every sample is a hole in space, and each is marked off-surface, none a gap.
+// plane and projected onto it: every sample is a hole in space, and each is marked off-surface,
+// none a gap.
 TEST(SphereEval, LiftedSurfaceHolesAreOffSurfaceNotGaps) {
     PointSet lifted = sampleSphereUniform(20000, 1.0f);
     for (glm::vec3& p : lifted.position) p *= 1.08f;
@@ -372,8 +361,55 @@ TEST(SphereEval, LiftedSurfaceHolesAreOffSurfaceNotGaps) {
     ASSERT_LT(2.0 * report.spacingMean, 0.08); // the lift is beyond the hole distance
     EXPECT_EQ(report.holeReferencePoints, 20000u);
     EXPECT_EQ(report.holesTangential, 0.0);
+    EXPECT_EQ(report.gaps, 0.0);
     ASSERT_EQ(report.holePoints.size(), 20000u);
     for (const glm::u8vec3& colour : report.holePoints.colour) EXPECT_EQ(colour, kOffSurfaceColour);
+}
+
+// Gaps measure the true surface uncovered by the refined points projected onto it, wherever the
+// refined surface lies: a plane of 41 x 41 vertices, and a sampling of it lifted far above (holes
+// everywhere in space) with a square cut out. The gaps are the vertices that brute force finds
+// farther than twice the spacing from every projected point: the cut square less a rim.
+TEST(MeshReference, GapsAreTheSurfaceUncoveredByTheProjectedPoints) {
+    PointSet plane;
+    std::vector<glm::u32vec3> triangles;
+    constexpr std::uint32_t kSide = 41;
+    for (std::uint32_t j = 0; j < kSide; ++j)
+        for (std::uint32_t i = 0; i < kSide; ++i) {
+            plane.position.emplace_back(static_cast<float>(i) / 40.0f, static_cast<float>(j) / 40.0f, 0.0f);
+            plane.normal.emplace_back(0.0f, 0.0f, 1.0f);
+            if (i + 1 < kSide && j + 1 < kSide) {
+                const std::uint32_t v = j * kSide + i;
+                triangles.push_back({v, v + 1, v + kSide + 1});
+                triangles.push_back({v, v + kSide + 1, v + kSide});
+            }
+        }
+    const Reference ref = meshReference(plane, triangles, "plane").value();
+    PointSet lifted;
+    for (int j = 0; j <= 80; ++j)
+        for (int i = 0; i <= 80; ++i) {
+            const glm::vec2 xy(static_cast<float>(i) / 80.0f, static_cast<float>(j) / 80.0f);
+            if (xy.x > 0.3f && xy.x < 0.7f && xy.y > 0.3f && xy.y < 0.7f) continue;
+            lifted.position.emplace_back(xy, 0.5f);
+            lifted.normal.emplace_back(0.0f, 0.0f, 1.0f);
+        }
+    const QualityReport report = evaluateQuality(lifted, ref, nullptr, {.threads = 2});
+    EXPECT_EQ(report.holes, 1.0);
+    const float reach = static_cast<float>(2.0 * report.spacingMean);
+    std::size_t gaps = 0;
+    for (const glm::vec3& v : plane.position) {
+        float nearest = std::numeric_limits<float>::infinity();
+        for (const glm::vec3& p : lifted.position)
+            nearest = std::min(nearest, glm::length(glm::vec3(p.x, p.y, 0.0f) - v));
+        gaps += nearest > reach ? 1 : 0;
+    }
+    std::cout << "[lifted plane with a square cut out] " << gaps << " gaps of " << plane.size()
+              << " vertices\n";
+    EXPECT_GT(gaps, 100u);
+    EXPECT_EQ(report.gaps, static_cast<double>(gaps) / static_cast<double>(plane.size()));
+    std::size_t red = 0;
+    for (const glm::u8vec3& colour : report.holePoints.colour) red += colour == kGapColour ? 1 : 0;
+    EXPECT_EQ(red, gaps);
 }
 
 TEST(Uniformity, PerfectGridHasZeroVariation) {
@@ -517,7 +553,7 @@ TEST(Json, StableKeysAndEscaping) {
          {"\"points\": 12", "\"reference\": \"dir\\\\with \\\"quotes\\\".ply\"", "\"distance\": {",
           "\"mean\":", "\"rms\": 0.5", "\"max\":", "\"mean_rel\":", "\"rms_rel\":", "\"max_rel\":",
           "\"p99\":", "\"p99_rel\":", "\"normal_error_deg\": {", "\"p95\":", "\"uniformity_cv\": null",
-          "\"holes\":", "\"input_preserved\": null", "\"input_missing\": null"})
+          "\"holes\":", "\"gaps\":", "\"input_preserved\": null", "\"input_missing\": null"})
         EXPECT_NE(json.find(key), std::string::npos) << key << " in " << json;
     EXPECT_EQ(json.front(), '{');
     EXPECT_EQ(json.back(), '}');

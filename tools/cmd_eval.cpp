@@ -92,8 +92,8 @@ void addEvalCommand(CLI::App& app) {
     cmd->add_option(
         "--hole-map", args->holeMap,
         "Write a PLY to look at (pnsplat render): the refined points in grey and the reference points "
-        "counted as holes, red where no refined point is near in their tangent plane either (a gap in "
-        "the sampling), orange where the refined surface passes off the true one");
+        "counted as holes or gaps, red where they are gaps (no refined point projected onto the surface "
+        "is near: the true surface is uncovered), orange where the refined surface passes off the true one");
     cmd->add_flag(
         "--flat-normals", args->flatNormals,
         "A mesh reference's true normal is the closest triangle's own, not its vertex normals interpolated "
@@ -110,6 +110,10 @@ void addEvalCommand(CLI::App& app) {
         "  uniformity_cv     std / mean of those nearest-neighbour distances (0 = perfectly even)\n"
         "  holes             share of reference points with no refined point within 2 x spacing_mean\n"
         "  holes_tangential  the same, distances measured in the reference point's tangent plane\n"
+        "  gaps              share of reference points farther than 2 x spacing_mean from every refined "
+        "point\n"
+        "                    projected onto the true surface (its closest point there): the surface left "
+        "uncovered\n"
         "  input_preserved   every --input point's position and normal (position alone for an input without "
         "normals)\n"
         "                    in the output bit for bit (+ input_missing)\n"

@@ -403,18 +403,23 @@ float normalError(const PointSet& refined, std::size_t i, glm::vec3 truth) {
     return static_cast<float>(a);
 }
 
-void measureAgainstAnalytic(const Evaluation& eval, std::span<float> distance, std::span<float> angle) {
+// Each measure fills, per refined point, its distance to the true surface, its normal error and
+// its projection onto the surface (the closest point).
+void measureAgainstAnalytic(const Evaluation& eval, std::span<float> distance, std::span<float> angle,
+                            std::span<glm::vec3> projected) {
     const AnalyticSurface& s = *eval.reference.surface;
     const PointSet& refined = eval.refined;
     parallelForRanges(eval.pool, refined.size(), kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
         for (std::size_t i = begin; i < end; ++i) {
             distance[i] = s.distance(refined.position[i]);
+            projected[i] = s.closestPoint(refined.position[i]);
             angle[i] = normalError(refined, i, s.normalAt(refined.position[i]));
         }
     });
 }
 
-void measureAgainstMesh(const Evaluation& eval, std::span<float> distance, std::span<float> angle) {
+void measureAgainstMesh(const Evaluation& eval, std::span<float> distance, std::span<float> angle,
+                        std::span<glm::vec3> projected) {
     const PointSet& refined = eval.refined;
     const std::vector<glm::u32vec3>& triangles = eval.reference.triangles;
     const auto& vp = eval.reference.points.position;
@@ -433,13 +438,15 @@ void measureAgainstMesh(const Evaluation& eval, std::span<float> distance, std::
                 if (length2(face) > 0.0f) normal = glm::dot(face, normal) < 0.0f ? -face : face;
             }
             distance[i] = std::sqrt(hit.distanceSquared);
+            projected[i] = hit.point;
             angle[i] = normalError(refined, i, normal);
         }
     });
 }
 
 // Points only: the nearest reference point's tangent plane stands for the surface.
-void measureAgainstPoints(const Evaluation& eval, std::span<float> distance, std::span<float> angle) {
+void measureAgainstPoints(const Evaluation& eval, std::span<float> distance, std::span<float> angle,
+                          std::span<glm::vec3> projected) {
     const PointSet& refined = eval.refined;
     const PointSet& reference = eval.reference.points;
     const KdCloud cloud{reference.position};
@@ -448,7 +455,9 @@ void measureAgainstPoints(const Evaluation& eval, std::span<float> distance, std
         for (std::size_t i = begin; i < end; ++i) {
             const std::uint32_t q = nearest(*tree, refined.position[i]).first;
             const glm::vec3 nq = reference.normal[q];
-            distance[i] = std::abs(glm::dot(refined.position[i] - reference.position[q], nq));
+            const float offset = glm::dot(refined.position[i] - reference.position[q], nq);
+            distance[i] = std::abs(offset);
+            projected[i] = refined.position[i] - offset * nq;
             angle[i] = normalError(refined, i, nq);
         }
     });
@@ -528,9 +537,10 @@ PointSet analyticSamplesOf(const AnalyticSurface& s, std::size_t count) {
     return samples;
 }
 
-// 3. Holes: reference samples with no refined point within twice the mean spacing.
-void measureHoles(const Evaluation& eval, const KdTree& refinedTree, double spacingMean,
-                  QualityReport& report) {
+// 3. Holes: reference samples with no refined point within twice the mean spacing; gaps: the same
+// with the refined points `projected` onto the true surface.
+void measureHoles(const Evaluation& eval, const KdTree& refinedTree, std::span<const glm::vec3> projected,
+                  double spacingMean, QualityReport& report) {
     const Reference& reference = eval.reference;
     PointSet analyticSamples;
     if (reference.isAnalytic())
@@ -544,7 +554,9 @@ void measureHoles(const Evaluation& eval, const KdTree& refinedTree, double spac
     const auto& sampleNormals = reference.isAnalytic() ? analyticSamples.normal : reference.points.normal;
     const auto threshold2 = static_cast<float>(4.0 * spacingMean * spacingMean);
     constexpr std::size_t kTangentialNearest = 8;
-    std::vector<std::uint8_t> uncovered(m), uncoveredTangential(m);
+    const KdCloud projectedCloud{projected};
+    const std::unique_ptr<KdTree> projectedTree = makePointTree(projectedCloud);
+    std::vector<std::uint8_t> uncovered(m), uncoveredTangential(m), uncoveredProjected(m);
     parallelForRanges(eval.pool, m, kChunk, [&](std::size_t begin, std::size_t end, unsigned) {
         std::array<std::uint32_t, kTangentialNearest> index;
         std::array<float, kTangentialNearest> d2;
@@ -560,19 +572,22 @@ void measureHoles(const Evaluation& eval, const KdTree& refinedTree, double spac
                 tangential2 = std::min(tangential2, glm::dot(d, d) - along * along);
             }
             uncoveredTangential[j] = tangential2 > threshold2;
+            uncoveredProjected[j] = nearest(*projectedTree, q).second > threshold2;
         }
     });
-    std::size_t holes = 0, holesTangential = 0;
-    for (std::size_t j = 0; j < m; ++j) holes += uncovered[j], holesTangential += uncoveredTangential[j];
+    std::size_t holes = 0, holesTangential = 0, gaps = 0;
+    for (std::size_t j = 0; j < m; ++j)
+        holes += uncovered[j], holesTangential += uncoveredTangential[j], gaps += uncoveredProjected[j];
     report.holeReferencePoints = holes;
     for (std::size_t j = 0; j < m; ++j) {
-        if (!uncovered[j]) continue;
+        if (!uncovered[j] && !uncoveredProjected[j]) continue;
         report.holePoints.position.push_back(samples[j]);
         report.holePoints.normal.push_back(sampleNormals[j]);
-        report.holePoints.colour.push_back(uncoveredTangential[j] ? kGapColour : kOffSurfaceColour);
+        report.holePoints.colour.push_back(uncoveredProjected[j] ? kGapColour : kOffSurfaceColour);
     }
     report.holes = m > 0 ? static_cast<double>(holes) / static_cast<double>(m) : 0.0;
     report.holesTangential = m > 0 ? static_cast<double>(holesTangential) / static_cast<double>(m) : 0.0;
+    report.gaps = m > 0 ? static_cast<double>(gaps) / static_cast<double>(m) : 0.0;
 }
 
 // 4. Input preservation: each input point's 6 floats, bit for bit, among the output's.
@@ -622,19 +637,20 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
 
     // 1. Distance to the true surface and normal error, per refined point.
     std::vector<float> distance(n), angle(n);
+    std::vector<glm::vec3> projected(n);
     if (reference.isAnalytic())
-        measureAgainstAnalytic(eval, distance, angle);
+        measureAgainstAnalytic(eval, distance, angle, projected);
     else if (reference.isMesh())
-        measureAgainstMesh(eval, distance, angle);
+        measureAgainstMesh(eval, distance, angle, projected);
     else
-        measureAgainstPoints(eval, distance, angle);
+        measureAgainstPoints(eval, distance, angle, projected);
     summariseErrors(distance, angle, report);
 
     const KdCloud refinedCloud{refined.position};
     const std::unique_ptr<KdTree> refinedTree = makePointTree(refinedCloud);
     std::vector<float>& spacing = distance; // reuse the array
     measureUniformity(eval, *refinedTree, spacing, report);
-    measureHoles(eval, *refinedTree, report.spacingMean, report);
+    measureHoles(eval, *refinedTree, projected, report.spacingMean, report);
     if (input) measureInputPreservation(refined, *input, report);
     return report;
 }
@@ -649,14 +665,14 @@ std::string toJson(const QualityReport& r) {
         "\"distance\": {{\"mean\": {}, \"rms\": {}, \"p99\": {}, \"max\": {}, \"mean_rel\": {}, "
         "\"rms_rel\": {}, \"p99_rel\": {}, \"max_rel\": {}}}, "
         "\"normal_error_deg\": {{\"mean\": {}, \"p95\": {}, \"max\": {}}}, "
-        "\"spacing_mean\": {}, \"uniformity_cv\": {}, \"holes\": {}, \"holes_tangential\": {}, "
+        "\"spacing_mean\": {}, \"uniformity_cv\": {}, \"holes\": {}, \"holes_tangential\": {}, \"gaps\": {}, "
         "\"input_points\": {}, \"input_preserved\": {}, \"input_missing\": {}}}",
         r.points, jsonString(r.reference), r.referencePoints, r.referenceTriangles, jsonNumber(r.diagonal),
         jsonNumber(r.distanceMean), jsonNumber(r.distanceRms), jsonNumber(r.distanceP99),
         jsonNumber(r.distanceMax), jsonNumber(r.distanceMeanRel), jsonNumber(r.distanceRmsRel),
         jsonNumber(r.distanceP99Rel), jsonNumber(r.distanceMaxRel), jsonNumber(r.normalErrorMeanDeg),
         jsonNumber(r.normalErrorP95Deg), jsonNumber(r.normalErrorMaxDeg), jsonNumber(r.spacingMean),
-        jsonNumber(r.uniformityCv), jsonNumber(r.holes), jsonNumber(r.holesTangential),
+        jsonNumber(r.uniformityCv), jsonNumber(r.holes), jsonNumber(r.holesTangential), jsonNumber(r.gaps),
         inputValue(r.inputPoints), inputValue(r.inputPreserved), inputValue(r.inputMissing));
 }
 

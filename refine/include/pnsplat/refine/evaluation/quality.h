@@ -14,6 +14,8 @@
 //   same test with distances measured in the sample's tangent plane (to the nearest 8 refined
 //   points), which tells a gap in the sampling from a refined surface that lies slightly off the
 //   true one (for a sparse input, the approximation error can exceed twice the refined spacing);
+//   gaps is the same test against the refined points projected onto the true surface (their
+//   closest points there), the uncovered surface as issue 27 defines it;
 // - input preservation: whether every input point appears in the output with bit-identical
 //   position and normal (the method is interpolatory, ALGORITHM.md §1.1), and how many do not; for an input
 //   of positions only (its normals were estimated when it was refined), position alone.
@@ -141,10 +143,15 @@ struct QualityReport {
     double uniformityCv = 0.0;    // std / mean of those distances (population std)
     double holes = 0.0;           // share in [0, 1] of reference points not covered
     double holesTangential = 0.0; // the same, distances measured in the sample's tangent plane
+    // The share of samples farther than twice spacingMean from every refined point projected onto
+    // the true surface (its closest point there; for reference points, onto the nearest one's
+    // tangent plane): the uncovered true surface, wherever the refined one lies (issue 27's "gaps
+    // on the true surface").
+    double gaps = 0.0;
     std::size_t holeReferencePoints = 0;
-    // The holeReferencePoints samples themselves, coloured kGapColour where they are holes in the
-    // tangent plane too (a gap in the sampling) and kOffSurfaceColour where they are not (the
-    // refined surface passes there, off the true one): where the holes are, to look at.
+    // The samples that are holes or gaps, coloured kGapColour where they are gaps (the true
+    // surface uncovered) and kOffSurfaceColour where they are holes only (the refined surface
+    // passes there, off the true one): where the holes are, to look at.
     PointSet holePoints;
 
     bool hasInput = false; // the fields below are meaningful only with an input
@@ -168,7 +175,7 @@ QualityReport evaluateQuality(const PointSet& refined, const Reference& referenc
 // {"points", "reference", "reference_points", "reference_triangles", "diagonal",
 //  "distance": {"mean", "rms", "p99", "max", "mean_rel", "rms_rel", "p99_rel", "max_rel"},
 //  "normal_error_deg": {"mean", "p95", "max"}, "spacing_mean", "uniformity_cv", "holes", "holes_tangential",
-//  "input_points", "input_preserved", "input_missing"}; the input_* values are null without an
+//  "gaps", "input_points", "input_preserved", "input_missing"}; the input_* values are null without an
 // input. Non-finite numbers are written as null. Ends without a newline.
 std::string toJson(const QualityReport& report);
 

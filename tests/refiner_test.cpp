@@ -2037,21 +2037,24 @@ TEST(RefinerCreases, FandiskIsCloserToItsMeshWithCreaseNormals) {
     const QualityReport s = evaluateQuality(sharp.points(), *ref, &creased, flat);
     const QualityReport b = evaluateQuality(blunt.points(), *ref, &averaged, flat);
     // Crease segments, each split in three at the first level: the fans alone gave 61 (183 after
-    // the split); the crease points within 1.5 r (creaseNeighbours) give 123.
+    // the split); the crease points within 1.5 r gave 123, within 2 r (kCreaseReach) 142.
     std::cout << "[fandisk creases] " << first.boundarySegments / 3 << " crease segments in P0\n";
-    EXPECT_GE(first.boundarySegments, 3u * 110u);
+    EXPECT_GE(first.boundarySegments, 3u * 128u);
     std::cout << "[fandisk creases, " << levels << " levels] points " << s.points << " / " << b.points
               << "; mean distance " << s.distanceMeanRel * 100.0 << " / " << b.distanceMeanRel * 100.0
               << " % of diag, RMS " << s.distanceRmsRel * 100.0 << " / " << b.distanceRmsRel * 100.0
               << " %, max " << s.distanceMaxRel * 100.0 << " / " << b.distanceMaxRel * 100.0
               << " %, normal mean " << s.normalErrorMeanDeg << " / " << b.normalErrorMeanDeg << " deg, CV "
               << s.uniformityCv << " / " << b.uniformityCv << ", holes " << s.holes << " / " << b.holes
-              << " (two normals / averaged)\n";
+              << ", gaps " << s.gaps << " / " << b.gaps << " (two normals / averaged)\n";
     EXPECT_TRUE(s.inputPreserved);
     EXPECT_LT(s.distanceMeanRel, 0.7 * b.distanceMeanRel);
     EXPECT_LT(s.distanceRmsRel, 0.9 * b.distanceRmsRel);
     EXPECT_LT(s.normalErrorMeanDeg, b.normalErrorMeanDeg);
     EXPECT_LT(s.holes, b.holes);
+    // Edges without a segment are left unfilled (ALGORITHM.md §6.4): 3.83 % of the mesh's vertices
+    // (all on its creases) with crease neighbours within 1.5 r, 2.78 % within 2 r.
+    EXPECT_LT(s.gaps, 0.03);
 }
 
 // A crease point whose second normal (nearly) equals its first has no crease direction: its

@@ -132,8 +132,9 @@ bool PointStep::madeByCorner(glm::vec3 q, std::uint32_t corner) const {
 // The points of P(l) that the refinement of a group of points (one cell, or one large point) may
 // need: every point within reachFactor·r_max of the group's box, found once, into `nearby`. Each
 // point of the group then picks its Euclidean neighbourhood from this short list, which costs far
-// less than one search per point. reachFactor is 1 for the first search and kRetryReach for a
-// point searched again wider (rare: a group of its own then). The points of one colour cell (key
+// less than one search per point. reachFactor is 1 for the first search, kRetryReach for a
+// point searched again wider (rare: a group of its own then), and kCreaseReach for a crease
+// point's crease neighbours (findSegmentsOf, without a cell). The points of one colour cell (key
 // `cell`) have r <= r_lim, so the box grown by kRetryReach·r_max < s stays within the 3×3×3 cells
 // around theirs, read from the grid; a single large point is found through the bounding-sphere
 // hierarchy (section 7). Both give the same set; its order does not matter (the neighbourhoods
@@ -524,7 +525,7 @@ void PointStep::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t
             ++s.boundaryInserted;
             // The first point joins N'_p (it fills the gap along the segment), unless it lies
             // farther than c_β,max · r_p: choice, as for Y_p's substitutes, so that r' stays within
-            // the convergence bound of ALGORITHM.md §4.7 (a segment may be up to kRetryReach · r long).
+            // the convergence bound of ALGORITHM.md §4.7 (a segment may be up to kCreaseReach · r long).
             if (third == 1 && withinConvergenceBound(p, q))
                 insertIntoRing(s.ring, RingMember{cell, local, q, facing(np.normal, np.crease, frame.n),
                                                   frame.angleOf(q - x)});
@@ -533,16 +534,16 @@ void PointStep::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t
 }
 
 // Crease neighbours of a crease point p (section 6): among the crease points of the same crease
-// closer than kRetryReach·r_p (the points gathered for the wider second look), the nearest on
-// each side along the crease direction n1 × n2 (choice: within 45° of it, so that a point of a
-// parallel crease is not taken). UINT32_MAX where there is none. Choice: not only those that pass
-// the fuzzy filter into p's fan. An edge is sampled as sparsely as the faces beside it, and the
-// filtered first ring of a crease point often holds no crease point ahead: on the fandisk's 179
-// crease points the fans gave 61 segments, r gives 92 and 1.5 r 123 (RefinerCreases). A segment
-// longer than r_p needs splitSegments' guard on N'_p for the convergence bound of ALGORITHM.md §4.7; with it,
-// wider balls (2 r, 3 r) still broke the bound at level 5 (r'/r up to 0.983). None for a point
-// whose two normals are less than 1° apart (creaseDirection; before, such points within 1° of
-// parallel found neighbours along a direction made of rounding, and exactly parallel ones none).
+// closer than kCreaseReach·r_p (`nearby` holds those), the nearest on each side along the crease
+// direction n1 × n2 (choice: within 45° of it, so that a point of a parallel crease is not taken).
+// UINT32_MAX where there is none. Choice: not only those that pass the fuzzy filter into p's fan.
+// An edge is sampled as sparsely as the faces beside it, and the filtered first ring of a crease
+// point often holds no crease point ahead: on the fandisk's 179 crease points the fans gave 61
+// segments, r gives 92, 1.5 r 123 and 2 r 131 (RefinerCreases); a crease line without a segment
+// is left unfilled (ALGORITHM.md §6.4). A segment longer than r_p needs splitSegments' guard on
+// N'_p for the convergence bound of ALGORITHM.md §4.7. None for a point whose two normals are less
+// than 1° apart (creaseDirection; before, such points within 1° of parallel found neighbours
+// along a direction made of rounding, and exactly parallel ones none).
 std::array<std::uint32_t, 2> PointStep::creaseNeighbours(std::uint32_t p,
                                                          std::span<const NearbyPoint> nearby) const {
     const PointSet& points = level_.points;
@@ -550,7 +551,7 @@ std::array<std::uint32_t, 2> PointStep::creaseNeighbours(std::uint32_t p,
     const glm::vec3 direction = creaseDirection(n1, n2);
     std::array<std::uint32_t, 2> ends{UINT32_MAX, UINT32_MAX};
     if (direction == glm::vec3(0.0f)) return ends;
-    const float reach = kRetryReach * level_.levelRadius[p];
+    const float reach = kCreaseReach * level_.levelRadius[p];
     std::array<float, 2> nearest{std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
     for (const NearbyPoint& candidate : nearby) {
         const std::uint32_t i = candidate.index;

@@ -43,8 +43,8 @@ void Segments::split(std::span<const std::uint32_t> childBegin, std::span<const 
 // The segments of section 6, from the neighbourhoods of P0. Boundary: potential boundary points are those
 // whose fan leaves an opening wider than θb (after the wider second search); the two fan
 // neighbours at the ends of the opening, when they are potential boundary points too, make
-// boundary segments with the point. Crease: each crease point with its crease neighbours (in its
-// ball, creaseNeighbours).
+// boundary segments with the point. Crease: each crease point with its crease neighbours (within
+// kCreaseReach times its radius, creaseNeighbours).
 std::vector<Segment> findSegmentsOf(const PointStep& step, std::uint32_t count, WorkerPool& pool,
                                     std::span<WorkerScratch> scratch) {
     const LevelView& level = step.level();
@@ -67,7 +67,10 @@ std::vector<Segment> findSegmentsOf(const PointStep& step, std::uint32_t count, 
             }
             if (cut) break; // a wider search would keep the same neighbours
         }
-        if (level.points.isCrease(p)) creaseEnds[p] = step.creaseNeighbours(p, s.nearby);
+        if (level.points.isCrease(p)) {
+            step.gatherNearby(std::span(&p, 1), std::nullopt, kCreaseReach, s.wideNearby, s);
+            creaseEnds[p] = step.creaseNeighbours(p, s.wideNearby);
+        }
         const std::size_t m = s.fan.size();
         if (!level.options.boundaries || !open || m < 2)
             return; // closed, or isolated: no direction to follow

@@ -539,7 +539,7 @@ void PointStep::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t
 // UINT32_MAX where there is none. Choice: not only those that pass the fuzzy filter into p's fan.
 // An edge is sampled as sparsely as the faces beside it, and the filtered first ring of a crease
 // point often holds no crease point ahead: on the fandisk's 179 crease points the fans gave 61
-// segments, r gives 92, 1.5 r 123 and 2 r 131 (RefinerCreases); a crease line without a segment
+// segments, r gives 92, 1.5 r 123 and 2 r 142 (RefinerCreases); a crease line without a segment
 // is left unfilled (ALGORITHM.md §6.4). A segment longer than r_p needs splitSegments' guard on
 // N'_p for the convergence bound of ALGORITHM.md §4.7. None for a point whose two normals are less
 // than 1° apart (creaseDirection; before, such points within 1° of parallel found neighbours

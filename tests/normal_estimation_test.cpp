@@ -8,6 +8,7 @@
 #include <numeric>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -211,6 +212,25 @@ void sampleBoxSurface(PointSet& points, glm::vec3 lo, glm::vec3 hi, int count, s
     }
 }
 
+// Estimates the normals of `given`'s positions and counts those facing against `given`'s: of its
+// first `part` points, and of the rest (the sphere). Prints both.
+std::pair<std::size_t, std::size_t> inwardOfPartAndRest(const PointSet& given, std::size_t part,
+                                                        const char* shape, const char* partName,
+                                                        std::uint64_t seed) {
+    PointSet points = withoutNormals(given);
+    const auto estimate = estimateNormals(points, 2);
+    if (!estimate.ok()) {
+        ADD_FAILURE() << estimate.error().message;
+        return {part, points.size() - part}; // every one counted inward
+    }
+    std::size_t partInward = 0, restInward = 0;
+    for (std::size_t i = 0; i < points.size(); ++i)
+        if (glm::dot(points.normal[i], given.normal[i]) < 0.0f) ++(i < part ? partInward : restInward);
+    std::cout << "[" << shape << ", seed " << seed << "] inward: sphere " << restInward << " of "
+              << points.size() - part << ", " << partName << " " << partInward << " of " << part << "\n";
+    return {partInward, restInward};
+}
+
 // A unit sphere with a fin thinner than the spacing standing on its top: a box 0.06 thick and 1
 // wide up to z = 1.8 (about 1,500 points on each). The fin's top, where the propagation starts,
 // has a horizontal normal and its two faces mix in every neighbourhood, so the start's +z said
@@ -235,14 +255,7 @@ TEST(NormalEstimation, AThinFinDoesNotTurnItsBodyInsideOut) {
             given.position.push_back(x);
             given.normal.push_back(x);
         }
-        PointSet points = withoutNormals(given);
-        const auto estimate = estimateNormals(points, 2);
-        ASSERT_TRUE(estimate.ok()) << estimate.error().message;
-        std::size_t finInward = 0, sphereInward = 0;
-        for (std::size_t i = 0; i < points.size(); ++i)
-            if (glm::dot(points.normal[i], given.normal[i]) < 0.0f) ++(i < fin ? finInward : sphereInward);
-        std::cout << "[finned sphere, seed " << seed << "] inward: sphere " << sphereInward << " of "
-                  << points.size() - fin << ", fin " << finInward << " of " << fin << "\n";
+        const auto [finInward, sphereInward] = inwardOfPartAndRest(given, fin, "finned sphere", "fin", seed);
         EXPECT_LE(sphereInward, 15u) << "seed " << seed;
         EXPECT_LT(finInward, fin / 4) << "seed " << seed;
     }
@@ -272,13 +285,8 @@ TEST(NormalEstimation, AThinTailFacesOutward) {
             given.position.push_back(x);
             given.normal.push_back(x);
         }
-        PointSet points = withoutNormals(given);
-        ASSERT_TRUE(estimateNormals(points, 2).ok());
-        std::size_t tailInward = 0, sphereInward = 0;
-        for (std::size_t i = 0; i < points.size(); ++i)
-            if (glm::dot(points.normal[i], given.normal[i]) < 0.0f) ++(i < tail ? tailInward : sphereInward);
-        std::cout << "[sphere with a tail, seed " << seed << "] inward: sphere " << sphereInward << " of "
-                  << points.size() - tail << ", tail " << tailInward << " of " << tail << "\n";
+        const auto [tailInward, sphereInward] =
+            inwardOfPartAndRest(given, tail, "sphere with a tail", "tail", seed);
         EXPECT_LE(sphereInward, 15u) << "seed " << seed;
         EXPECT_LE(tailInward, tail / 6) << "seed " << seed;
     }

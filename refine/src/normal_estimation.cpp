@@ -506,12 +506,12 @@ Result<void> checkDistinct(std::span<const glm::vec3> distinct, std::size_t coun
 }
 
 // The normal of a point x from the eigen decomposition e of the covariance of x and its
-// neighbours (`count` points; d = x - their centroid): the direction of least variance where the neighbours
-// spread about a plane; where they spread as much across it (a part thinner than the spacing, whose
-// neighbours lie all around it: a tail, a strand of a mane, a tuft), the direction from the centroid to x,
-// across the axis of largest variance for a tube (kNoPlane, kTube). Choice (beyond Hoppe):
-// there the least variance is any direction across the part, more often than not far from x's
-// own, and its sign had nothing to go by; x lies outward of the centroid on such a part.
+// neighbours (`count` points; d = x - their centroid). Where they spread about a plane, the
+// direction of least variance. Where they spread as much across it (a part thinner than the
+// spacing, whose neighbours lie all around it: a tail, a strand of a mane, a tuft), the direction
+// from the centroid to x, taken across the axis of largest variance for a tube (kNoPlane, kTube).
+// Choice (beyond Hoppe): there the least variance is any direction across the part, often far
+// from x's own, and its sign had nothing to go by; x lies outward of the centroid on such a part.
 // Measured on 60 random 3,500-point subsets of each reference of ../shared/data (ALGORITHM.md
 // §9.2): subsets above 1 % inward from 8 to 1.
 glm::dvec3 normalOf(glm::dvec3 d, const SmallestEigen& e, std::size_t count) {

@@ -56,7 +56,11 @@ std::vector<Segment> findSegmentsOf(const PointStep& step, std::uint32_t count, 
         WorkerScratch& s = scratch[worker];
         const glm::vec3 x = level.points.position[p], n = step.planeNormal(p);
         const TangentFrame frame(n);
-        step.gatherNearby(std::span(&p, 1), std::nullopt, kRetryReach, s.nearby, s);
+        // A crease point gathers once for its wider look and its crease neighbours, whichever
+        // reaches farther (each picks its own reach from the list).
+        const bool crease = level.points.isCrease(p);
+        step.gatherNearby(std::span(&p, 1), std::nullopt,
+                          crease ? std::max(kRetryReach, kCreaseReach) : kRetryReach, s.nearby, s);
         bool open = true;
         for (const float reach : {level.levelRadius[p], kRetryReach * level.levelRadius[p]}) {
             const bool cut = step.gatherNeighbourhood(p, frame, reach, s.nearby, s);
@@ -67,10 +71,7 @@ std::vector<Segment> findSegmentsOf(const PointStep& step, std::uint32_t count, 
             }
             if (cut) break; // a wider search would keep the same neighbours
         }
-        if (level.points.isCrease(p)) {
-            step.gatherNearby(std::span(&p, 1), std::nullopt, kCreaseReach, s.wideNearby, s);
-            creaseEnds[p] = step.creaseNeighbours(p, s.wideNearby);
-        }
+        if (crease) creaseEnds[p] = step.creaseNeighbours(p, s.nearby);
         const std::size_t m = s.fan.size();
         if (!level.options.boundaries || !open || m < 2)
             return; // closed, or isolated: no direction to follow

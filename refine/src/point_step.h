@@ -35,9 +35,9 @@ inline constexpr float kRadiusMargin = 1.0f + 1.0f / 4096.0f;
 inline constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
 
 // How far a crease point looks for its crease neighbours, times its radius (creaseNeighbours,
-// ALGORITHM.md §6.4). Choice: a segment's points at its thirds then lie within 2/3 of it, inside
-// the kRetryReach · r that a real-time region's context reaches (refiner.h).
-inline constexpr float kCreaseReach = 2.0f;
+// ALGORITHM.md §6.4). Choice: a segment's points at its thirds then lie within 2/3 of it (1.47 r),
+// inside the kRetryReach · r that a real-time region's context reaches (refiner.h).
+inline constexpr float kCreaseReach = 2.2f;
 
 // Cyclic successor and predecessor of j in [0, m), m > 0; no division (these run in the per-point
 // loops over fans and rings).

@@ -211,20 +211,66 @@ TEST(Selection, HysteresisHoldsOnlyForNodesSeenInTheLastFrame) {
     EXPECT_TRUE(held) << "no node between the two thresholds: the test shows nothing";
 }
 
-// Seen from +z, far, no splat whose normal is nearest -z faces the eye: no node draws that class.
+// Facing classes over 20,000 directions spread over the sphere (a Fibonacci lattice): each is
+// on the face of its largest component, every class holds some, and each class is a cone narrower
+// than a whole face's (54.7° from the face's axis to its corners): the cells of kFacingCells = 2
+// hold their directions within 36° of their mean.
+TEST(Selection, FacingClassesCutEachFaceIntoCells) {
+    constexpr int kCount = 20000;
+    std::vector<glm::vec3> directions;
+    std::array<glm::vec3, kFacingClasses> sum{};
+    for (int i = 0; i < kCount; ++i) {
+        const float z = 1.0f - 2.0f * (static_cast<float>(i) + 0.5f) / kCount, rho = std::sqrt(1.0f - z * z);
+        const float phi = 2.39996323f * static_cast<float>(i); // the golden angle
+        const glm::vec3 n(rho * std::cos(phi), rho * std::sin(phi), z);
+        const std::uint32_t c = facingClass(n);
+        ASSERT_LT(c, kFacingClasses);
+        const glm::vec3 a = glm::abs(n);
+        const std::uint32_t axis = a.x >= a.y && a.x >= a.z ? 0u : a.y >= a.z ? 1u : 2u;
+        EXPECT_EQ(c / (kFacingCells * kFacingCells), n[static_cast<int>(axis)] < 0.0f ? axis + 3u : axis);
+        sum[c] += n;
+        directions.push_back(n);
+    }
+    std::array<float, kFacingClasses> widest{};
+    for (const glm::vec3 n : directions) {
+        const std::uint32_t c = facingClass(n);
+        widest[c] = std::max(widest[c], std::acos(std::min(1.0f, glm::dot(n, glm::normalize(sum[c])))));
+    }
+    for (std::uint32_t c = 0; c < kFacingClasses; ++c) {
+        EXPECT_NE(sum[c], glm::vec3(0.0f)) << "class " << c << " holds no direction";
+        EXPECT_LT(widest[c], glm::radians(36.0f)) << "class " << c;
+    }
+}
+
+// A node draws exactly the facing classes that hold a splat facing the eye (brute force). Seen from
+// +z, far, no splat whose normal is nearest -z faces the eye: no node draws a class of that face.
 TEST(Selection, FacingClassesLeaveOutTheClassesThatFaceAway) {
     const NodeTree tree = sphereTree(0);
     std::vector<NodeSelection> states = allResident(tree);
-    const Selection s = run(tree, viewFrom(200.0f), thresholdOf(3.0f), 1, states);
+    const FrameView view = viewFrom(200.0f);
+    const Selection s = run(tree, view, thresholdOf(3.0f), 1, states);
     ASSERT_EQ(s.draw.size(), s.facing.size());
-    bool anyWithBack = false;
+    constexpr std::uint32_t kFaceClasses = kFacingClasses / 6, kMinusZ = 5;
+    bool anyWithBack = false, anyLeftOut = false;
     for (std::size_t k = 0; k < s.draw.size(); ++k) {
         const ClassStarts& classes = states[s.draw[k]].classes;
-        anyWithBack = anyWithBack || classes[6] > classes[5];
-        EXPECT_EQ(s.facing[k] >> 5 & 1u, 0u) << "node " << s.draw[k];
+        const PointSet& points = tree.node(s.draw[k]).points;
+        FacingMask present = 0, front = 0;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            present |= FacingMask{1} << facingClass(points.normal[i]);
+            if (glm::dot(points.normal[i], points.position[i] - view.camera.eye) < 0.0f)
+                front |= FacingMask{1} << facingClass(points.normal[i]);
+        }
+        EXPECT_EQ(s.facing[k], front) << "node " << s.draw[k];
+        anyLeftOut = anyLeftOut || front != present;
+        for (std::uint32_t c = kMinusZ * kFaceClasses; c < (kMinusZ + 1) * kFaceClasses; ++c) {
+            anyWithBack = anyWithBack || classes[c + 1] > classes[c];
+            EXPECT_EQ(s.facing[k] >> c & 1u, 0u) << "node " << s.draw[k] << ", class " << c;
+        }
         EXPECT_NE(s.facing[k], 0u);
     }
     EXPECT_TRUE(anyWithBack) << "no node drawn holds a -z splat: the test shows nothing";
+    EXPECT_TRUE(anyLeftOut) << "no node drawn leaves a class out: the test shows nothing";
 
     SelectionSettings everything = thresholdOf(3.0f);
     everything.cullNodes = false;

@@ -121,9 +121,9 @@ struct Engine::Impl {
     Clock::time_point lastFrameStart{};
     bool haveLastFrame = false;
     std::vector<NodeId> drawnNodes;
-    std::vector<std::uint8_t> drawnFacing; // Selection::facing of drawnNodes
-    std::deque<FrameReport> submitted;     // frames in flight, oldest first
-    std::deque<FrameReport> finished;      // the latest kKeptReports at most
+    std::vector<FacingMask> drawnFacing; // Selection::facing of drawnNodes
+    std::deque<FrameReport> submitted;   // frames in flight, oldest first
+    std::deque<FrameReport> finished;    // the latest kKeptReports at most
     // Test check: the ranges each frame in flight draws, to see that no write overlaps them.
     std::array<std::vector<DrawRange>, kFramesInFlight> slotDraws;
     std::array<std::uint64_t, kFramesInFlight> slotFrame{};

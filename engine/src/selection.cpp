@@ -185,16 +185,17 @@ bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
 // node is found facing the eye.
 void Walk::draw(NodeId id, const Node& node, const NodeView& v) {
     const ClassStarts& classes = stateOf_(id).classes;
-    std::uint32_t present = 0, facing = 0;
-    for (std::uint32_t c = 0; c < kFacingClasses; ++c) present |= (classes[c + 1] > classes[c]) << c;
+    FacingMask present = 0, facing = 0;
+    for (std::uint32_t c = 0; c < kFacingClasses; ++c)
+        present |= FacingMask{classes[c + 1] > classes[c]} << c;
     if (!settings_.cullNodes || v.allFront) facing = present; // (a test switch: everything drawn)
     const PointSet& points = node.points;
     for (std::size_t i = 0; i < points.size() && facing != present; ++i)
         if (glm::dot(points.normal[i], points.position[i] - v_.camera.eye) < 0.0f)
-            facing |= 1u << facingClass(points.normal[i]);
+            facing |= FacingMask{1} << facingClass(points.normal[i]);
     if (facing == 0 && present != 0) return;
     out_.draw.push_back(id);
-    out_.facing.push_back(static_cast<std::uint8_t>(facing));
+    out_.facing.push_back(facing);
 }
 
 void Walk::visit(NodeId id) {
@@ -235,8 +236,14 @@ void Walk::visit(NodeId id) {
 
 std::uint32_t facingClass(glm::vec3 n) {
     const glm::vec3 a = glm::abs(n);
-    const std::uint32_t axis = a.x >= a.y && a.x >= a.z ? 0u : a.y >= a.z ? 1u : 2u;
-    return n[static_cast<int>(axis)] < 0.0f ? axis + 3u : axis;
+    const int axis = a.x >= a.y && a.x >= a.z ? 0 : a.y >= a.z ? 1 : 2;
+    const std::uint32_t face = n[axis] < 0.0f ? std::uint32_t(axis) + 3u : std::uint32_t(axis);
+    // The face's cell: the other two components over the largest, in [-1, 1].
+    const float scale = 0.5f * float(kFacingCells) / a[axis];
+    const auto cell = [&](int k) {
+        return std::min(std::uint32_t(std::max((n[k] + a[axis]) * scale, 0.0f)), kFacingCells - 1);
+    };
+    return (face * kFacingCells + cell((axis + 1) % 3)) * kFacingCells + cell((axis + 2) % 3);
 }
 
 FrameView frameView(const Camera& camera, std::uint32_t width, std::uint32_t height, float radiusScale,

@@ -22,12 +22,19 @@ namespace pnsplat::engine {
 // Frame stamps are a frame's index + 1; this one is none.
 inline constexpr std::uint64_t kNever = 0;
 
-// Facing classes: a normal's class is the axis direction nearest it (+x, +y, +z, -x, -y, -z). A
-// chunk holds its splats class after class, so that a frame can leave out the classes of a node none
-// of whose splats faces the eye before the passes: beside the silhouette a node's normals spread
-// over half a sphere and more, and about a third of the splats of the nodes drawn faced away (the
-// bunny at 640x480).
-inline constexpr std::uint32_t kFacingClasses = 6;
+// Facing classes: a normal's class is the face of the cube its direction crosses (+x, +y, +z, -x,
+// -y, -z: the axis direction nearest it) and the cell of that face, the face cut into
+// kFacingCells × kFacingCells by the normal's two other components over the largest. A chunk holds
+// its splats class after class, so that a frame can leave out the classes of a node none of whose
+// splats faces the eye before the passes: beside the silhouette a node's normals spread over half a
+// sphere and more. With whole faces (6 classes) about a third of the splats of the nodes drawn
+// faced away (the passes skip them one by one); with 2 × 2 cells (24 classes) the splats drawn fell
+// by 11 to 19 % at bench settle's framing and grazing cameras (bunny, lion, nefertiti; the same
+// picture), at the same pass times (docs/REALTIME.md, "Choices").
+inline constexpr std::uint32_t kFacingCells = 2;
+inline constexpr std::uint32_t kFacingClasses = 6 * kFacingCells * kFacingCells;
+using FacingMask = std::uint64_t; // bit c: class c
+static_assert(kFacingClasses <= 64);
 using ClassStarts = std::array<std::uint32_t, kFacingClasses + 1>; // offsets in the chunk
 std::uint32_t facingClass(glm::vec3 n);
 
@@ -70,7 +77,7 @@ struct WantedNode {
 };
 struct Selection {
     std::vector<NodeId> draw;
-    std::vector<std::uint8_t> facing; // per node drawn: the facing classes drawn (bit c: class c)
+    std::vector<FacingMask> facing; // per node drawn: the facing classes drawn (bit c: class c)
     std::vector<WantedNode> refine, upload;
 };
 

@@ -22,9 +22,11 @@ using uint = std::uint32_t;
 #endif
 
 // Compute path: invocations per workgroup (one splat each), and the most splats a node of the
-// scene holds (its splats are contiguous).
+// scene holds (its splats are contiguous). A workgroup draws up to kGroupRanges ranges of splats,
+// kLocalSize splats in all (splat_compute.glsl, invocationSplat).
 PNSPLAT_CONST uint kLocalSize = 1024;
 PNSPLAT_CONST uint kChunkSize = 1024;
+PNSPLAT_CONST uint kGroupRanges = 16;
 // The compute path accumulates in fixed point with 64-bit integer atomicAdd (native on CPUs, where
 // float atomics are compare-and-swap loops): per pixel kAccumStride 64-bit words, each two 32-bit
 // sums of values in [0, w] scaled by kFixedScale: (w·r, w·g), (w·b, w), (w·n'x, w·n'y), (w·n'z, 0)
@@ -52,7 +54,8 @@ PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 PNSPLAT_CONST uint kBindingFrame = 0;  // FrameUniforms (uniform buffer)
 PNSPLAT_CONST uint kBindingSplats = 1; // the cache's Splats (storage buffer)
 // Compute path: storage buffers.
-PNSPLAT_CONST uint kBindingItems = 2;  // the work items: (first splat, count) per node range
+PNSPLAT_CONST uint kBindingItems =
+    2; // the work items: per workgroup (its first range, ranges), then the ranges (first splat, count)
 PNSPLAT_CONST uint kBindingDepth = 3;  // the nearest depth per pixel, as float bits
 PNSPLAT_CONST uint kBindingAccum = 4;  // the fixed-point sums per pixel (kAccumStride words, or one)
 PNSPLAT_CONST uint kBindingOutput = 5; // the picture, RGBA8 per pixel
@@ -80,7 +83,7 @@ struct FrameUniforms {
     // sharpness k (w = exp(-k ρ²), ρ the distance from the centre over the radius), w: the heat
     // map's diameter in pixels (RenderSettings::heatMapPx; 0: splats keep their colour).
     vec4 splat;
-    // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y: work items of the
+    // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y: workgroups of the
     // compute path's splat passes, z, w: unused.
     uvec4 flags;
     // The compute path's pipelines for splats of one colour: that colour, linear RGB (a unused).

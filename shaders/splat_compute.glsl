@@ -1,20 +1,33 @@
 // The compute path (ALGORITHM.md §11.5, with atomics instead of the raster pipeline): one invocation per
-// splat walks the pixels of its screen footprint. Workgroup (x, y) covers splats
-// [x·kLocalSize, (x+1)·kLocalSize) of the y-th visible node.
+// splat walks the pixels of its screen footprint. A workgroup draws up to kGroupRanges ranges of the
+// splats drawn (runs of a chunk's facing classes), kLocalSize splats in all, its invocations the
+// ranges' splats in order.
 #include "splat_common.glsl"
 
 layout(local_size_x = kLocalSize) in;
 
-layout(set = 0, binding = kBindingItems, std430) readonly buffer ItemBlock { uvec2 items[]; }; // first, count
+// Per workgroup (its first range, its ranges), then the ranges (first splat, count).
+layout(set = 0, binding = kBindingItems, std430) readonly buffer ItemBlock { uvec2 items[]; };
 layout(set = 0, binding = kBindingDepth, std430) buffer DepthBlock { uint depthBits[]; };         // float bits
 
-// The index of this invocation's splat, or false when the node has no splat for it.
+// The index of this invocation's splat, or false when its workgroup has no splat for it. The loop
+// reads the same ranges in every invocation (uniform loads: lavapipe reads a storage buffer at a
+// different address in each lane one lane at a time).
 bool invocationSplat(out uint index) {
-    uint item = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    if (item >= frame.flags.y) return false;
-    uvec2 range = items[item];
-    index = range.x + gl_LocalInvocationID.x;
-    return gl_LocalInvocationID.x < range.y;
+    uint workgroup = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (workgroup >= frame.flags.y) return false;
+    uvec2 group = items[workgroup];
+    uint local = gl_LocalInvocationID.x, offset = 0u;
+    bool found = false;
+    for (uint k = 0u; k < group.y; ++k) {
+        uvec2 range = items[group.x + k];
+        if (!found && local < offset + range.y) {
+            index = range.x + local - offset;
+            found = true;
+        }
+        offset += range.y;
+    }
+    return found;
 }
 
 // The pixels whose centres may see the disk: the screen box of the projected corners of the disk's

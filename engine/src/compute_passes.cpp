@@ -121,10 +121,10 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, frame.layout, 0, 1, &frame.set, 0, nullptr);
     if (pass < 2) {
-        // Work items in rows of at most maxComputeWorkGroupCount[0] groups.
+        // Workgroups in rows of at most maxComputeWorkGroupCount[0].
         const std::uint32_t row =
-            std::min(frame.workItems, context_.properties().limits.maxComputeWorkGroupCount[0]);
-        if (frame.workItems > 0) vkCmdDispatch(cmd, row, (frame.workItems + row - 1) / row, 1);
+            std::min(frame.workgroups, context_.properties().limits.maxComputeWorkGroupCount[0]);
+        if (frame.workgroups > 0) vkCmdDispatch(cmd, row, (frame.workgroups + row - 1) / row, 1);
     } else {
         vkCmdDispatch(cmd, (settings_.width + 31) / 32, (settings_.height + 31) / 32, 1);
     }

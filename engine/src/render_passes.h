@@ -39,8 +39,9 @@ class DescriptorWrites {
 struct PathFrame {
     VkPipelineLayout layout = VK_NULL_HANDLE; // the set's
     VkDescriptorSet set = VK_NULL_HANDLE;
-    VkBuffer items = VK_NULL_HANDLE; // the compute path's work items, (first splat, count) each
-    std::uint32_t workItems = 0;
+    // The compute path's work items (gpu::kBindingItems): per workgroup its ranges, then the ranges.
+    VkBuffer items = VK_NULL_HANDLE;
+    std::uint32_t workgroups = 0;
     bool oneColour = false;           // the compute path's one-word sums (gpu_types.h)
     std::span<const DrawRange> draws; // the graphics paths': adjacent ranges merged
 };

@@ -82,8 +82,8 @@ struct SplatRenderer::Impl {
         Buffer ticks; // the timestamps, copied here by the frame (host-visible)
         Unique<VkQueryPool> timestamps;
         VkDescriptorSet set = VK_NULL_HANDLE;
-        std::uint32_t workItems = 0; // of its frame (compute path)
-        bool oneColour = false;      // its splats have one colour (compute path: one word a pixel)
+        std::uint32_t workgroups = 0; // of its frame (compute path)
+        bool oneColour = false;       // its splats have one colour (compute path: one word a pixel)
         std::uint64_t frame = ~std::uint64_t{0};
         bool readBack = false;
     };
@@ -183,9 +183,10 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
     const float aspect = float(settings.width) / float(settings.height);
     const float tanY = std::tan(camera.fovY * 0.5f);
 
-    // Adjacent ranges merged: one draw each on the graphics path; cut into work items of at most
-    // kLocalSize splats, one workgroup each, on the compute path (so no workgroup idles on a long
-    // run's tail).
+    // Adjacent ranges merged: one draw each on the graphics path. On the compute path, cut into
+    // pieces of at most kLocalSize splats, and consecutive pieces gathered into workgroups of at
+    // most kLocalSize splats and kGroupRanges pieces (so no workgroup idles on a run's tail: with a
+    // workgroup a piece, the lion's and the nefertiti's passes took 6-10 % longer, docs/REALTIME.md).
     std::vector<DrawRange> draws;
     for (const DrawRange& r : ranges) {
         if (r.count == 0) continue;
@@ -195,14 +196,24 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
             draws.push_back(r);
         }
     }
-    std::size_t items = 0;
-    for (const DrawRange& d : draws) items += (d.count + gpu::kLocalSize - 1) / gpu::kLocalSize;
-    ensureRangeCapacity(slot, items);
-    auto* item = static_cast<std::array<std::uint32_t, 2>*>(slot.ranges.mapped);
-    slot.workItems = 0;
+    std::vector<std::array<std::uint32_t, 2>> pieces, groups; // (first splat, count), (first piece, pieces)
     for (const DrawRange& d : draws)
         for (std::uint32_t done = 0; done < d.count; done += gpu::kLocalSize)
-            item[slot.workItems++] = {d.first + done, std::min(gpu::kLocalSize, d.count - done)};
+            pieces.push_back({d.first + done, std::min(gpu::kLocalSize, d.count - done)});
+    for (std::uint32_t k = 0, splatsInGroup = 0; k < pieces.size(); ++k) {
+        if (groups.empty() || splatsInGroup + pieces[k][1] > gpu::kLocalSize ||
+            groups.back()[1] == gpu::kGroupRanges) {
+            groups.push_back({k, 0});
+            splatsInGroup = 0;
+        }
+        ++groups.back()[1];
+        splatsInGroup += pieces[k][1];
+    }
+    ensureRangeCapacity(slot, groups.size() + pieces.size());
+    auto* item = static_cast<std::array<std::uint32_t, 2>*>(slot.ranges.mapped);
+    slot.workgroups = static_cast<std::uint32_t>(groups.size());
+    for (std::size_t g = 0; g < groups.size(); ++g) item[g] = {slot.workgroups + groups[g][0], groups[g][1]};
+    std::copy(pieces.begin(), pieces.end(), item + groups.size());
 
     gpu::FrameUniforms frame{};
     frame.view = camera.view();
@@ -212,11 +223,11 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
                       1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
     frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, settings.heatMapPx};
-    frame.flags = {settings.normalize ? 1u : 0u, slot.workItems, 0u, 0u};
+    frame.flags = {settings.normalize ? 1u : 0u, slot.workgroups, 0u, 0u};
     if (slot.oneColour) frame.colour = glm::vec4(linearColour(*oneColour), 1.0f);
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
     const PathFrame pathFrame{pipelineLayout.get(), slot.set,       slot.ranges.buffer.get(),
-                              slot.workItems,       slot.oneColour, draws};
+                              slot.workgroups,      slot.oneColour, draws};
     DescriptorWrites writes(slot.set);
     writes.buffer(gpu::kBindingFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, slot.uniforms.buffer.get());
     writes.buffer(gpu::kBindingSplats, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, splats.buffer.get());

@@ -54,8 +54,8 @@ PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 PNSPLAT_CONST uint kBindingFrame = 0;  // FrameUniforms (uniform buffer)
 PNSPLAT_CONST uint kBindingSplats = 1; // the cache's Splats (storage buffer)
 // Compute path: storage buffers.
-PNSPLAT_CONST uint kBindingItems =
-    2; // the work items: per workgroup (its first range, ranges), then the ranges (first splat, count)
+// The work items: per workgroup (its first range, its ranges), then the ranges (first splat, count).
+PNSPLAT_CONST uint kBindingItems = 2;
 PNSPLAT_CONST uint kBindingDepth = 3;  // the nearest depth per pixel, as float bits
 PNSPLAT_CONST uint kBindingAccum = 4;  // the fixed-point sums per pixel (kAccumStride words, or one)
 PNSPLAT_CONST uint kBindingOutput = 5; // the picture, RGBA8 per pixel

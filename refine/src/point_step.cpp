@@ -538,20 +538,19 @@ void PointStep::splitSegments(std::uint32_t p, std::uint32_t cell, std::uint32_t
 
 // Crease neighbours of a crease point p (section 6): among the crease points of the same crease
 // closer than kCreaseReach·r_p (`nearby` holds those), the nearest on each side along the crease
-// direction n1 × n2. UINT32_MAX where there is none. Choice: the chord to it lies within 30° of
-// p's crease direction and of its own (kCreaseChord), so that a point of a parallel crease, or of
-// another crease across a corner, is not taken: within 45° of p's alone (before), 8 of the
-// fandisk's 142 segments ran across a face, their chords about one spacing from every edge of its
-// mesh, and the 30° rule keeps every chord within a third of a spacing of an edge while joining
-// points that follow a circle of 6 or more (ALGORITHM.md §6.4). Choice: not only those that pass
-// the fuzzy filter into p's fan.
-// An edge is sampled as sparsely as the faces beside it, and the filtered first ring of a crease
-// point often holds no crease point ahead: on the fandisk's 179 crease points the fans gave 61
-// segments, r gives 92, 1.5 r 123, 2 r 142, and 2.2 r with the 30° rule 137 (RefinerCreases); a crease line
-// without a segment is left unfilled (ALGORITHM.md §6.4). A segment longer than r_p needs splitSegments'
-// guard on N'_p for the convergence bound of ALGORITHM.md §4.7. None for a point whose two normals are less
-// than 1° apart (creaseDirection; before, such points within 1° of parallel found neighbours
-// along a direction made of rounding, and exactly parallel ones none).
+// direction n1 × n2. UINT32_MAX where there is none. Choices (ALGORITHM.md §6.4):
+// - the chord to it lies within 30° of p's crease direction and of its own (kCreaseChord), so that
+//   a point of a parallel crease, or of another crease across a corner, is not taken: within 45°
+//   of p's alone, 8 of the fandisk's 142 segments ran across a face; now every chord lies within a
+//   third of a spacing of an edge of its mesh, and points that follow a circle of 6 or more join;
+// - not only those that pass the fuzzy filter into p's fan: an edge is sampled as sparsely as the
+//   faces beside it, and the filtered first ring of a crease point often holds no crease point
+//   ahead (on the fandisk the fans gave 61 segments; r, 1.5 r and 2 r gave 92, 123 and 142, and
+//   2.2 r with the 30° rule 137). A crease line without a segment is left unfilled. A segment
+//   longer than r_p needs splitSegments' guard on N'_p for the convergence bound (§4.7);
+// - none for a point whose two normals are less than 1° apart (creaseDirection; before, such
+//   points within 1° of parallel found neighbours along a direction made of rounding, and exactly
+//   parallel ones none); as the far end, such a point is held to p's direction only.
 std::array<std::uint32_t, 2> PointStep::creaseNeighbours(std::uint32_t p,
                                                          std::span<const NearbyPoint> nearby) const {
     const PointSet& points = level_.points;
@@ -567,9 +566,12 @@ std::array<std::uint32_t, 2> PointStep::creaseNeighbours(std::uint32_t p,
             continue;
         const glm::vec3 d = candidate.position - x;
         const float along = glm::dot(d, direction), length = glm::length(d);
-        if (!(length < reach) || !(std::abs(along) > kCreaseChord * length)) continue;
+        const auto follows = [&](glm::vec3 crease) {
+            return std::abs(glm::dot(d, crease)) > kCreaseChord * length;
+        };
+        if (!(length < reach) || !follows(direction)) continue;
         const glm::vec3 theirs = creaseDirection(points.normal[i], points.crease[i]);
-        if (theirs != glm::vec3(0.0f) && !(std::abs(glm::dot(d, theirs)) > kCreaseChord * length)) continue;
+        if (theirs != glm::vec3(0.0f) && !follows(theirs)) continue;
         const int end = along > 0.0f ? 0 : 1;
         if (length < nearest[end] || (length == nearest[end] && i < ends[end]))
             nearest[end] = length, ends[end] = i;

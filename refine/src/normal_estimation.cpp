@@ -77,9 +77,11 @@ constexpr std::int64_t kRegionVotes = 3;
 constexpr double kRegionVoteShare = 0.1;
 // The neighbours' vote (agreeWithNeighbours): weak below a share kWeakAgreement of its weight; a
 // point then faces away from its neighbours' centroid when it lies kTipOffset splat radii or more
-// from their plane; kAgreementRounds rounds at most.
+// from their plane, on a part that fits no plane or where at least kTipOpenRays of the rays it
+// casts on that side escape (orientByVisibility); kAgreementRounds rounds at most.
 constexpr double kWeakAgreement = 0.5;
 constexpr double kTipOffset = 0.15;
+constexpr int kTipOpenRays = 1;
 constexpr unsigned kAgreementRounds = 3;
 // A neighbourhood that fits no plane (fitPlane): its smallest variance above kNoPlane times the
 // middle one; a tube when its largest is above kTube times the middle one.
@@ -360,10 +362,14 @@ std::array<glm::vec3, kSideRays> sideRays(glm::vec3 n) {
 // whose votes sum to at least kRegionVotes and kRegionVoteShare times its points, in either
 // direction, is decided by them; the other regions of a connected part with a decided one are
 // reached again from the decided ones by propagateOrientation (a region deep in a concavity sees
-// little). A part with no decided region keeps the orientation of its start.
-void orientByVisibility(const NeighbourGraph& graph, std::span<const glm::vec3> position,
-                        std::span<glm::vec3> normal, std::span<const float> splatRadius,
-                        std::span<const FrontierEdge> tree, WorkerPool& pool) {
+// little). A part with no decided region keeps the orientation of its start. Returns, for each
+// point lying kTipOffset splat radii or more from its neighbours' plane, how many of the sideRays
+// cast along its normal on the side away from their `centroid` escape (0 for the others;
+// agreeWithNeighbours reads it).
+std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::span<const glm::vec3> position,
+                                             std::span<const glm::vec3> centroid, std::span<glm::vec3> normal,
+                                             std::span<const float> splatRadius,
+                                             std::span<const FrontierEdge> tree, WorkerPool& pool) {
     const std::size_t m = position.size();
     std::vector<std::uint32_t> part(m), region(m);
     for (const FrontierEdge& e : tree) {
@@ -372,6 +378,7 @@ void orientByVisibility(const NeighbourGraph& graph, std::span<const glm::vec3> 
         region[e.to] = start || e.weight >= kRegionWeight ? e.to : region[e.from];
     }
     std::vector<std::int8_t> vote(m);
+    std::vector<std::uint8_t> open(m);
     {
         const SplatRays rays(position, normal, splatRadius);
         parallelForRanges(pool, m, 256, [&](std::size_t begin, std::size_t end, unsigned) {
@@ -381,6 +388,15 @@ void orientByVisibility(const NeighbourGraph& graph, std::span<const glm::vec3> 
                 for (const glm::vec3& u : sideRays(normal[i]))
                     v += (rays.escapes(p, u) ? 1 : 0) - (rays.escapes(p, -u) ? 1 : 0);
                 vote[i] = static_cast<std::int8_t>(v);
+                // As agreeWithNeighbours measures it (the sign of the normal does not matter).
+                const double off =
+                    glm::dot(glm::dvec3(normal[i]), glm::dvec3(position[i]) - glm::dvec3(centroid[i]));
+                const double r = splatRadius[i];
+                if (std::abs(off) < kTipOffset * r || !(r > 0.0)) continue;
+                int o = 0;
+                for (const glm::vec3& u : sideRays(off > 0.0 ? normal[i] : -normal[i]))
+                    o += rays.escapes(p, u) ? 1 : 0;
+                open[i] = static_cast<std::uint8_t>(o);
             }
         });
     }
@@ -407,6 +423,7 @@ void orientByVisibility(const NeighbourGraph& graph, std::span<const glm::vec3> 
         }
     }
     propagateOrientation(graph, position, normal, reached, seeds, nullptr, true);
+    return open;
 }
 
 // Turns each normal that its neighbours outvote: the graph's neighbours j of i vote with
@@ -415,11 +432,16 @@ void orientByVisibility(const NeighbourGraph& graph, std::span<const glm::vec3> 
 // vote is weak (below kWeakAgreement of its weight) and i lies off its neighbours' plane by
 // kTipOffset splat radii or more, i faces away from the `centroid` of its fit instead: at the tip
 // of a thin part, or on a sheet thinner than the spacing whose fit mixes both sides, the point
-// lies outward of the centroid (the choice is wrong in a sharp concave spot, which the
-// neighbours' vote mostly decides). All points are decided from the same normals, in rounds,
-// until none turns or kAgreementRounds have run.
+// lies outward of the centroid. In a concave spot it lies inward of it, and the choice would be
+// wrong: it is made only where i looks out on that side (`open`: at least kTipOpenRays of the
+// sideRays cast away from the centroid along i's normal escape, counted by orientByVisibility) or
+// where i's neighbourhood fits no plane (`across`, normalOf: its normal is already the direction
+// away from the centroid). Where every such ray meets the surface, i lies in a hollow (an ear's,
+// a fold's), and the neighbours' vote, weak as it is, decides. All points are decided from the
+// same normals, in rounds, until none turns or kAgreementRounds have run.
 void agreeWithNeighbours(const NeighbourGraph& graph, std::span<const glm::vec3> position,
                          std::span<const glm::vec3> centroid, std::span<const float> splatRadius,
+                         std::span<const std::uint8_t> open, std::span<const std::uint8_t> across,
                          std::span<glm::vec3> normal) {
     const std::size_t m = position.size();
     std::vector<std::uint8_t> turn(m);
@@ -437,7 +459,8 @@ void agreeWithNeighbours(const NeighbourGraph& graph, std::span<const glm::vec3>
                 weight += flat;
             });
             const double off = glm::dot(n, x - glm::dvec3(centroid[i])), r = splatRadius[i];
-            if (std::abs(vote) < kWeakAgreement * weight && std::abs(off) >= kTipOffset * r && r > 0.0)
+            if (std::abs(vote) < kWeakAgreement * weight && std::abs(off) >= kTipOffset * r && r > 0.0 &&
+                (open[i] >= kTipOpenRays || across[i]))
                 vote = off;
             turn[i] = vote < 0.0 ? 1 : 0;
             any = any || turn[i];
@@ -505,6 +528,12 @@ Result<void> checkDistinct(std::span<const glm::vec3> distinct, std::size_t coun
     return {};
 }
 
+// A point's normal from its neighbourhood (normalOf).
+struct PointNormal {
+    glm::dvec3 normal;
+    bool across; // the direction across a part that fits no plane, not the least variance's
+};
+
 // The normal of a point x from the eigen decomposition e of the covariance of x and its
 // neighbours (`count` points; d = x - their centroid). Where they spread about a plane, the
 // direction of least variance. Where they spread as much across it (a part thinner than the
@@ -514,12 +543,14 @@ Result<void> checkDistinct(std::span<const glm::vec3> distinct, std::size_t coun
 // from x's own, and its sign had nothing to go by; x lies outward of the centroid on such a part.
 // Measured on 60 random 3,500-point subsets of each reference of ../shared/data (ALGORITHM.md
 // §9.2): subsets above 1 % inward from 8 to 1.
-glm::dvec3 normalOf(glm::dvec3 d, const SmallestEigen& e, std::size_t count) {
-    if (!(e.values[0] > kNoPlane * e.values[1])) return e.vector;
+// `across` says which of the two it is.
+PointNormal normalOf(glm::dvec3 d, const SmallestEigen& e, std::size_t count) {
+    if (!(e.values[0] > kNoPlane * e.values[1])) return {e.vector, false};
     const glm::dvec3 across = e.values[2] > kTube * e.values[1] ? d - glm::dot(d, e.largest) * e.largest : d;
     // x too near the centroid (within half the least standard deviation) to say which way it lies.
-    if (!(glm::dot(across, across) > 0.25 * e.values[0] / static_cast<double>(count))) return e.vector;
-    return glm::normalize(across);
+    if (!(glm::dot(across, across) > 0.25 * e.values[0] / static_cast<double>(count)))
+        return {e.vector, false};
+    return {glm::normalize(across), true};
 }
 
 // The plane through x and its `stored` neighbours `mine` (of `distinct`), and x's normal (normalOf).
@@ -527,6 +558,7 @@ struct PlaneFit {
     glm::vec3 normal;
     glm::vec3 centroid;
     bool degenerate; // no plane: the points lie on one line
+    bool across;     // the normal is the direction across a part that fits no plane (normalOf)
 };
 
 PlaneFit fitPlane(std::span<const glm::vec3> distinct, glm::vec3 x, const std::uint32_t* mine,
@@ -554,7 +586,8 @@ PlaneFit fitPlane(std::span<const glm::vec3> distinct, glm::vec3 x, const std::u
     const double rounding =
         static_cast<double>(std::numeric_limits<float>::epsilon()) * static_cast<double>(largest);
     const bool degenerate = !(e.values[1] > static_cast<double>(stored + 1) * rounding * rounding);
-    return {glm::vec3(normalOf(glm::dvec3(x) - centroid, e, stored + 1)), glm::vec3(centroid), degenerate};
+    const PointNormal n = normalOf(glm::dvec3(x) - centroid, e, stored + 1);
+    return {glm::vec3(n.normal), glm::vec3(centroid), degenerate, n.across};
 }
 
 // The k nearest of each distinct position (itself left out: the only one at distance 0), and
@@ -562,17 +595,22 @@ PlaneFit fitPlane(std::span<const glm::vec3> distinct, glm::vec3 x, const std::u
 struct PlaneFits {
     std::vector<std::uint32_t> nearest; // k per position (nearestPoints)
     std::vector<glm::vec3> normal, centroid;
-    std::vector<std::uint8_t> degenerate;
+    std::vector<std::uint8_t> degenerate, across;
 };
 
 PlaneFits fitPlanes(const KdTree& tree, std::span<const glm::vec3> distinct, std::size_t k,
                     WorkerPool& pool) {
     const std::size_t m = distinct.size();
-    PlaneFits fits{{}, std::vector<glm::vec3>(m), std::vector<glm::vec3>(m), std::vector<std::uint8_t>(m, 0)};
+    PlaneFits fits{{},
+                   std::vector<glm::vec3>(m),
+                   std::vector<glm::vec3>(m),
+                   std::vector<std::uint8_t>(m, 0),
+                   std::vector<std::uint8_t>(m, 0)};
     fits.nearest = nearestPoints(tree, distinct, k, pool,
                                  [&](std::size_t i, const std::uint32_t* mine, std::size_t stored) {
                                      const PlaneFit fit = fitPlane(distinct, distinct[i], mine, stored);
                                      fits.degenerate[i] = fit.degenerate;
+                                     fits.across[i] = fit.across;
                                      fits.normal[i] = fit.normal;
                                      fits.centroid[i] = fit.centroid;
                                  });
@@ -652,8 +690,9 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
     std::vector<FrontierEdge> spanning; // in the order reached; a start as an edge from itself
     NormalEstimate estimate;
     estimate.components = orientComponents(graph, distinct.position, normal, spanning);
-    orientByVisibility(graph, distinct.position, normal, splatRadius, spanning, pool);
-    agreeWithNeighbours(graph, distinct.position, fits.centroid, splatRadius, normal);
+    const std::vector<std::uint8_t> open =
+        orientByVisibility(graph, distinct.position, fits.centroid, normal, splatRadius, spanning, pool);
+    agreeWithNeighbours(graph, distinct.position, fits.centroid, splatRadius, open, fits.across, normal);
     points.normal.resize(count);
     for (std::size_t i = 0; i < count; ++i) points.normal[i] = normal[distinct.of[i]];
     points.crease.clear();

@@ -362,13 +362,14 @@ std::array<glm::vec3, kSideRays> sideRays(glm::vec3 n) {
 // whose votes sum to at least kRegionVotes and kRegionVoteShare times its points, in either
 // direction, is decided by them; the other regions of a connected part with a decided one are
 // reached again from the decided ones by propagateOrientation (a region deep in a concavity sees
-// little). A part with no decided region keeps the orientation of its start. Returns, for each
-// point lying kTipOffset splat radii or more from its neighbours' plane, how many of the sideRays
-// cast along its normal on the side away from their `centroid` escape (0 for the others;
-// agreeWithNeighbours reads it).
+// little). A part with no decided region keeps the orientation of its start. Returns where
+// agreeWithNeighbours' tip rule may decide: 1 for a point lying kTipOffset splat radii or more
+// from its neighbours' plane that fits no plane (`across`) or of whose sideRays, cast along its
+// normal on the side away from their `centroid`, at least kTipOpenRays escape; 0 elsewhere.
 std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::span<const glm::vec3> position,
-                                             std::span<const glm::vec3> centroid, std::span<glm::vec3> normal,
-                                             std::span<const float> splatRadius,
+                                             std::span<const glm::vec3> centroid,
+                                             std::span<const std::uint8_t> across,
+                                             std::span<glm::vec3> normal, std::span<const float> splatRadius,
                                              std::span<const FrontierEdge> tree, WorkerPool& pool) {
     const std::size_t m = position.size();
     std::vector<std::uint32_t> part(m), region(m);
@@ -378,7 +379,7 @@ std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::s
         region[e.to] = start || e.weight >= kRegionWeight ? e.to : region[e.from];
     }
     std::vector<std::int8_t> vote(m);
-    std::vector<std::uint8_t> open(m);
+    std::vector<std::uint8_t> tip(m);
     {
         const SplatRays rays(position, normal, splatRadius);
         parallelForRanges(pool, m, 256, [&](std::size_t begin, std::size_t end, unsigned) {
@@ -388,15 +389,16 @@ std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::s
                 for (const glm::vec3& u : sideRays(normal[i]))
                     v += (rays.escapes(p, u) ? 1 : 0) - (rays.escapes(p, -u) ? 1 : 0);
                 vote[i] = static_cast<std::int8_t>(v);
-                // As agreeWithNeighbours measures it (the sign of the normal does not matter).
+                // The offset from the neighbours' plane; its size does not depend on the normal's sign.
                 const double off =
                     glm::dot(glm::dvec3(normal[i]), glm::dvec3(position[i]) - glm::dvec3(centroid[i]));
                 const double r = splatRadius[i];
                 if (std::abs(off) < kTipOffset * r || !(r > 0.0)) continue;
-                int o = 0;
-                for (const glm::vec3& u : sideRays(off > 0.0 ? normal[i] : -normal[i]))
-                    o += rays.escapes(p, u) ? 1 : 0;
-                open[i] = static_cast<std::uint8_t>(o);
+                int open = 0;
+                if (!across[i])
+                    for (const glm::vec3& u : sideRays(off > 0.0 ? normal[i] : -normal[i]))
+                        open += rays.escapes(p, u) ? 1 : 0;
+                tip[i] = across[i] || open >= kTipOpenRays ? 1 : 0;
             }
         });
     }
@@ -423,25 +425,24 @@ std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::s
         }
     }
     propagateOrientation(graph, position, normal, reached, seeds, nullptr, true);
-    return open;
+    return tip;
 }
 
 // Turns each normal that its neighbours outvote: the graph's neighbours j of i vote with
 // n_i · n_j, weighted by how flat the edge lies in j's tangent plane, 1 - |d · n_j| (d the edge's
 // unit direction), so that the other side of a thin wall, facing away, counts little. Where the
-// vote is weak (below kWeakAgreement of its weight) and i lies off its neighbours' plane by
-// kTipOffset splat radii or more, i faces away from the `centroid` of its fit instead: at the tip
-// of a thin part, or on a sheet thinner than the spacing whose fit mixes both sides, the point
-// lies outward of the centroid. In a concave spot it lies inward of it, and the choice would be
-// wrong: it is made only where i looks out on that side (`open`: at least kTipOpenRays of the
-// sideRays cast away from the centroid along i's normal escape, counted by orientByVisibility) or
-// where i's neighbourhood fits no plane (`across`, normalOf: its normal is already the direction
-// away from the centroid). Where every such ray meets the surface, i lies in a hollow (an ear's,
-// a fold's), and the neighbours' vote, weak as it is, decides. All points are decided from the
-// same normals, in rounds, until none turns or kAgreementRounds have run.
+// vote is weak (below kWeakAgreement of its weight) and `tip` says so (orientByVisibility), i
+// faces away from the `centroid` of its fit instead: at the tip of a thin part, or on a sheet
+// thinner than the spacing whose fit mixes both sides, the point lies outward of the centroid.
+// `tip` holds where i lies off its neighbours' plane by kTipOffset splat radii or more, and looks
+// out on that side (at least kTipOpenRays of the sideRays cast away from the centroid along i's
+// normal escape) or fits no plane (normalOf: its normal is already the direction away from the
+// centroid). In a concave spot the point lies inward of the centroid and the choice would be
+// wrong: where every such ray meets the surface, i lies in a hollow (an ear's, a fold's), and the
+// neighbours' vote, weak as it is, decides. All points are decided from the same normals, in
+// rounds, until none turns or kAgreementRounds have run.
 void agreeWithNeighbours(const NeighbourGraph& graph, std::span<const glm::vec3> position,
-                         std::span<const glm::vec3> centroid, std::span<const float> splatRadius,
-                         std::span<const std::uint8_t> open, std::span<const std::uint8_t> across,
+                         std::span<const glm::vec3> centroid, std::span<const std::uint8_t> tip,
                          std::span<glm::vec3> normal) {
     const std::size_t m = position.size();
     std::vector<std::uint8_t> turn(m);
@@ -458,10 +459,8 @@ void agreeWithNeighbours(const NeighbourGraph& graph, std::span<const glm::vec3>
                 vote += sign * flat * glm::dot(n, nj);
                 weight += flat;
             });
-            const double off = glm::dot(n, x - glm::dvec3(centroid[i])), r = splatRadius[i];
-            if (std::abs(vote) < kWeakAgreement * weight && std::abs(off) >= kTipOffset * r && r > 0.0 &&
-                (open[i] >= kTipOpenRays || across[i]))
-                vote = off;
+            if (std::abs(vote) < kWeakAgreement * weight && tip[i])
+                vote = glm::dot(n, x - glm::dvec3(centroid[i]));
             turn[i] = vote < 0.0 ? 1 : 0;
             any = any || turn[i];
         }
@@ -690,9 +689,9 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
     std::vector<FrontierEdge> spanning; // in the order reached; a start as an edge from itself
     NormalEstimate estimate;
     estimate.components = orientComponents(graph, distinct.position, normal, spanning);
-    const std::vector<std::uint8_t> open =
-        orientByVisibility(graph, distinct.position, fits.centroid, normal, splatRadius, spanning, pool);
-    agreeWithNeighbours(graph, distinct.position, fits.centroid, splatRadius, open, fits.across, normal);
+    const std::vector<std::uint8_t> tip = orientByVisibility(
+        graph, distinct.position, fits.centroid, fits.across, normal, splatRadius, spanning, pool);
+    agreeWithNeighbours(graph, distinct.position, fits.centroid, tip, normal);
     points.normal.resize(count);
     for (std::size_t i = 0; i < count; ++i) points.normal[i] = normal[distinct.of[i]];
     points.crease.clear();

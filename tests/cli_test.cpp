@@ -217,6 +217,23 @@ TEST(CliRefine, CutNeighbourhoodsWithEstimatedRadiiAdviseNothingUseless) {
     EXPECT_EQ(r.err.find("--estimate-radii"), std::string::npos) << r.err;
 }
 
+// Neighbourhoods cut at a later level only: the nefertiti's fourth level cuts one (a point whose
+// radius grew to reach a ring neighbour across a gap, ALGORITHM.md §4.6), its first none. The
+// warning names the level and does not blame the input's sampling or radii.
+TEST(CliRefine, NeighbourhoodsCutOnlyAtALaterLevelNameTheLevel) {
+    PNSPLAT_REQUIRE_DATA("nefertiti-3500-random.ply");
+    const TempDir dir;
+    const fs::path out = dir / "out.ply";
+    const RunResult r =
+        run("refine " + quote(test::dataDir() / "nefertiti-3500-random.ply") + " -l 4 -o " + quote(out));
+    ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+    EXPECT_EQ(lines(r.err).size(), 1u) << r.err;
+    EXPECT_NE(r.err.find("warning: 1 neighbourhood(s)"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("from level 4 on"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("sampling"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("--estimate-radii"), std::string::npos) << r.err;
+}
+
 // --fill-hole on a sphere with a hole (3,000 uniform points minus those within 0.7 of the north
 // pole, a radius of some 11 spacings; it stays nearly empty when the uniform levels come first): the
 // summary names the hole and its rim points, and the output samples the hole (the option given

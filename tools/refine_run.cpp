@@ -73,6 +73,7 @@ void refineLevels(PointSet points, const RefineJob& job, const HoleRims& rims, R
         run.seconds += stats.seconds;
         run.cappedNeighbourhoods += stats.cappedNeighbourhoods;
         ++run.levels;
+        if (stats.cappedNeighbourhoods > 0 && run.firstCappedLevel == 0) run.firstCappedLevel = run.levels;
     };
     if (!job.holes.empty()) {
         bar.setLabel("filling holes");

@@ -24,6 +24,7 @@ struct RefineRun {
     unsigned holeFillingLevels = 0;       // adaptive levels filling the holes before them (part of `levels`)
     double seconds = 0.0;                 // time spent refining (not estimating radii)
     std::size_t cappedNeighbourhoods = 0; // over all levels (LevelStats), a sign of radii too large
+    unsigned firstCappedLevel = 0;        // the first level (1: the first run) that cut one; 0: none
     std::size_t enlargedRadii = 0;        // rim points of the holes to fill (enlargeAroundHole)
     std::size_t holes = 0;                // holes filled: given, and found (`holesFound` of them)
     std::size_t holesFound = 0;           // by findHoles (RefineJob::fillHolesUpTo)

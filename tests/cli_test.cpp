@@ -1167,7 +1167,11 @@ TEST(CliBench, RefineInputErrorsAndMissingModels) {
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     EXPECT_NE(r.out.find("\"levels\": 16, \"target_points\": 20000"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("{\"level\": 5,"), std::string::npos) << "stopped before the target: " << r.out;
-    r = runShell("cd " + quote(dir.path()) + " && " + program() +
+    // From a folder of the temporary directory, whose ../shared is the directory's own (absent)
+    // rather than one beside the temporary directory's parent.
+    const fs::path work = dir / "work";
+    fs::create_directories(work);
+    r = runShell("cd " + quote(work) + " && " + program() +
                  " bench refine --models default --sphere-points 100 --levels 1 --threads 1 --repeat 1");
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     EXPECT_NE(r.out.find("\"name\": \"sphere-100-uniform\""), std::string::npos) << r.out;

@@ -37,7 +37,7 @@ uint64_t packAcrossRay(float w, vec3 n, float rx, float ry, float invRayLength) 
 void main() {
     uint index;
     if (!invocationSplat(index)) return;
-    Splat s = splats[index];
+    Splat s = splatAt(index);
     ViewSplat v = toView(s);
     ivec2 lo, hi;
     if (!frontFacing(v) || !footprint(v, lo, hi)) return;

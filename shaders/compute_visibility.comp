@@ -1,14 +1,15 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Pass 1, compute path: the nearest depth per pixel, pushed back by ε (atomicMin on the bits of a
-// positive float orders like the float). A plain read first skips the atomic (a compare-and-swap
-// loop on CPUs) wherever the pixel already holds a nearer depth.
+// positive float orders like the float). No plain read first to skip the atomic where the pixel
+// already holds a nearer depth: on lavapipe, which reads a storage buffer one lane at a time, the
+// read cost more than the atomics it saved (docs/REALTIME.md, "What a frame costs on lavapipe").
 #include "splat_compute.glsl"
 
 void main() {
     uint index;
     if (!invocationSplat(index)) return;
-    ViewSplat v = toView(splats[index]);
+    ViewSplat v = toView(splatAt(index));
     ivec2 lo, hi;
     if (!frontFacing(v) || !footprint(v, lo, hi)) return;
     SplatConic k = conicOf(v);
@@ -21,7 +22,7 @@ void main() {
             if (!conicHit(k, row, x, t, rho2, rx, invRayLength)) continue;
             uint i = pixelIndex(ivec2(x, y));
             uint depth = floatBitsToUint(pushedDepthOver(t, invRayLength, v.radius));
-            if (depth < depthBits[i]) atomicMin(depthBits[i], depth);
+            atomicMin(depthBits[i], depth);
         }
     }
 }

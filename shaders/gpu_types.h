@@ -1,7 +1,7 @@
 // GPU structs and constants shared by C++ (engine/) and GLSL (shaders/). One definition, two
 // languages: in C++ the GLSL types map to GLM and engine/src/gpu_layout.cpp checks every size and
-// offset with static_assert. Splat is std430 (a storage buffer); FrameUniforms is std140 (a
-// uniform buffer), so every member of it is 16-byte aligned.
+// offset with static_assert. Splat is 32 bytes, read as two RGBA32UI texels (splat_common.glsl,
+// splatAt); FrameUniforms is std140 (a uniform buffer), so every member of it is 16-byte aligned.
 #ifndef PNSPLAT_GPU_TYPES_H
 #define PNSPLAT_GPU_TYPES_H
 
@@ -52,9 +52,9 @@ PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 // (splat_renderer.cpp makes it): the frame's uniforms and the splats on every path, then the
 // path's own. Named once here, for the C++ that binds and the GLSL that reads.
 PNSPLAT_CONST uint kBindingFrame = 0;  // FrameUniforms (uniform buffer)
-PNSPLAT_CONST uint kBindingSplats = 1; // the cache's Splats (storage buffer)
-// Compute path: storage buffers.
-// The work items: per workgroup (its first range, its ranges), then the ranges (first splat, count).
+PNSPLAT_CONST uint kBindingSplats = 1; // the cache's Splats (uniform texel buffer, RGBA32UI)
+// Compute path: storage buffers, but the work items, per workgroup (its first range, its ranges), then
+// the ranges (first splat, count): a uniform texel buffer, RG32UI.
 PNSPLAT_CONST uint kBindingItems = 2;
 PNSPLAT_CONST uint kBindingDepth = 3;  // the nearest depth per pixel, as float bits
 PNSPLAT_CONST uint kBindingAccum = 4;  // the fixed-point sums per pixel (kAccumStride words, or one)

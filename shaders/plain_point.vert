@@ -6,7 +6,7 @@
 layout(location = 0) flat out vec3 outColour;
 
 void main() {
-    Splat s = splats[gl_VertexIndex];
+    Splat s = splatAt(uint(gl_VertexIndex));
     outColour = unpackUnorm4x8(s.colour).rgb;
     gl_Position = frame.projection * (frame.view * vec4(s.position, 1.0));
     gl_PointSize = 1.0;

@@ -17,7 +17,7 @@ const vec2 kCorners[6] = vec2[](vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(1.0, 1.0
                                 vec2(-1.0, -1.0), vec2(1.0, 1.0), vec2(-1.0, 1.0));
 
 void main() {
-    Splat s = splats[gl_VertexIndex / 6];
+    Splat s = splatAt(uint(gl_VertexIndex) / 6u);
     ViewSplat v = toView(s);
     vec2 corner = kCorners[gl_VertexIndex % 6];
     outLocal = corner;

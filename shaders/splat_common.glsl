@@ -3,7 +3,21 @@
 #include "gpu_types.h"
 
 layout(set = 0, binding = kBindingFrame, std140) uniform FrameBlock { FrameUniforms frame; };
-layout(set = 0, binding = kBindingSplats, std430) readonly buffer SplatBlock { Splat splats[]; };
+// The cache's splats: gpu::Splat's 32 bytes as two RGBA32UI texels. A texel buffer, not a storage
+// buffer: lavapipe fetches texels in SIMD lanes, but reads a storage buffer at a different address
+// in each lane one lane and one word at a time (docs/REALTIME.md, "What a frame costs on lavapipe").
+layout(set = 0, binding = kBindingSplats) uniform usamplerBuffer splatTexels;
+
+Splat splatAt(uint index) {
+    uvec4 a = texelFetch(splatTexels, int(2u * index));
+    uvec4 b = texelFetch(splatTexels, int(2u * index + 1u));
+    Splat s;
+    s.position = uintBitsToFloat(a.xyz);
+    s.radius = uintBitsToFloat(a.w);
+    s.normal = uintBitsToFloat(b.xyz);
+    s.colour = b.w;
+    return s;
+}
 
 // A splat in view space: centre, unit normal, radius (after the radius scale).
 struct ViewSplat {

@@ -6,21 +6,24 @@
 
 layout(local_size_x = kLocalSize) in;
 
-// Per workgroup (its first range, its ranges), then the ranges (first splat, count).
-layout(set = 0, binding = kBindingItems, std430) readonly buffer ItemBlock { uvec2 items[]; };
+// Per workgroup (its first range, its ranges), then the ranges (first splat, count): texels, which
+// lavapipe fetches for all lanes at once (splat_common.glsl, splatAt).
+layout(set = 0, binding = kBindingItems) uniform usamplerBuffer itemTexels;
+uvec2 item(uint k) {
+    return texelFetch(itemTexels, int(k)).xy;
+}
 layout(set = 0, binding = kBindingDepth, std430) buffer DepthBlock { uint depthBits[]; };         // float bits
 
 // The index of this invocation's splat, or false when its workgroup has no splat for it. The loop
-// reads the same ranges in every invocation (uniform loads: lavapipe reads a storage buffer at a
-// different address in each lane one lane at a time).
+// reads the same ranges in every invocation.
 bool invocationSplat(out uint index) {
     uint workgroup = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
     if (workgroup >= frame.flags.y) return false;
-    uvec2 group = items[workgroup];
+    uvec2 group = item(workgroup);
     uint local = gl_LocalInvocationID.x, offset = 0u;
     bool found = false;
     for (uint k = 0u; k < group.y; ++k) {
-        uvec2 range = items[group.x + k];
+        uvec2 range = item(group.x + k);
         if (!found && local < offset + range.y) {
             index = range.x + local - offset;
             found = true;

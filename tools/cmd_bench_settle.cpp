@@ -47,8 +47,8 @@ constexpr SettleView kSettleViews[] = {
 struct SettleArgs {
     std::vector<std::string> inputs; // empty: the first kSettleModelCount of kSparseModels
     std::vector<std::string> views;  // empty: all of kSettleViews
-    // The splats in view of a reference picture: below the 4,194,304 splats of lavapipe's largest
-    // storage buffer (128 MiB), which a picture drawn without the node tree takes in one.
+    // The splats in view of a reference picture, drawn without the node tree in one buffer (lavapipe's
+    // texel buffers hold 67 million splats): its refinement's time and memory.
     std::size_t maxReferencePoints = 4'000'000;
     // The points of the offline refinement, every level and the whole model (about 90 bytes each
     // while refining: 20 million take 1.8 GB).
@@ -273,8 +273,8 @@ void addBenchSettleCommand(CLI::App& bench) {
         ->check(CLI::IsMember({"framing", "close-up", "grazing"}));
     settle
         ->add_option("--max-reference-points", args->maxReferencePoints,
-                     "draw an offline reference of at most this many splats in view: one storage buffer (a "
-                     "shallower one is reported as capped)")
+                     "draw an offline reference of at most this many splats in view (a shallower one is "
+                     "reported as capped)")
         ->capture_default_str()
         ->check(kPositiveCount);
     settle

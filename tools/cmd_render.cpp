@@ -206,7 +206,7 @@ void runRender(const RenderArgs& args) {
     settings.render.background = {args.background[0], args.background[1], args.background[2]};
     const std::size_t pointsIn = points.size();
     // One picture needs only the splats that can change it: a deep refinement whose splats pass the
-    // device's largest storage buffer draws when those in view fit (the same picture).
+    // device's largest texel buffer draws when those in view fit (the same picture).
     if (!args.adaptive)
         removePoints(points,
                      splatsOutOfPicture(points.position, points.normal, points.radius, camera,

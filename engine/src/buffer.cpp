@@ -94,6 +94,14 @@ Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usag
     return result;
 }
 
+Unique<VkBufferView> createTexelView(Context& context, const Buffer& buffer, VkFormat format) {
+    VkBufferViewCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+    info.buffer = buffer.buffer.get();
+    info.format = format;
+    info.range = VK_WHOLE_SIZE;
+    return PNSPLAT_VK_CREATE(BufferView, context.device(), info);
+}
+
 void upload(Context& context, const Buffer& destination, const void* data, std::size_t size) {
     if (size == 0) return;
     if (destination.mapped != nullptr) {

@@ -15,9 +15,10 @@ ChunkCache::ChunkCache(Context& context, std::uint32_t capacity, bool forceStagi
     : context_(context), capacity_(capacity) {
     assert(capacity > 0);
     buffer_ = createBuffer(context, VkDeviceSize{capacity} * kSplatBytes,
-                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                           VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                            MemoryUse::Device);
+    texels_ = createTexelView(context, buffer_, VK_FORMAT_R32G32B32A32_UINT);
     staged_ = forceStaging || buffer_.mapped == nullptr;
 }
 

@@ -1,4 +1,4 @@
-// The ring-buffer GPU cache of the real-time refinement (paper section 7): one storage buffer of
+// The ring-buffer GPU cache of the real-time refinement (paper section 7): one buffer of
 // fixed capacity holds the splats of every resident node, each node one contiguous chunk.
 //
 // The input's chunks sit at the front for good (allocatePermanent). The rest is a ring: a new chunk
@@ -33,12 +33,14 @@ struct Chunk {
 
 class ChunkCache {
   public:
-    // capacity in splats (> 0, within the device's storage buffer range: the caller checks).
+    // capacity in splats (> 0, at most half the device's texel buffer elements: the caller checks).
     // forceStaging: write through the staging ring even where the buffer is host-visible (tests
     // of the path GPUs with device-local memory take). Throws VulkanError.
     ChunkCache(Context& context, std::uint32_t capacity, bool forceStaging = false);
 
     const Buffer& buffer() const { return buffer_; }
+    // The buffer as the passes read it: two RGBA32UI texels a splat (splat_common.glsl).
+    VkBufferView texels() const { return texels_.get(); }
     std::uint32_t capacity() const { return capacity_; }
     std::uint32_t used() const { return used_; } // splats in chunks, permanent ones included
     bool staged() const { return staged_; }
@@ -65,6 +67,7 @@ class ChunkCache {
     };
     Context& context_;
     Buffer buffer_;
+    Unique<VkBufferView> texels_;
     std::uint32_t capacity_ = 0, permanentEnd_ = 0, head_ = 0, used_ = 0;
     std::map<std::uint32_t, Entry> ring_; // ring chunks by first splat
     bool staged_ = false;

@@ -23,14 +23,15 @@ class ComputePasses final : public RenderPasses {
     int count() const override { return 3; }
     std::vector<VkDescriptorSetLayoutBinding> bindings() const override {
         std::vector<VkDescriptorSetLayoutBinding> out;
-        for (const std::uint32_t b :
-             {gpu::kBindingItems, gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput})
+        for (const std::uint32_t b : {gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput})
             out.push_back({b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
+        out.push_back(
+            {gpu::kBindingItems, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
         return out;
     }
     void create(VkPipelineLayout layout) override;
     void write(DescriptorWrites& writes, const PathFrame& frame) const override {
-        writes.buffer(gpu::kBindingItems, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, frame.items);
+        writes.texelBuffer(gpu::kBindingItems, frame.items);
         writes.buffer(gpu::kBindingDepth, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits_.buffer.get());
         writes.buffer(gpu::kBindingAccum, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum_.buffer.get());
         writes.buffer(gpu::kBindingOutput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output_.buffer.get());

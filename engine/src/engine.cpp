@@ -170,14 +170,14 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
     if (points.empty() && settings.adaptive) return Error{"there are no points to refine"};
     const std::size_t inputPoints = points.size();
     const std::size_t splatBytes = sizeof(gpu::Splat);
-    const std::size_t deviceSplats = context.properties().limits.maxStorageBufferRange / splatBytes;
+    // The passes read the cache as texels, two a splat (splat_common.glsl).
+    const std::size_t deviceSplats = context.properties().limits.maxTexelBufferElements / 2;
     std::size_t capacity = settings.cacheBytes / splatBytes;
     if (!settings.adaptive) capacity = std::max<std::size_t>(inputPoints, 1); // no ring: the input only
     const auto mib = [](double bytes) { return bytes / double(1 << 20); };
     if (inputPoints > deviceSplats)
-        return Error{
-            fmt::format("{} splats exceed the device's storage buffer range of {} splats ({:.0f} MiB)",
-                        inputPoints, deviceSplats, mib(double(deviceSplats * splatBytes)))};
+        return Error{fmt::format("{} splats exceed the device's texel buffer limit of {} splats ({:.0f} MiB)",
+                                 inputPoints, deviceSplats, mib(double(deviceSplats * splatBytes)))};
     if (capacity < inputPoints)
         return Error{
             fmt::format("a cache of {:.1f} MiB cannot hold the input's {} points ({:.1f} MiB, 32 bytes "
@@ -186,7 +186,7 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
                         std::ceil(mib(double(inputPoints * splatBytes)) * 2.0))};
     if (capacity > deviceSplats)
         return Error{
-            fmt::format("a cache of {:.0f} MiB exceeds the device's storage buffer range of {:.0f} MiB",
+            fmt::format("a cache of {:.0f} MiB exceeds the device's texel buffer limit of {:.0f} MiB",
                         mib(double(settings.cacheBytes)), mib(double(deviceSplats * splatBytes)))};
 
     const bool hasColour = points.hasColour();
@@ -542,7 +542,7 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         m.slotFrame[m.frames->slot()] = report.frame;
         // A model without colours is drawn in kDefaultColour throughout.
         const auto oneColour = m.hasColour ? std::nullopt : std::optional{kDefaultColour};
-        m.renderer->submit(*m.frames, m.cache->buffer(), oneColour, ranges, camera, view.frustum.range,
+        m.renderer->submit(*m.frames, m.cache->texels(), oneColour, ranges, camera, view.frustum.range,
                            output);
 
         report.cacheBytesUsed = std::size_t{m.cache->used()} * sizeof(gpu::Splat);

@@ -25,6 +25,7 @@ class DescriptorWrites {
     explicit DescriptorWrites(VkDescriptorSet set) : set_(set) {}
     void buffer(std::uint32_t binding, VkDescriptorType type, VkBuffer buffer);
     void image(std::uint32_t binding, VkSampler sampler, VkImageView view); // a sampled image
+    void texelBuffer(std::uint32_t binding, VkBufferView view);             // a uniform texel buffer
     void update(VkDevice device) const;
 
   private:
@@ -32,6 +33,7 @@ class DescriptorWrites {
     VkDescriptorSet set_;
     std::deque<VkDescriptorBufferInfo> buffers_;
     std::deque<VkDescriptorImageInfo> images_;
+    std::deque<VkBufferView> texelBuffers_;
     std::vector<VkWriteDescriptorSet> writes_;
 };
 
@@ -40,7 +42,7 @@ struct PathFrame {
     VkPipelineLayout layout = VK_NULL_HANDLE; // the set's
     VkDescriptorSet set = VK_NULL_HANDLE;
     // The compute path's work items (gpu::kBindingItems): per workgroup its ranges, then the ranges.
-    VkBuffer items = VK_NULL_HANDLE;
+    VkBufferView items = VK_NULL_HANDLE;
     std::uint32_t workgroups = 0;
     bool oneColour = false;           // the compute path's one-word sums (gpu_types.h)
     std::span<const DrawRange> draws; // the graphics paths': adjacent ranges merged

@@ -68,6 +68,11 @@ void DescriptorWrites::image(std::uint32_t binding, VkSampler sampler, VkImageVi
         &images_.emplace_back(VkDescriptorImageInfo{sampler, view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
 }
 
+void DescriptorWrites::texelBuffer(std::uint32_t binding, VkBufferView view) {
+    add(binding, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
+        &texelBuffers_.emplace_back(view);
+}
+
 void DescriptorWrites::update(VkDevice device) const {
     vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes_.size()), writes_.data(), 0, nullptr);
 }
@@ -79,7 +84,8 @@ struct SplatRenderer::Impl {
     // What one frame in flight owns (frames.h): written by the CPU while the other frame draws.
     struct Slot {
         Buffer uniforms, ranges, readback;
-        Buffer ticks; // the timestamps, copied here by the frame (host-visible)
+        Unique<VkBufferView> rangeTexels; // `ranges` as the compute path reads them (gpu::kBindingItems)
+        Buffer ticks;                     // the timestamps, copied here by the frame (host-visible)
         Unique<VkQueryPool> timestamps;
         VkDescriptorSet set = VK_NULL_HANDLE;
         std::uint32_t workgroups = 0; // of its frame (compute path)
@@ -99,7 +105,7 @@ struct SplatRenderer::Impl {
 
     void createCommon();
     void ensureRangeCapacity(Slot& slot, std::size_t items);
-    void submit(FrameRing& frames, const Buffer& splats, std::optional<std::uint32_t> oneColour,
+    void submit(FrameRing& frames, VkBufferView splats, std::optional<std::uint32_t> oneColour,
                 std::span<const DrawRange> ranges, const Camera& camera, DepthRange depth,
                 const FrameOutput& output);
 };
@@ -123,7 +129,7 @@ void SplatRenderer::Impl::createCommon() {
     // One set for all passes of a path: the frame's uniforms and the splats, then the path's own.
     std::vector<VkDescriptorSetLayoutBinding> bindings{
         {gpu::kBindingFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr},
-        {gpu::kBindingSplats, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr}};
+        {gpu::kBindingSplats, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr}};
     for (const VkDescriptorSetLayoutBinding& b : passes->bindings()) bindings.push_back(b);
     VkDescriptorSetLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     layoutInfo.bindingCount = static_cast<std::uint32_t>(bindings.size());
@@ -163,10 +169,12 @@ void SplatRenderer::Impl::ensureRangeCapacity(Slot& slot, std::size_t items) {
     const VkDeviceSize bytes = std::max<std::size_t>(items, 1) * 2 * sizeof(std::uint32_t);
     if (slot.ranges.size >= bytes) return;
     // The slot's last frame has finished (FrameRing::begin): its old buffer can go at once.
-    slot.ranges = createBuffer(context, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUse::Upload);
+    slot.rangeTexels = {};
+    slot.ranges = createBuffer(context, bytes, VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT, MemoryUse::Upload);
+    slot.rangeTexels = createTexelView(context, slot.ranges, VK_FORMAT_R32G32_UINT);
 }
 
-void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
+void SplatRenderer::Impl::submit(FrameRing& frames, VkBufferView splats,
                                  std::optional<std::uint32_t> oneColour, std::span<const DrawRange> ranges,
                                  const Camera& camera, DepthRange range, const FrameOutput& out) {
     Slot& slot = slots[frames.slot()];
@@ -226,11 +234,11 @@ void SplatRenderer::Impl::submit(FrameRing& frames, const Buffer& splats,
     frame.flags = {settings.normalize ? 1u : 0u, slot.workgroups, 0u, 0u};
     if (slot.oneColour) frame.colour = glm::vec4(linearColour(*oneColour), 1.0f);
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
-    const PathFrame pathFrame{pipelineLayout.get(), slot.set,       slot.ranges.buffer.get(),
+    const PathFrame pathFrame{pipelineLayout.get(), slot.set,       slot.rangeTexels.get(),
                               slot.workgroups,      slot.oneColour, draws};
     DescriptorWrites writes(slot.set);
     writes.buffer(gpu::kBindingFrame, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, slot.uniforms.buffer.get());
-    writes.buffer(gpu::kBindingSplats, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, splats.buffer.get());
+    writes.texelBuffer(gpu::kBindingSplats, splats);
     passes->write(writes, pathFrame);
     writes.update(device);
 
@@ -334,7 +342,7 @@ bool SplatRenderer::adjust(const RenderSettings& settings) {
     return true;
 }
 
-void SplatRenderer::submit(FrameRing& frames, const Buffer& splats, std::optional<std::uint32_t> oneColour,
+void SplatRenderer::submit(FrameRing& frames, VkBufferView splats, std::optional<std::uint32_t> oneColour,
                            std::span<const DrawRange> ranges, const Camera& camera, DepthRange depth,
                            const FrameOutput& output) {
     assert(camera.valid());

@@ -31,6 +31,11 @@ Unique<VkDeviceMemory> bindMemory(Context& context, VkImage image, VkMemoryPrope
 // Throws VulkanError on failure. size must be positive.
 Buffer createBuffer(Context& context, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use);
 
+// The whole of `buffer` (created with UNIFORM_TEXEL_BUFFER usage, its size a multiple of the
+// format's texel and within maxTexelBufferElements texels) as texels of `format`, for the shaders'
+// texelFetch. Throws VulkanError on failure.
+Unique<VkBufferView> createTexelView(Context& context, const Buffer& buffer, VkFormat format);
+
 // A 2D image of one mip level and one layer, optimal tiling, UNDEFINED layout, with device-local memory
 // of its own. Throws VulkanError on failure; the extent must not be empty.
 struct DeviceImage {

@@ -111,7 +111,7 @@ float splatDiameterQuantile(std::span<const glm::vec3> positions, std::span<cons
 // radius × radiusScale about the centre misses the view pyramid, or lies behind the eye). Both
 // tests keep a margin of rounding, so that on the compute path the picture drawn without them is
 // the picture drawn with them, bit for bit (its sums are integers). Ascending indices, for
-// removePoints: a picture of more splats than one storage buffer holds (`render` of a deep
+// removePoints: a picture of more splats than one buffer of the device holds (`render` of a deep
 // refinement, bench settle's reference) needs only those in view. Any thread; O(points).
 std::vector<std::uint32_t> splatsOutOfPicture(std::span<const glm::vec3> positions,
                                               std::span<const glm::vec3> normals,

@@ -98,11 +98,11 @@ class SplatRenderer {
     SplatRenderer& operator=(const SplatRenderer&) = delete;
 
     // Records and submits the passes of the current frame of `frames` (begun by the caller), drawing
-    // `ranges` of `splats` (a storage buffer of gpu::Splat) from `camera` (valid) with the depth
-    // range `depth`. `oneColour`: every splat drawn has this colour (packed as gpu::Splat::colour),
-    // so that the compute path accumulates two sums a pixel instead of four (without the heat map).
-    // Does not wait: the frame's fence signals when it is done. Throws VulkanError.
-    void submit(FrameRing& frames, const Buffer& splats, std::optional<std::uint32_t> oneColour,
+    // `ranges` of `splats` (a texel view of gpu::Splats, ChunkCache::texels) from `camera` (valid) with the
+    // depth range `depth`. `oneColour`: every splat drawn has this colour (packed as gpu::Splat::colour), so
+    // that the compute path accumulates two sums a pixel instead of four (without the heat map). Does not
+    // wait: the frame's fence signals when it is done. Throws VulkanError.
+    void submit(FrameRing& frames, VkBufferView splats, std::optional<std::uint32_t> oneColour,
                 std::span<const DrawRange> ranges, const Camera& camera, DepthRange depth,
                 const FrameOutput& output);
     // The pass times and, when read back, the image of frame `frame` of `frames`; the frame must have

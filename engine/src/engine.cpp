@@ -529,12 +529,6 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         std::sort(ranges.begin(), ranges.end(),
                   [](const DrawRange& a, const DrawRange& b) { return a.first < b.first; });
         report.nodesVisible = m.drawnNodes.size();
-        if (options.measureSplats) {
-            const SplatSizes sizes = measureSplats(m.tree, m.drawnNodes, view, m.settings.threshold);
-            report.medianSplatPx = sizes.medianPx;
-            report.maxSplatPx = sizes.maxPx;
-            report.overThreshold = sizes.overThreshold;
-        }
         if (uploads != VK_NULL_HANDLE) m.frames->submit(uploads, false);
         FrameOutput output = options.output;
         output.readBack = options.readBack;
@@ -545,6 +539,13 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         m.renderer->submit(*m.frames, m.cache->texels(), oneColour, ranges, camera, view.frustum.range,
                            output);
 
+        // Measured once the passes are submitted, so that lavapipe's threads draw meanwhile.
+        if (options.measureSplats) {
+            const SplatSizes sizes = measureSplats(m.tree, m.drawnNodes, view, m.settings.threshold);
+            report.medianSplatPx = sizes.medianPx;
+            report.maxSplatPx = sizes.maxPx;
+            report.overThreshold = sizes.overThreshold;
+        }
         report.cacheBytesUsed = std::size_t{m.cache->used()} * sizeof(gpu::Splat);
         report.thresholdPx = m.threshold;
         report.resting = resting;

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <limits>
 #include <numbers>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,44 +52,101 @@ struct SettleArgs {
     // The splats in view of a reference picture, drawn without the node tree in one buffer (lavapipe's
     // texel buffers hold 67 million splats): its refinement's time and memory.
     std::size_t maxReferencePoints = 4'000'000;
-    // The points of the offline refinement, every level and the whole model (about 90 bytes each
-    // while refining: 20 million take 1.8 GB).
+    // The points of the offline refinement, every level, of the whole model or of a box about the
+    // picture past it (about 90 bytes each while refining: 20 million take 1.8 GB).
     std::size_t maxRefinedPoints = 20'000'000;
     std::string pictures; // where to write each case's pictures (empty: nowhere)
     EngineArgs engine;
 };
 
-// An offline refinement of the whole model at `levels` levels, only its splats that can change
-// the picture of the camera (splatsOutOfPicture: the picture is the same).
+// An offline refinement at `levels` levels, only its splats that can change the picture of the
+// camera (splatsOutOfPicture: the picture is the same).
 struct OfflineReference {
     PointSet points;
     std::uint32_t levels = 0;
     bool capped = false; // a level shallower than asked: the next would pass a limit of SettleArgs
+    std::optional<std::uint32_t> regionFrom; // levels past this one were refined in a box about the picture
 };
 // The references of issue 26's lines 1 and 2: the offline refinement at the deepest level the
 // settled frame draws, and one level deeper. A level triples the points: a reference stops at the
-// last level whose next would pass the refined or the in-view limit, and is then capped.
+// last level whose next would pass the in-view limit (or, in a box, the refined one), and is then
+// capped.
 struct OfflineReferences {
     OfflineReference deepest, deeper;
 };
+
+// The levels past what the whole model's refinement may hold (SettleArgs::maxRefinedPoints; the
+// close-ups draw nine and ten levels deep, and the bunny's tenth level would hold 200 million
+// points) go on in a box about the picture: refineRegion refines the points in the box, with
+// those around it as context (docs/REALTIME.md, "Measuring a settled picture"). From the next
+// level on, the box's points near its faces would miss their neighbours beyond it, so each level's
+// box is the last one shrunk by twice a neighbourhood search's reach, 2 · kRetryReach times the
+// largest radius, which a level multiplies by at most kCBetaMax (ALGORITHM.md §4.7): the first box
+// is that of the splats in the picture widened by every shrink to come, and the last still holds
+// it. Within it, the same surface by the same rules as the whole model's refinement, not the same
+// bits (a level's order follows its cells).
+struct RegionSchedule {
+    float firstShrink = 0.0f; // the first level's; each next one kCBetaMax times the last
+    Region box;
+};
+RegionSchedule regionSchedule(const PointSet& points, std::span<const std::uint32_t> outside,
+                              float radiusScale, std::uint32_t levels) {
+    RegionSchedule schedule;
+    const float largest = *std::ranges::max_element(points.radius);
+    schedule.firstShrink = 2.0f * kRetryReach * largest;
+    float widen = 0.0f;
+    for (std::uint32_t k = 0; k < levels; ++k) widen += schedule.firstShrink * std::pow(kCBetaMax, float(k));
+    glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-std::numeric_limits<float>::infinity());
+    for (std::size_t i = 0, k = 0; i < points.size(); ++i) {
+        if (k < outside.size() && outside[k] == i) {
+            ++k;
+            continue;
+        }
+        const float reach = points.radius[i] * radiusScale;
+        lo = glm::min(lo, points.position[i] - reach);
+        hi = glm::max(hi, points.position[i] + reach);
+    }
+    schedule.box = Region{lo - widen, hi + widen};
+    return schedule;
+}
+
+// One level of `points` (P(l) in `box`) in `box`: the points in it owned, those within the reach of
+// a refined context point's search as context.
+RegionResult refineInBox(const PointSet& points, const Region& box, std::uint32_t level,
+                         std::vector<SegmentEnds> segments, const RefineOptions& options) {
+    const float reach = 2.0f * kRetryReach * *std::ranges::max_element(points.radius);
+    const Region near{box.lo - reach, box.hi + reach};
+    RegionLevel run;
+    run.region = box;
+    run.level = level;
+    run.segments = std::move(segments);
+    run.threads = options.threads;
+    for (std::size_t i = 0; i < points.size(); ++i)
+        if (box.contains(points.position[i])) run.points.appendFrom(points, i);
+    run.owned = run.points.size();
+    for (std::size_t i = 0; i < points.size(); ++i)
+        if (!box.contains(points.position[i]) && near.contains(points.position[i]))
+            run.points.appendFrom(points, i);
+    return refineRegion(std::move(run), options);
+}
+
 OfflineReferences offlineReferences(const PointSet& input, std::uint32_t deepest,
                                     const engine::Camera& camera, const SettleArgs& args, float radiusScale) {
     RefineOptions options;
     options.threads = 0;
     Refiner refiner(input, options);
     OfflineReferences out;
-    // The splats of the refinement so far that cannot change the picture, and the reference of
-    // the others: copied only for the levels kept, and only those.
+    // The splats of the level so far that cannot change the picture, and the reference of the
+    // others: copied only for the levels kept, and only those.
     std::vector<std::uint32_t> outside;
-    const auto measure = [&] {
-        const PointSet& points = refiner.points();
+    const auto measure = [&](const PointSet& points) {
         outside = engine::splatsOutOfPicture(points.position, points.normal, points.radius, camera,
                                              args.engine.width, args.engine.height, radiusScale);
         return points.size() - outside.size();
     };
-    const auto reference = [&](bool capped) {
-        const PointSet& points = refiner.points();
-        OfflineReference r{{}, refiner.levels(), capped};
+    std::optional<std::uint32_t> regionFrom;
+    const auto reference = [&](const PointSet& points, std::uint32_t levels, bool capped) {
+        OfflineReference r{{}, levels, capped, regionFrom};
         r.points.reserve(points.size() - outside.size());
         for (std::size_t i = 0, k = 0; i < points.size(); ++i)
             if (k < outside.size() && outside[k] == i)
@@ -96,18 +155,44 @@ OfflineReferences offlineReferences(const PointSet& input, std::uint32_t deepest
                 r.points.appendFrom(points, i);
         return r;
     };
-    std::size_t inView = measure();
-    while (refiner.levels() < deepest + 1) {
-        if (refiner.levels() == deepest) out.deepest = reference(false);
-        if (3 * refiner.points().size() > args.maxRefinedPoints || 3 * inView > args.maxReferencePoints) {
-            out.deeper = reference(true);
-            if (refiner.levels() < deepest) out.deepest = out.deeper; // capped before the deepest level
-            return out;
-        }
+    // Returns whether the next level would pass the in-view limit, or the refined one with
+    // `refined` points to refine: the references are then set.
+    std::size_t inView = measure(refiner.points());
+    const auto stopsAt = [&](const PointSet& points, std::uint32_t levels, std::size_t refined) {
+        if (levels == deepest) out.deepest = reference(points, levels, false);
+        if (3 * inView <= args.maxReferencePoints && 3 * refined <= args.maxRefinedPoints) return false;
+        out.deeper = reference(points, levels, true);
+        if (levels < deepest) out.deepest = out.deeper; // capped before the deepest level
+        return true;
+    };
+    while (refiner.levels() < deepest + 1 && 3 * refiner.points().size() <= args.maxRefinedPoints) {
+        if (stopsAt(refiner.points(), refiner.levels(), 0)) return out;
         refiner.refineLevel();
-        inView = measure();
+        inView = measure(refiner.points());
     }
-    out.deeper = reference(false);
+    if (refiner.levels() == deepest + 1) {
+        out.deeper = reference(refiner.points(), refiner.levels(), false);
+        return out;
+    }
+    // On in a box about the picture (above).
+    std::uint32_t level = refiner.levels();
+    regionFrom = level;
+    std::vector<SegmentEnds> segments =
+        level > 0 ? refiner.segmentEnds() : findSegments(refiner.points(), options);
+    PointSet points = std::move(refiner).takePoints();
+    RegionSchedule schedule = regionSchedule(points, outside, radiusScale, deepest + 1 - level);
+    for (float shrink = schedule.firstShrink; level < deepest + 1; shrink *= kCBetaMax) {
+        const auto inBox =
+            std::ranges::count_if(points.position, [&](glm::vec3 p) { return schedule.box.contains(p); });
+        if (stopsAt(points, level, static_cast<std::size_t>(inBox))) return out;
+        RegionResult next = refineInBox(points, schedule.box, level, std::move(segments), options);
+        points = std::move(next.points);
+        segments = std::move(next.segments);
+        ++level;
+        schedule.box = Region{schedule.box.lo + shrink, schedule.box.hi - shrink};
+        inView = measure(points);
+    }
+    out.deeper = reference(points, level, false);
     return out;
 }
 
@@ -203,7 +288,10 @@ void runBenchSettle(const SettleArgs& args) {
             std::size_t holeArea = 0;
             for (const engine::ImageRegion& hole : holes) holeArea += hole.pixels;
             const auto caption = [](const OfflineReference& reference) {
-                return fmt::format("offline, {} levels{}", reference.levels,
+                return fmt::format("offline, {} levels{}{}", reference.levels,
+                                   reference.regionFrom
+                                       ? fmt::format(" (in a box from level {})", *reference.regionFrom)
+                                       : "",
                                    reference.capped ? " (capped)" : "");
             };
             if (!args.pictures.empty()) {
@@ -227,7 +315,7 @@ void runBenchSettle(const SettleArgs& args) {
                 R"("holes": {}, "hole_pixels": {}, "covered_px": {}, "splats_drawn": {}, "drawn_per_covered_px": {:.2f}, )"
                 R"("points_made": {}, "made_per_covered_px": {:.2f}, "median_splat_px": {:.2f}, "deepest_level": {}, )"
                 R"("refine_ms": {:.0f}, "reference_levels": {}, "reference_points_in_view": {}, "reference_capped": {}, )"
-                R"("deeper_levels": {}, "deeper_points_in_view": {}, "deeper_capped": {}}})"
+                R"("deeper_levels": {}, "deeper_points_in_view": {}, "deeper_capped": {}, "box_from_level": {}}})"
                 "\n",
                 jsonString(name), jsonString(view->name), args.engine.width, args.engine.height,
                 settled.settled ? "true" : "false", std::min(difference.psnr, kIdenticalPsnr),
@@ -235,7 +323,8 @@ void runBenchSettle(const SettleArgs& args) {
                 covered, settled.splatsDrawn, drawnPerPixel, made, madePerPixel, settled.medianSplatPx,
                 deepest, settled.refineWaitMs, first.levels, first.points.size(),
                 first.capped ? "true" : "false", second.levels, second.points.size(),
-                second.capped ? "true" : "false");
+                second.capped ? "true" : "false",
+                second.regionFrom ? std::to_string(*second.regionFrom) : std::string("null"));
             std::fflush(stdout);
             lowestPsnr = std::min(lowestPsnr, std::min(difference.psnr, kIdenticalPsnr));
             lowestDeeperPsnr = std::min(lowestDeeperPsnr, std::min(deeper.psnr, kIdenticalPsnr));
@@ -279,8 +368,8 @@ void addBenchSettleCommand(CLI::App& bench) {
         ->check(kPositiveCount);
     settle
         ->add_option("--max-refined-points", args->maxRefinedPoints,
-                     "refine the offline references to at most this many points in all (memory: about 90 "
-                     "bytes each)")
+                     "refine the whole model for the offline references up to this many points (memory: "
+                     "about 90 bytes each), then the levels left in a box about the picture up to as many")
         ->capture_default_str()
         ->check(kPositiveCount);
     settle->add_option("--pictures", args->pictures,

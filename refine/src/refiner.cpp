@@ -511,6 +511,15 @@ float Refiner::longestSegment() const {
     return longest;
 }
 
+std::vector<SegmentEnds> Refiner::segmentEnds() const {
+    const PointSet& points = state_->points;
+    std::vector<SegmentEnds> ends;
+    ends.reserve(state_->segments.list.size());
+    for (const Segment& segment : state_->segments.list)
+        ends.push_back({points.position[segment.a], points.position[segment.b], segment.crease});
+    return ends;
+}
+
 namespace {
 
 // The upper median of `radii`.
@@ -644,7 +653,7 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
     assert(owned <= input.points.size());
     if (owned == 0) return result;
     RefineOptions local = options;
-    local.threads = 1;
+    local.threads = input.threads;
     local.targetRadius = 0.0f;
     local.profile = false;
     Refiner refiner(std::move(input.points), local);

@@ -155,6 +155,9 @@ class Refiner {
     // The length of the longest boundary or crease segment (section 6), 0 without segments. They
     // are found at the first level; before it there are none.
     float longestSegment() const;
+    // The boundary and crease segments of the last level built, by the positions of their ends:
+    // what refineRegion takes to go on from this level in a region (empty before the first level).
+    std::vector<SegmentEnds> segmentEnds() const;
 
     // All points so far, level by level: P0 (the input points, unchanged but for their radii)
     // first, in a spatial (Morton) order that keeps neighbours close in memory, then the points
@@ -292,9 +295,10 @@ std::vector<SegmentEnds> findSegments(const PointSet& points, const RefineOption
 //    the radii near borders larger than the whole level's, and nodes refined deeper than needed).
 //  - Segments (section 6) are given, by position, with `a` among the region's points and `b`
 //    among `points` (others are dropped); they are split when level l+1 is odd, as in refineLevel.
-// The result depends only on the input (its order included), never on the thread or the history:
-// the real-time refinement relies on it. Runs on the calling thread. Preconditions: `points` as
-// for Refiner, owned <= points.size(), the owned points lie in `region`.
+// The result depends only on the input (its order included), never on the threads or the history:
+// the real-time refinement relies on it. Runs with RegionLevel::threads as RefineOptions::threads
+// (one: on the calling thread alone, as the engine's jobs do). Preconditions: `points` as for Refiner, owned
+// <= points.size(), the owned points lie in `region`.
 struct RegionLevel {
     PointSet points; // the region's points of P(l) (the first `owned`), then context
     std::size_t owned = 0;
@@ -302,6 +306,7 @@ struct RegionLevel {
     std::uint32_t level = 0; // l: level l+1 is built
     std::vector<SegmentEnds> segments;
     bool recordParents = false; // fill RegionResult::parents (tests: levels stay separated)
+    unsigned threads = 1;       // as RefineOptions::threads; the result is the same for any
 };
 struct RegionResult {
     // The owned points in their given order with their radii of P(l+1), then the new points,

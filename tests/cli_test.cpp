@@ -1580,10 +1580,10 @@ TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
     const fs::path dense = dir / "dense-torus.ply";
     ASSERT_TRUE(writePly(dense, sampleTorusUniform(3000, 1.0f, 0.4f)).ok());
     const auto closeUp = [&](const std::string& more) {
-        const RunResult r =
+        const RunResult settled =
             run("bench settle " + quote(dense) + " --cameras close-up --width 160 --height 120" + more);
-        EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
-        return lines(r.out).at(0);
+        EXPECT_TRUE(settled.exited && settled.exitCode == 0) << settled.err;
+        return lines(settled.out).at(0);
     };
     const std::string whole = closeUp(""), inBox = closeUp(" --max-refined-points 300000");
     EXPECT_EQ(jsonField(whole, "box_from_level"), "null") << whole;

@@ -23,6 +23,7 @@
 #include "pnsplat/engine/image.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/text.h"
+#include "progress.h"
 #include "render_compare.h"
 #include "shared_models.h"
 
@@ -130,8 +131,10 @@ RegionResult refineInBox(const PointSet& points, const Region& box, std::uint32_
     return refineRegion(std::move(run), options);
 }
 
+// `bar` shows the level being made (`what`: the case), of the whole model or in the box.
 OfflineReferences offlineReferences(const PointSet& input, std::uint32_t deepest,
-                                    const engine::Camera& camera, const SettleArgs& args, float radiusScale) {
+                                    const engine::Camera& camera, const SettleArgs& args, float radiusScale,
+                                    ProgressBar& bar, const std::string& what) {
     RefineOptions options;
     options.threads = 0;
     Refiner refiner(input, options);
@@ -167,7 +170,8 @@ OfflineReferences offlineReferences(const PointSet& input, std::uint32_t deepest
     };
     while (refiner.levels() < deepest + 1 && 3 * refiner.points().size() <= args.maxRefinedPoints) {
         if (stopsAt(refiner.points(), refiner.levels(), 0)) return out;
-        refiner.refineLevel();
+        bar.setLabel(fmt::format("{}: offline level {} of {}", what, refiner.levels() + 1, deepest + 1));
+        refiner.refineLevel([&](std::size_t done, std::size_t total) { bar.update(done, total); });
         inView = measure(refiner.points());
     }
     if (refiner.levels() == deepest + 1) {
@@ -185,6 +189,8 @@ OfflineReferences offlineReferences(const PointSet& input, std::uint32_t deepest
         const auto inBox =
             std::ranges::count_if(points.position, [&](glm::vec3 p) { return schedule.box.contains(p); });
         if (stopsAt(points, level, static_cast<std::size_t>(inBox))) return out;
+        bar.setLabel(fmt::format("{}: offline level {} of {} in a box", what, level + 1, deepest + 1));
+        bar.update(level, deepest + 1);
         RegionResult next = refineInBox(points, schedule.box, level, std::move(segments), options);
         points = std::move(next.points);
         segments = std::move(next.segments);
@@ -254,6 +260,9 @@ void runBenchSettle(const SettleArgs& args) {
         const std::string& name = model.name;
         const std::string& loaded = model.loaded;
         for (const SettleView* view : views) {
+            const std::string what = name + " " + view->name;
+            ProgressBar bar(what + ": settling");
+            bar.update(0, 1);
             auto created = engine::Engine::create(*context, input, adaptive);
             if (!created) throw CommandError(loaded + ": " + created.error().message);
             engine::Engine& engine = **created;
@@ -268,7 +277,9 @@ void runBenchSettle(const SettleArgs& args) {
             engine.finish();
 
             const OfflineReferences references =
-                offlineReferences(input, deepest, camera, args, drawOnly.render.radiusScale);
+                offlineReferences(input, deepest, camera, args, drawOnly.render.radiusScale, bar, what);
+            bar.setLabel(what + ": drawing the offline references");
+            bar.update(0, 1);
             const auto drawReference = [&](const OfflineReference& reference) {
                 auto offline = engine::Engine::create(*context, reference.points, drawOnly);
                 if (!offline) throw CommandError(loaded + ": offline reference: " + offline.error().message);
@@ -307,6 +318,7 @@ void runBenchSettle(const SettleArgs& args) {
             const auto covered = static_cast<double>(engine::coveredPixels(picture.pixels, background));
             const double drawnPerPixel = covered > 0.0 ? double(settled.splatsDrawn) / covered : 0.0;
             const double madePerPixel = covered > 0.0 ? double(made) / covered : 0.0;
+            bar.finish(); // the record below on a line of its own
             const OfflineReference& first = references.deepest;
             const OfflineReference& second = references.deeper;
             fmt::print(

@@ -16,6 +16,7 @@ ProgressBar::~ProgressBar() {
 
 void ProgressBar::setLabel(std::string label) {
     label_ = std::move(label);
+    last_ = {}; // the next update draws the new label
 }
 
 void ProgressBar::update(std::size_t done, std::size_t total) {

@@ -14,7 +14,7 @@ class ProgressBar {
     ProgressBar(const ProgressBar&) = delete;
     ProgressBar& operator=(const ProgressBar&) = delete;
 
-    void setLabel(std::string label);
+    void setLabel(std::string label); // drawn at the next update, whenever that comes
     // Redraws at most ~20 times a second.
     void update(std::size_t done, std::size_t total);
     // Clears the line.

@@ -86,6 +86,17 @@ struct OfflineReferences {
 // is that of the splats in the picture widened by every shrink to come, and the last still holds
 // it. Within it, the same surface by the same rules as the whole model's refinement, not the same
 // bits (a level's order follows its cells).
+// Calls f(i) for every i < count not in `outside` (sorted: splatsOutOfPicture).
+template <typename F>
+void forEachInPicture(std::size_t count, std::span<const std::uint32_t> outside, F&& f) {
+    for (std::size_t i = 0, k = 0; i < count; ++i) {
+        if (k < outside.size() && outside[k] == i)
+            ++k;
+        else
+            f(i);
+    }
+}
+
 struct RegionSchedule {
     float firstShrink = 0.0f; // the first level's; each next one kCBetaMax times the last
     Region box;
@@ -95,18 +106,15 @@ RegionSchedule regionSchedule(const PointSet& points, std::span<const std::uint3
     RegionSchedule schedule;
     const float largest = *std::ranges::max_element(points.radius);
     schedule.firstShrink = 2.0f * kRetryReach * largest;
-    float widen = 0.0f;
-    for (std::uint32_t k = 0; k < levels; ++k) widen += schedule.firstShrink * std::pow(kCBetaMax, float(k));
+    // The sum of the shrinks to come, as the loop of offlineReferences makes them.
+    float widen = 0.0f, shrink = schedule.firstShrink;
+    for (std::uint32_t k = 0; k < levels; ++k, shrink *= kCBetaMax) widen += shrink;
     glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-std::numeric_limits<float>::infinity());
-    for (std::size_t i = 0, k = 0; i < points.size(); ++i) {
-        if (k < outside.size() && outside[k] == i) {
-            ++k;
-            continue;
-        }
+    forEachInPicture(points.size(), outside, [&](std::size_t i) {
         const float reach = points.radius[i] * radiusScale;
         lo = glm::min(lo, points.position[i] - reach);
         hi = glm::max(hi, points.position[i] + reach);
-    }
+    });
     schedule.box = Region{lo - widen, hi + widen};
     return schedule;
 }
@@ -151,11 +159,7 @@ OfflineReferences offlineReferences(const PointSet& input, std::uint32_t deepest
     const auto reference = [&](const PointSet& points, std::uint32_t levels, bool capped) {
         OfflineReference r{{}, levels, capped, regionFrom};
         r.points.reserve(points.size() - outside.size());
-        for (std::size_t i = 0, k = 0; i < points.size(); ++i)
-            if (k < outside.size() && outside[k] == i)
-                ++k;
-            else
-                r.points.appendFrom(points, i);
+        forEachInPicture(points.size(), outside, [&](std::size_t i) { r.points.appendFrom(points, i); });
         return r;
     };
     // Returns whether the next level would pass the in-view limit, or the refined one with

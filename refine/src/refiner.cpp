@@ -511,12 +511,20 @@ float Refiner::longestSegment() const {
     return longest;
 }
 
+namespace {
+
+// A segment by the positions of its ends (segments between the separate runs of refineRegion).
+SegmentEnds endsOf(const Segment& segment, std::span<const glm::vec3> position) {
+    return {position[segment.a], position[segment.b], segment.crease};
+}
+
+} // namespace
+
 std::vector<SegmentEnds> Refiner::segmentEnds() const {
-    const PointSet& points = state_->points;
     std::vector<SegmentEnds> ends;
     ends.reserve(state_->segments.list.size());
     for (const Segment& segment : state_->segments.list)
-        ends.push_back({points.position[segment.a], points.position[segment.b], segment.crease});
+        ends.push_back(endsOf(segment, state_->points.position));
     return ends;
 }
 
@@ -641,9 +649,7 @@ std::vector<SegmentEnds> findSegments(const PointSet& input, const RefineOptions
     if (exponent != 0) scalePoints(state.points, std::ldexp(1.0f, -exponent), state.pool);
     std::vector<SegmentEnds> segments;
     segments.reserve(found.size());
-    for (const Segment& segment : found)
-        segments.push_back(
-            {state.points.position[segment.a], state.points.position[segment.b], segment.crease});
+    for (const Segment& segment : found) segments.push_back(endsOf(segment, state.points.position));
     return segments;
 }
 
@@ -699,7 +705,7 @@ RegionResult refineRegion(RegionLevel input, const RefineOptions& options) {
     for (std::size_t i = firstNew; i < all.size(); ++i) result.points.appendFrom(all, i);
     for (const Segment& segment : state.segments.list)
         if (segment.a >= firstNew || !context[segment.a])
-            result.segments.push_back({all.position[segment.a], all.position[segment.b], segment.crease});
+            result.segments.push_back(endsOf(segment, all.position));
     result.parents.reserve(state.newPointParents.size());
     for (const auto& corners : state.newPointParents)
         result.parents.push_back(

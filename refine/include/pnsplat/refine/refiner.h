@@ -297,8 +297,8 @@ std::vector<SegmentEnds> findSegments(const PointSet& points, const RefineOption
 //    among `points` (others are dropped); they are split when level l+1 is odd, as in refineLevel.
 // The result depends only on the input (its order included), never on the threads or the history:
 // the real-time refinement relies on it. Runs with RegionLevel::threads as RefineOptions::threads
-// (one: on the calling thread alone, as the engine's jobs do). Preconditions: `points` as for Refiner, owned
-// <= points.size(), the owned points lie in `region`.
+// (one: on the calling thread alone, as the engine's jobs do). Preconditions: `points` as for
+// Refiner, owned <= points.size(), the owned points lie in `region`.
 struct RegionLevel {
     PointSet points; // the region's points of P(l) (the first `owned`), then context
     std::size_t owned = 0;

@@ -187,6 +187,113 @@ TEST(NodeTree, RefiningEverywhereApproachesTheUniformLevels) {
     }
 }
 
+// Whole levels first (NodeSettings::wholeLevelPoints): the nodes of each level down to the last
+// whole level hold the offline refinement's level bit for bit, the last with its segments; the
+// budget decides how many levels (the next estimated at kLevelGrowth times the last); jobs go on
+// from there.
+TEST(NodeTree, WholeLevelsFirstAreTheOfflineLevels) {
+    const PointSet sphere = sampleSphereRandom(3000, 1.0f, 21);
+    PointSet dome; // open: its rim has boundary segments
+    for (std::size_t i = 0; i < sphere.size(); ++i)
+        if (sphere.position[i].z > -0.2f) dome.appendFrom(sphere, i);
+    const PointSet input = withRadii(std::move(dome));
+    Refiner offline(input, RefineOptions{});
+    offline.refineLevel();
+    const std::size_t firstLevel = offline.points().size();
+    offline.refineLevel();
+    const std::vector<SegmentEnds> offlineSegments = offline.segmentEnds();
+    ASSERT_GT(offlineSegments.size(), 10u) << "no rim: the test shows nothing of the segments";
+
+    // Room for level 2 (level 1 times kLevelGrowth), not for level 3.
+    NodeSettings settings = smallNodes();
+    settings.wholeLevelPoints = static_cast<std::size_t>(double(firstLevel) * kLevelGrowth);
+    auto tree = NodeTree::create(input, settings);
+    ASSERT_TRUE(tree) << tree.error().message;
+    EXPECT_EQ(tree->wholeLevels(), 2u);
+    EXPECT_EQ(tree->inputPoints(), input.size());
+    // Level by level, the offline refinement's points with the radii of that level; every node of
+    // a level above 2 has children, those of level 2 are leaves.
+    Refiner replay(input, RefineOptions{});
+    for (std::uint32_t level = 0; level <= 2; ++level) {
+        if (level > 0) replay.refineLevel();
+        const PointSet& offlineLevel = replay.points();
+        const auto nodes = pointsOfLevel(*tree, level);
+        ASSERT_EQ(nodes.size(), offlineLevel.size()) << "level " << level;
+        for (std::size_t i = 0; i < offlineLevel.size(); ++i) {
+            const auto found = nodes.find(keyOf(offlineLevel.position[i]));
+            ASSERT_NE(found, nodes.end()) << "an offline point of level " << level << " is in no node";
+            const std::array<float, 7> expected{offlineLevel.normal[i].x, offlineLevel.normal[i].y,
+                                                offlineLevel.normal[i].z, offlineLevel.radius[i]};
+            EXPECT_EQ(found->second, expected)
+                << "a node's point differs from the offline one, level " << level;
+        }
+    }
+    std::vector<std::array<float, 7>> segments;
+    for (NodeId id = 0; id < tree->slotCount(); ++id) {
+        if (!tree->isLive(id)) continue;
+        const Node& node = tree->node(id);
+        EXPECT_EQ(node.isLeaf(), node.level == 2) << "node " << id;
+        for (const SegmentEnds& e : node.segments)
+            segments.push_back({e.a.x, e.a.y, e.a.z, e.b.x, e.b.y, e.b.z});
+        if (!node.segments.empty()) {
+            EXPECT_EQ(node.level, 2u) << "segments are the leaves' only";
+        }
+    }
+    std::vector<std::array<float, 7>> expectedSegments;
+    for (const SegmentEnds& e : offlineSegments)
+        expectedSegments.push_back({e.a.x, e.a.y, e.a.z, e.b.x, e.b.y, e.b.z});
+    std::sort(segments.begin(), segments.end());
+    std::sort(expectedSegments.begin(), expectedSegments.end());
+    EXPECT_EQ(segments, expectedSegments);
+
+    // One point short of room for level 2: level 1 only. Short of room for level 1: the input.
+    settings.wholeLevelPoints = static_cast<std::size_t>(double(firstLevel) * kLevelGrowth) - 1;
+    EXPECT_EQ(NodeTree::create(input, settings)->wholeLevels(), 1u);
+    settings.wholeLevelPoints = static_cast<std::size_t>(double(input.size()) * kLevelGrowth) - 1;
+    auto none = NodeTree::create(input, settings);
+    ASSERT_TRUE(none);
+    EXPECT_EQ(none->wholeLevels(), 0u);
+    EXPECT_EQ(none->pointCount(), input.size());
+    for (const NodeId root : none->roots()) EXPECT_TRUE(none->node(root).isLeaf());
+
+    // The nodes go on from level 2 as from any level.
+    refineEverywhere(*tree, 3);
+    offline.refineLevel();
+    const double ratio = double(pointsOfLevel(*tree, 3).size()) / double(offline.points().size());
+    EXPECT_NEAR(ratio, 1.0, 0.05);
+}
+
+// Why whole levels first: a job's level differs from the whole level's (§8.2: the order of the
+// refinement, the context near region borders), and the difference grows with every level that
+// jobs refine. Level 3 made by jobs from the whole level 2 holds more of the offline level 3's
+// points, bit for bit, than level 3 made by jobs from P0.
+TEST(NodeTree, WholeLevelsBringTheJobsNearerTheOfflineLevels) {
+    const PointSet input = withRadii(sampleTorusRandom(2500, 1.0f, 0.35f, 9));
+    Refiner offline(input, RefineOptions{});
+    for (int l = 0; l < 3; ++l) offline.refineLevel();
+    std::set<Key> level3;
+    for (const glm::vec3 p : offline.points().position) level3.insert(keyOf(p));
+    const auto shared = [&](std::size_t wholeLevelPoints) {
+        NodeSettings settings = smallNodes();
+        settings.wholeLevelPoints = wholeLevelPoints;
+        auto tree = NodeTree::create(input, settings);
+        EXPECT_TRUE(tree);
+        EXPECT_EQ(tree->wholeLevels(), wholeLevelPoints > 0 ? 2u : 0u);
+        refineEverywhere(*tree, 3);
+        const auto nodes = pointsOfLevel(*tree, 3);
+        std::size_t same = 0;
+        for (const auto& entry : nodes) same += level3.count(entry.first);
+        return double(same) / double(level3.size());
+    };
+    const double fromInput = shared(0);
+    const double fromLevel2 =
+        shared(static_cast<std::size_t>(kLevelGrowth * kLevelGrowth * double(input.size())) + 1000);
+    std::printf(
+        "offline level 3 points made bit for bit by the jobs: from P0 %.4f, from the whole level 2 %.4f\n",
+        fromInput, fromLevel2);
+    EXPECT_GT(fromLevel2, fromInput + 0.1);
+}
+
 // Attributes (PointSet::attributes) go through the node tree's copies (roots, contexts, regions,
 // children): every node carries them for each point; input points keep their values, a constant
 // stays constant, and every mean stays within the input's range.

@@ -257,7 +257,7 @@ void runRender(const RenderArgs& args) {
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
             drawn.medianSplatPx, drawn.maxSplatPx, drawn.overThreshold, covered, perCovered,
-            drawn.refineWaitMs, completion.outliers);
+            drawn.refineWaitMs + 1000.0 * engine.tree().wholeLevelSeconds(), completion.outliers);
         return;
     }
     fmt::print(
@@ -274,7 +274,8 @@ void runRender(const RenderArgs& args) {
             "silhouettes are smooth (median {:.2f} px, {:.1f} % above, the largest {:.2f} px): {} nodes, "
             "{} points from {} in {:.0f} ms\n",
             name, args.engine.threshold, drawn.medianSplatPx, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
-            engine.tree().nodeCount(), splats, pointsIn, drawn.refineWaitMs);
+            engine.tree().nodeCount(), splats, pointsIn,
+            drawn.refineWaitMs + 1000.0 * engine.tree().wholeLevelSeconds());
     if (view)
         fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
                    viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);

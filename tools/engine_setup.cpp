@@ -84,6 +84,11 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
                    with + "nice value added to the workers' (Linux; 0: the same priority as drawing)")
         ->check(CLI::Range(0, 19))
         ->capture_default_str();
+    cmd.add_option("--whole-levels", args.wholeLevelPoints,
+                   with + "refine whole levels of the model first, while the next holds at most about this "
+                          "many points (they are the offline refinement's; nodes refine the levels after; 0: "
+                          "none)")
+        ->capture_default_str();
     cmd.add_flag("--fast", args.fast, with + "the paper's faster variants (all four) for the levels refined");
     cmd.add_option("--target-fps", args.targetFps,
                    with + "keep this frame rate: where frames are slower, splats larger than --threshold are "
@@ -168,6 +173,7 @@ engine::EngineSettings engineSettings(const EngineArgs& args, const engine::Cont
     settings.cacheBytes = static_cast<std::size_t>(args.cacheMb * double(1 << 20));
     settings.workers = args.workers;
     settings.workerNice = args.workerNice;
+    settings.wholeLevelPoints = args.wholeLevelPoints;
     if (args.fast) settings.nodes.refine = RefineOptions::fast();
     settings.targetFrameMs = args.targetFps > 0.0 ? static_cast<float>(1000.0 / args.targetFps) : 0.0f;
     return settings;

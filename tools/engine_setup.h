@@ -44,6 +44,7 @@ struct EngineArgs {
     int workerNice = 0;
     bool fast = false;      // the paper's faster variants for the levels the engine refines
     double targetFps = 0.0; // keep this frame rate by raising the threshold where needed (0: none)
+    std::size_t wholeLevelPoints = engine::kWholeLevelPoints;
 };
 // Registers --width and --height on `cmd`: of `what` ("image width in pixels"), from 1 or `minimum`.
 void addSizeOptions(CLI::App& cmd, EngineArgs& args, const std::string& what, unsigned minimum);

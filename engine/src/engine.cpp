@@ -190,7 +190,10 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
                         mib(double(settings.cacheBytes)), mib(double(deviceSplats * splatBytes)))};
 
     const bool hasColour = points.hasColour();
-    auto tree = NodeTree::create(std::move(points), settings.nodes, settings.adaptive);
+    NodeSettings nodes = settings.nodes;
+    nodes.wholeLevelPoints = settings.wholeLevelPoints;
+    nodes.refine.threads = settings.workers;
+    auto tree = NodeTree::create(std::move(points), nodes, settings.adaptive);
     if (!tree) return tree.error();
     auto renderer = SplatRenderer::create(context, settings.render);
     if (!renderer) return renderer.error();
@@ -415,7 +418,8 @@ void Engine::Impl::releaseUnused() {
     };
     std::vector<Candidate> candidates;
     for (NodeId id = 0; id < tree.slotCount(); ++id) {
-        if (!tree.isLive(id) || tree.node(id).isLeaf()) continue;
+        // The whole levels stay: a job would make other children than the whole level's.
+        if (!tree.isLive(id) || tree.node(id).isLeaf() || tree.node(id).level < tree.wholeLevels()) continue;
         std::uint64_t last = kNever;
         bool releasable = true;
         for (const NodeId c : tree.node(id).childIds()) {

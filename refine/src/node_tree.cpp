@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cassert>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -81,6 +82,21 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
         parts[part].indices.push_back(i);
     }
     return parts;
+}
+
+// The whole levels of NodeSettings::wholeLevelPoints: P(0) (in the refiner's order) to P(W), each
+// with the radii of its level, and the segments of P(W) into `segments`.
+std::vector<PointSet> refineWholeLevels(PointSet input, const NodeSettings& settings,
+                                        std::vector<SegmentEnds>& segments) {
+    Refiner refiner(std::move(input), settings.refine);
+    std::vector<PointSet> whole{refiner.points()};
+    while (refiner.levels() < settings.maxLevel &&
+           double(refiner.points().size()) * kLevelGrowth <= double(settings.wholeLevelPoints)) {
+        refiner.refineLevel();
+        whole.push_back(refiner.points());
+    }
+    segments = refiner.segmentEnds();
+    return whole;
 }
 
 // What a node's selection reads of its points (non-empty; its shape filled): its box,
@@ -447,9 +463,20 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     NodeTree tree;
     tree.settings_ = settings;
     tree.inputPoints_ = input.size();
-    // The segments of P0 (section 6), each given to the root that holds its first point.
+    // Whole levels first (P(0) to P(W) as the offline refinement builds them, and the segments of
+    // P(W)), or the segments of P0.
+    std::vector<PointSet> whole;
     std::vector<SegmentEnds> segments;
-    if (forRefinement) segments = findSegments(input, settings.refine);
+    if (forRefinement && double(input.size()) * kLevelGrowth <= double(settings.wholeLevelPoints)) {
+        const auto start = std::chrono::steady_clock::now();
+        whole = refineWholeLevels(std::move(input), settings, segments);
+        tree.wholeLevels_ = static_cast<std::uint32_t>(whole.size() - 1);
+        input = std::move(whole.front());
+        tree.wholeLevelSeconds_ =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    } else if (forRefinement) {
+        segments = findSegments(input, settings.refine);
+    }
 
     // Roots: halves at the median along the longest axis until each holds at most maxNodePoints.
     std::vector<SplitPart> pending{SplitPart{Region{}, std::vector<std::uint32_t>(input.size())}};
@@ -485,23 +512,75 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     // A tree only drawn draws the radii it was given.
     NeighbourShape shape = neighbourShapeOf(input);
     if (!forRefinement) shape.splatRadius = shape.drawRadius = {input.radius.begin(), input.radius.end()};
+    std::vector<NodeId> level; // the nodes of the level being built, in tree order
     for (SplitPart& part : roots) {
         const NodeId id = tree.allocate();
-        Node& node = tree.nodes_[id];
-        node.region = part.region;
-        node.points.reserve(part.indices.size());
-        node.shape.reserve(part.indices.size());
-        for (const std::uint32_t i : part.indices) {
-            node.points.appendFrom(input, i);
-            node.shape.appendFrom(shape, i);
-        }
-        for (const SegmentEnds& segment : segments)
-            if (part.region.contains(segment.a)) node.segments.push_back(segment);
-        describePoints(node);
-        tree.pointCount_ += node.points.size();
+        tree.nodes_[id].region = part.region;
+        tree.fill(id, input, shape, part.indices, whole.size() > 1 ? std::vector<SegmentEnds>{} : segments);
         tree.roots_.push_back(id);
+        level.push_back(id);
+    }
+    // The whole levels below the roots, the last with the segments.
+    for (std::uint32_t l = 1; l < whole.size(); ++l) {
+        level =
+            tree.splitUnder(level, whole[l], l + 1 == whole.size() ? segments : std::vector<SegmentEnds>{});
     }
     return tree;
+}
+
+std::vector<NodeId> NodeTree::splitUnder(std::span<const NodeId> level, const PointSet& points,
+                                         std::span<const SegmentEnds> segments) {
+    const NeighbourShape levelShape = neighbourShapeOf(points);
+    // The regions of each level partition space: a point's node of the level above is found from
+    // the root that holds it, child by child.
+    const std::uint32_t parentLevel = nodes_[level.front()].level;
+    std::vector<std::uint32_t> slot(nodes_.size());
+    for (std::size_t k = 0; k < level.size(); ++k) slot[level[k]] = static_cast<std::uint32_t>(k);
+    std::vector<std::vector<std::uint32_t>> inNode(level.size());
+    for (std::uint32_t i = 0; i < points.size(); ++i) {
+        const glm::vec3 p = points.position[i];
+        const auto holds = [&](NodeId n) { return nodes_[n].region.contains(p); };
+        NodeId at = *std::ranges::find_if(roots_, holds);
+        while (nodes_[at].level < parentLevel) at = *std::ranges::find_if(nodes_[at].childIds(), holds);
+        inNode[slot[at]].push_back(i);
+    }
+    std::vector<NodeId> next;
+    for (std::size_t k = 0; k < level.size(); ++k) {
+        const NodeId parent = level[k];
+        assert(!inNode[k].empty()); // its own points are points of every later level
+        std::vector<glm::vec3> positions;
+        for (const std::uint32_t i : inNode[k]) positions.push_back(points.position[i]);
+        std::vector<SplitPart> parts = splitNode(positions, nodes_[parent].region, settings_.maxNodePoints);
+        std::array<NodeId, 4> ids{kNoNode, kNoNode, kNoNode, kNoNode};
+        for (std::size_t c = 0; c < parts.size(); ++c) {
+            ids[c] = allocate(); // may move nodes_
+            for (std::uint32_t& i : parts[c].indices) i = inNode[k][i];
+            Node& child = nodes_[ids[c]];
+            child.region = parts[c].region;
+            child.level = parentLevel + 1;
+            child.parent = parent;
+            fill(ids[c], points, levelShape, parts[c].indices, segments);
+            next.push_back(ids[c]);
+        }
+        nodes_[parent].children = ids;
+        nodes_[parent].childCount = static_cast<std::uint32_t>(parts.size());
+    }
+    return next;
+}
+
+void NodeTree::fill(NodeId id, const PointSet& points, const NeighbourShape& shape,
+                    std::span<const std::uint32_t> indices, std::span<const SegmentEnds> segments) {
+    Node& node = nodes_[id];
+    node.points.reserve(indices.size());
+    node.shape.reserve(indices.size());
+    for (const std::uint32_t i : indices) {
+        node.points.appendFrom(points, i);
+        node.shape.appendFrom(shape, i);
+    }
+    for (const SegmentEnds& segment : segments)
+        if (node.region.contains(segment.a)) node.segments.push_back(segment);
+    describePoints(node);
+    pointCount_ += node.points.size();
 }
 
 NodeId NodeTree::allocate() {

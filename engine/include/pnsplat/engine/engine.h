@@ -36,6 +36,11 @@ namespace pnsplat::engine {
 // The colour of splats of a model without colour (sRGB).
 inline constexpr std::uint32_t kDefaultColour = 0xC8C8C8u;
 
+// The default of EngineSettings::wholeLevelPoints: the sparse inputs of ../shared/data (3,500
+// points) start from their fourth level, the uniform 600-point igea from its fifth
+// (docs/REALTIME.md, "Whole levels first").
+inline constexpr std::size_t kWholeLevelPoints = 250'000;
+
 struct EngineSettings {
     RenderSettings render;
     bool adaptive = true;
@@ -67,6 +72,9 @@ struct EngineSettings {
     // Most bytes uploaded to the cache per frame (not in lockstep), so that a burst of refined
     // nodes does not stall one frame.
     std::size_t uploadBytesPerFrame = std::size_t{16} << 20;
+    // Whole levels first (NodeSettings::wholeLevelPoints, which this sets), refined on `workers`
+    // threads before the first frame; the tree keeps them (they are not released).
+    std::size_t wholeLevelPoints = kWholeLevelPoints;
     NodeSettings nodes;
     bool forceStaging = false; // write the cache through staging even where it is host-visible (tests)
 };

@@ -29,6 +29,7 @@
 
 #include <glm/vec3.hpp>
 
+#include "pnsplat/refine/memory_budget.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/result.h"
@@ -86,6 +87,14 @@ struct NodeSettings {
     std::uint32_t maxNodePoints = 2048;
     // Nodes of this level are not refined further (each level shrinks the radii by about √3).
     std::uint32_t maxLevel = 14;
+    // Whole levels first: the refinement of the whole input (Refiner, as `pnsplat refine` builds
+    // it) goes on while the next level is estimated to hold at most this many points (kLevelGrowth
+    // times the last, memory_budget.h), and the tree's nodes down to the last level built hold those levels:
+    // each node's children split the next level's points in its region. Jobs refine from there. 0: none.
+    // Choice (docs/REALTIME.md, "Whole levels first"): a node's refinement differs from the whole level's at
+    // folds and region borders, and the difference grows with every level refined by nodes; levels refined
+    // whole are the offline refinement's, bit for bit.
+    std::size_t wholeLevelPoints = 0;
     // The method and its variants; threads is ignored (a job runs on one thread).
     RefineOptions refine;
 };
@@ -112,8 +121,8 @@ struct Node {
     std::uint32_t generation = 0; // counts the uses of this slot: jobs check it
     PointSet points;              // its points (normals, radii, colours, creases as P0's)
     // Per point, neighbourShapeOf over its level's points of its parent's region (a root: of the
-    // input); a tree only drawn draws points.radius. Selection measures shape.splatRadius; the
-    // cache's splats are drawn with shape.drawRadius.
+    // input; a node of the whole levels: of its whole level); a tree only drawn draws points.radius.
+    // Selection measures shape.splatRadius; the cache's splats are drawn with shape.drawRadius.
     NeighbourShape shape;
     std::vector<SegmentEnds> segments; // boundary and crease segments whose first point is its own
 
@@ -147,7 +156,9 @@ class NodeTree {
   public:
     // The roots over `input`: split at medians along the longest axis until each holds at most
     // settings.maxNodePoints. For refinement the input must pass validateForRefinement (else its
-    // error) and the segments of P0 are found (findSegments, with settings.refine.threads workers);
+    // error), the whole levels of settings.wholeLevelPoints are refined and split under the roots,
+    // and the segments of the leaves' level are found (findSegments on P0, or the whole levels'
+    // own; settings.refine.threads workers);
     // otherwise (a tree only drawn) it needs normals and radii, and may be empty (no roots).
     static Result<NodeTree> create(PointSet input, const NodeSettings& settings, bool forRefinement = true);
 
@@ -161,6 +172,11 @@ class NodeTree {
     // Points held by all live nodes (each node holds its own copy of the points it keeps).
     std::size_t pointCount() const { return pointCount_; }
     std::size_t inputPoints() const { return inputPoints_; }
+    // The whole levels refined when the tree was made (NodeSettings::wholeLevelPoints): the nodes of
+    // these levels and above hold them, and the time they took. A node of a lower level is not
+    // released (its children are the whole level's, which no job makes again).
+    std::uint32_t wholeLevels() const { return wholeLevels_; }
+    double wholeLevelSeconds() const { return wholeLevelSeconds_; }
 
     // Whether leaf `id` can be refined now (balance rule, see the top). When it cannot, the coarser
     // leaves whose refinement must come first are appended to `blockers` (each once per call).
@@ -174,7 +190,8 @@ class NodeTree {
     // Makes a job's children the children of its node; false (and nothing changes) when the
     // result is stale: the node was released, or refined, since the job was made.
     bool attach(NodeJobResult&& result);
-    // Releases the children of `id`, which must all be leaves; `id` becomes a leaf again.
+    // Releases the children of `id`, which must all be leaves, and not of the whole levels (id's
+    // level at least wholeLevels()); `id` becomes a leaf again.
     void release(NodeId id);
 
   private:
@@ -182,6 +199,15 @@ class NodeTree {
     NodeId allocate();
     void gatherContext(NodeId id, glm::vec3 lo, glm::vec3 hi, std::uint32_t level, NodeId from,
                        PointSet& context) const;
+    // Under each node of `level` (one level, in tree order), children that split the points of
+    // `points` (the next whole level) in its region, as a job's result is split (run), with their
+    // shape over the whole level and the `segments` their regions hold; returns them in tree order.
+    std::vector<NodeId> splitUnder(std::span<const NodeId> level, const PointSet& points,
+                                   std::span<const SegmentEnds> segments);
+    // Gives node `id` (its region set) the points `indices` of `points` with their shape, and the
+    // segments whose first point its region holds.
+    void fill(NodeId id, const PointSet& points, const NeighbourShape& shape,
+              std::span<const std::uint32_t> indices, std::span<const SegmentEnds> segments);
 
     NodeSettings settings_;
     std::vector<Node> nodes_;
@@ -189,6 +215,8 @@ class NodeTree {
     std::vector<NodeId> free_;
     std::vector<NodeId> roots_;
     std::size_t liveCount_ = 0, pointCount_ = 0, inputPoints_ = 0;
+    std::uint32_t wholeLevels_ = 0;
+    double wholeLevelSeconds_ = 0.0;
 };
 
 // The regions and point lists of a split (pure; exposed for tests): `points` split into children

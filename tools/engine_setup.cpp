@@ -87,7 +87,8 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     cmd.add_option("--whole-levels", args.wholeLevelPoints,
                    with + "refine whole levels of the model first, while the next holds at most about this "
                           "many points (they are the offline refinement's; nodes refine the levels after; 0: "
-                          "none)")
+                          "none; at most half the points the tree keeps, 2 x the cache's)")
+        ->check(CLI::Range(std::size_t{0}, std::size_t{1} << 32))
         ->capture_default_str();
     cmd.add_flag("--fast", args.fast, with + "the paper's faster variants (all four) for the levels refined");
     cmd.add_option("--target-fps", args.targetFps,

@@ -191,7 +191,10 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
 
     const bool hasColour = points.hasColour();
     NodeSettings nodes = settings.nodes;
-    nodes.wholeLevelPoints = settings.wholeLevelPoints;
+    // The tree keeps the whole levels for good: at most half of the points it may keep.
+    nodes.wholeLevelPoints =
+        std::min(settings.wholeLevelPoints,
+                 static_cast<std::size_t>(0.5 * double(settings.cpuCacheFactor) * double(capacity)));
     nodes.refine.threads = settings.workers;
     auto tree = NodeTree::create(std::move(points), nodes, settings.adaptive);
     if (!tree) return tree.error();

@@ -72,7 +72,8 @@ struct EngineSettings {
     // Most bytes uploaded to the cache per frame (not in lockstep), so that a burst of refined
     // nodes does not stall one frame.
     std::size_t uploadBytesPerFrame = std::size_t{16} << 20;
-    // Whole levels first (NodeSettings::wholeLevelPoints, which this sets), refined on `workers`
+    // Whole levels first (NodeSettings::wholeLevelPoints, which this sets, at most half of the
+    // points the tree keeps: cpuCacheFactor times the cache's capacity), refined on `workers`
     // threads before the first frame; the tree keeps them (they are not released).
     std::size_t wholeLevelPoints = kWholeLevelPoints;
     NodeSettings nodes;

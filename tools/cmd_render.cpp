@@ -239,6 +239,8 @@ void runRender(const RenderArgs& args) {
     const std::size_t covered =
         engine::coveredPixels(image.pixels, engine::backgroundPixel(settings.render.background));
     const double perCovered = covered > 0 ? double(drawn.splatsDrawn) / double(covered) : 0.0;
+    // The refinement's time: the whole levels (made with the engine) and the jobs waited for.
+    const double refineMs = drawn.refineWaitMs + 1000.0 * engine.tree().wholeLevelSeconds();
     if (args.json) {
         fmt::print(
             summary,
@@ -256,8 +258,8 @@ void runRender(const RenderArgs& args) {
             args.frame.empty() ? "null" : jsonString(args.frame),
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
-            drawn.medianSplatPx, drawn.maxSplatPx, drawn.overThreshold, covered, perCovered,
-            drawn.refineWaitMs + 1000.0 * engine.tree().wholeLevelSeconds(), completion.outliers);
+            drawn.medianSplatPx, drawn.maxSplatPx, drawn.overThreshold, covered, perCovered, refineMs,
+            completion.outliers);
         return;
     }
     fmt::print(
@@ -274,8 +276,7 @@ void runRender(const RenderArgs& args) {
             "silhouettes are smooth (median {:.2f} px, {:.1f} % above, the largest {:.2f} px): {} nodes, "
             "{} points from {} in {:.0f} ms\n",
             name, args.engine.threshold, drawn.medianSplatPx, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
-            engine.tree().nodeCount(), splats, pointsIn,
-            drawn.refineWaitMs + 1000.0 * engine.tree().wholeLevelSeconds());
+            engine.tree().nodeCount(), splats, pointsIn, refineMs);
     if (view)
         fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
                    viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);

@@ -99,6 +99,31 @@ std::vector<PointSet> refineWholeLevels(PointSet input, const NodeSettings& sett
     return whole;
 }
 
+// The children of a node of `region` holding the points `subset` of `points` (with their shape):
+// split by splitNode, each with the `segments` whose first point its region holds. For a job's
+// result (run) and for the whole levels (NodeTree::create).
+std::vector<NodeChild> childrenOf(const PointSet& points, const NeighbourShape& shape,
+                                  std::span<const std::uint32_t> subset, const Region& region,
+                                  std::span<const SegmentEnds> segments, std::uint32_t maxNodePoints) {
+    std::vector<glm::vec3> positions;
+    positions.reserve(subset.size());
+    for (const std::uint32_t i : subset) positions.push_back(points.position[i]);
+    std::vector<NodeChild> children;
+    for (SplitPart& part : splitNode(positions, region, maxNodePoints)) {
+        NodeChild& child = children.emplace_back();
+        child.region = part.region;
+        child.points.reserve(part.indices.size());
+        child.shape.reserve(part.indices.size());
+        for (const std::uint32_t k : part.indices) {
+            child.points.appendFrom(points, subset[k]);
+            child.shape.appendFrom(shape, subset[k]);
+        }
+        for (const SegmentEnds& segment : segments)
+            if (part.region.contains(segment.a)) child.segments.push_back(segment);
+    }
+    return children;
+}
+
 // What a node's selection reads of its points (non-empty; its shape filled): its box,
 // largest, 99th percentile and median splat radii, largest point radius, largest bend and normal
 // cone. For the roots and for a job's children.
@@ -515,15 +540,27 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     std::vector<NodeId> level; // the nodes of the level being built, in tree order
     for (SplitPart& part : roots) {
         const NodeId id = tree.allocate();
-        tree.nodes_[id].region = part.region;
-        tree.fill(id, input, shape, part.indices, whole.size() > 1 ? std::vector<SegmentEnds>{} : segments);
+        Node& node = tree.nodes_[id];
+        node.region = part.region;
+        node.points.reserve(part.indices.size());
+        node.shape.reserve(part.indices.size());
+        for (const std::uint32_t i : part.indices) {
+            node.points.appendFrom(input, i);
+            node.shape.appendFrom(shape, i);
+        }
+        if (whole.size() <= 1) // with whole levels, the segments go to the last one's nodes
+            for (const SegmentEnds& segment : segments)
+                if (part.region.contains(segment.a)) node.segments.push_back(segment);
+        describePoints(node);
+        tree.pointCount_ += node.points.size();
         tree.roots_.push_back(id);
         level.push_back(id);
     }
     // The whole levels below the roots, the last with the segments.
     for (std::uint32_t l = 1; l < whole.size(); ++l) {
-        level =
-            tree.splitUnder(level, whole[l], l + 1 == whole.size() ? segments : std::vector<SegmentEnds>{});
+        level = tree.splitUnder(level, whole[l],
+                                l + 1 == whole.size() ? std::span<const SegmentEnds>(segments)
+                                                      : std::span<const SegmentEnds>());
     }
     return tree;
 }
@@ -546,41 +583,13 @@ std::vector<NodeId> NodeTree::splitUnder(std::span<const NodeId> level, const Po
     }
     std::vector<NodeId> next;
     for (std::size_t k = 0; k < level.size(); ++k) {
-        const NodeId parent = level[k];
         assert(!inNode[k].empty()); // its own points are points of every later level
-        std::vector<glm::vec3> positions;
-        for (const std::uint32_t i : inNode[k]) positions.push_back(points.position[i]);
-        std::vector<SplitPart> parts = splitNode(positions, nodes_[parent].region, settings_.maxNodePoints);
-        std::array<NodeId, 4> ids{kNoNode, kNoNode, kNoNode, kNoNode};
-        for (std::size_t c = 0; c < parts.size(); ++c) {
-            ids[c] = allocate(); // may move nodes_
-            for (std::uint32_t& i : parts[c].indices) i = inNode[k][i];
-            Node& child = nodes_[ids[c]];
-            child.region = parts[c].region;
-            child.level = parentLevel + 1;
-            child.parent = parent;
-            fill(ids[c], points, levelShape, parts[c].indices, segments);
-            next.push_back(ids[c]);
-        }
-        nodes_[parent].children = ids;
-        nodes_[parent].childCount = static_cast<std::uint32_t>(parts.size());
+        const NodeId parent = level[k];
+        adopt(parent, childrenOf(points, levelShape, inNode[k], nodes_[parent].region, segments,
+                                 settings_.maxNodePoints));
+        for (const NodeId c : nodes_[parent].childIds()) next.push_back(c);
     }
     return next;
-}
-
-void NodeTree::fill(NodeId id, const PointSet& points, const NeighbourShape& shape,
-                    std::span<const std::uint32_t> indices, std::span<const SegmentEnds> segments) {
-    Node& node = nodes_[id];
-    node.points.reserve(indices.size());
-    node.shape.reserve(indices.size());
-    for (const std::uint32_t i : indices) {
-        node.points.appendFrom(points, i);
-        node.shape.appendFrom(shape, i);
-    }
-    for (const SegmentEnds& segment : segments)
-        if (node.region.contains(segment.a)) node.segments.push_back(segment);
-    describePoints(node);
-    pointCount_ += node.points.size();
 }
 
 NodeId NodeTree::allocate() {
@@ -665,49 +674,44 @@ NodeJobResult NodeTree::run(NodeJob job, const NodeSettings& settings) {
     RegionResult refined = refineRegion(std::move(job.input), settings.refine);
     out.stats = refined.stats;
     out.parents = std::move(refined.parents);
-    const NeighbourShape shape = neighbourShapeOf(refined.points);
-    for (SplitPart& part : splitNode(refined.points.position, region, settings.maxNodePoints)) {
-        NodeChild& child = out.children.emplace_back();
-        child.region = part.region;
-        child.points.reserve(part.indices.size());
-        child.shape.reserve(part.indices.size());
-        for (const std::uint32_t i : part.indices) {
-            child.points.appendFrom(refined.points, i);
-            child.shape.appendFrom(shape, i);
-        }
-        for (const SegmentEnds& segment : refined.segments)
-            if (part.region.contains(segment.a)) child.segments.push_back(segment);
-    }
+    std::vector<std::uint32_t> all(refined.points.size());
+    std::iota(all.begin(), all.end(), 0u);
+    out.children = childrenOf(refined.points, neighbourShapeOf(refined.points), all, region, refined.segments,
+                              settings.maxNodePoints);
     return out;
 }
 
 bool NodeTree::attach(NodeJobResult&& result) {
     if (!isLive(result.node)) return false;
     if (nodes_[result.node].generation != result.generation || !nodes_[result.node].isLeaf()) return false;
-    assert(!result.children.empty() && result.children.size() <= 4);
+    adopt(result.node, std::move(result.children));
+    ++nodes_[result.node].generation;
+    return true;
+}
+
+void NodeTree::adopt(NodeId parent, std::vector<NodeChild>&& children) {
+    assert(!children.empty() && children.size() <= 4);
     std::array<NodeId, 4> ids{kNoNode, kNoNode, kNoNode, kNoNode};
-    for (std::size_t c = 0; c < result.children.size(); ++c) {
+    for (std::size_t c = 0; c < children.size(); ++c) {
         ids[c] = allocate(); // may move nodes_: no references across this loop
-        NodeChild& made = result.children[c];
+        NodeChild& made = children[c];
         Node& child = nodes_[ids[c]];
         child.region = made.region;
-        child.level = nodes_[result.node].level + 1;
-        child.parent = result.node;
+        child.level = nodes_[parent].level + 1;
+        child.parent = parent;
         child.points = std::move(made.points);
         child.shape = std::move(made.shape);
         child.segments = std::move(made.segments);
         describePoints(child);
         pointCount_ += child.points.size();
     }
-    Node& node = nodes_[result.node];
-    node.children = ids;
-    node.childCount = static_cast<std::uint32_t>(result.children.size());
-    ++node.generation;
-    return true;
+    nodes_[parent].children = ids;
+    nodes_[parent].childCount = static_cast<std::uint32_t>(children.size());
 }
 
 void NodeTree::release(NodeId id) {
     Node& node = nodes_[id];
+    assert(node.level >= wholeLevels_); // no job makes the whole levels' children again
     for (const NodeId c : node.childIds()) {
         Node& child = nodes_[c];
         assert(child.isLeaf());

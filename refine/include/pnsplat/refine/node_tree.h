@@ -204,10 +204,8 @@ class NodeTree {
     // shape over the whole level and the `segments` their regions hold; returns them in tree order.
     std::vector<NodeId> splitUnder(std::span<const NodeId> level, const PointSet& points,
                                    std::span<const SegmentEnds> segments);
-    // Gives node `id` (its region set) the points `indices` of `points` with their shape, and the
-    // segments whose first point its region holds.
-    void fill(NodeId id, const PointSet& points, const NeighbourShape& shape,
-              std::span<const std::uint32_t> indices, std::span<const SegmentEnds> segments);
+    // Makes `children` (1 to 4) the children of leaf `parent` (attach, splitUnder).
+    void adopt(NodeId parent, std::vector<NodeChild>&& children);
 
     NodeSettings settings_;
     std::vector<Node> nodes_;

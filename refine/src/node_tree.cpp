@@ -99,28 +99,38 @@ std::vector<PointSet> refineWholeLevels(PointSet input, const NodeSettings& sett
     return whole;
 }
 
-// The children of a node of `region` holding the points `subset` of `points` (with their shape):
-// split by splitNode, each with the `segments` whose first point its region holds. For a job's
-// result (run) and for the whole levels (NodeTree::create).
+// A part of a split: the points `part.indices` of `points` (indices into `subset` when it is not
+// empty) with their shape, and the `segments` whose first point its region holds.
+NodeChild partOf(const PointSet& points, const NeighbourShape& shape, std::span<const std::uint32_t> subset,
+                 const SplitPart& part, std::span<const SegmentEnds> segments) {
+    NodeChild child;
+    child.region = part.region;
+    child.points.reserve(part.indices.size());
+    child.shape.reserve(part.indices.size());
+    for (const std::uint32_t k : part.indices) {
+        const std::uint32_t i = subset.empty() ? k : subset[k];
+        child.points.appendFrom(points, i);
+        child.shape.appendFrom(shape, i);
+    }
+    for (const SegmentEnds& segment : segments)
+        if (part.region.contains(segment.a)) child.segments.push_back(segment);
+    return child;
+}
+
+// The children of a node of `region` holding the points `subset` of `points` (empty: all of them),
+// split by splitNode. For a job's result (run) and for the whole levels (NodeTree::create).
 std::vector<NodeChild> childrenOf(const PointSet& points, const NeighbourShape& shape,
                                   std::span<const std::uint32_t> subset, const Region& region,
                                   std::span<const SegmentEnds> segments, std::uint32_t maxNodePoints) {
-    std::vector<glm::vec3> positions;
-    positions.reserve(subset.size());
-    for (const std::uint32_t i : subset) positions.push_back(points.position[i]);
-    std::vector<NodeChild> children;
-    for (SplitPart& part : splitNode(positions, region, maxNodePoints)) {
-        NodeChild& child = children.emplace_back();
-        child.region = part.region;
-        child.points.reserve(part.indices.size());
-        child.shape.reserve(part.indices.size());
-        for (const std::uint32_t k : part.indices) {
-            child.points.appendFrom(points, subset[k]);
-            child.shape.appendFrom(shape, subset[k]);
-        }
-        for (const SegmentEnds& segment : segments)
-            if (part.region.contains(segment.a)) child.segments.push_back(segment);
+    std::vector<glm::vec3> gathered;
+    if (!subset.empty()) {
+        gathered.reserve(subset.size());
+        for (const std::uint32_t i : subset) gathered.push_back(points.position[i]);
     }
+    std::vector<NodeChild> children;
+    for (const SplitPart& part : splitNode(
+             subset.empty() ? std::span<const glm::vec3>(points.position) : gathered, region, maxNodePoints))
+        children.push_back(partOf(points, shape, subset, part, segments));
     return children;
 }
 
@@ -540,19 +550,10 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     std::vector<NodeId> level; // the nodes of the level being built, in tree order
     for (SplitPart& part : roots) {
         const NodeId id = tree.allocate();
-        Node& node = tree.nodes_[id];
-        node.region = part.region;
-        node.points.reserve(part.indices.size());
-        node.shape.reserve(part.indices.size());
-        for (const std::uint32_t i : part.indices) {
-            node.points.appendFrom(input, i);
-            node.shape.appendFrom(shape, i);
-        }
-        if (whole.size() <= 1) // with whole levels, the segments go to the last one's nodes
-            for (const SegmentEnds& segment : segments)
-                if (part.region.contains(segment.a)) node.segments.push_back(segment);
-        describePoints(node);
-        tree.pointCount_ += node.points.size();
+        // With whole levels, the segments go to the last one's nodes.
+        tree.place(id, partOf(input, shape, {}, part,
+                              whole.size() <= 1 ? std::span<const SegmentEnds>(segments)
+                                                : std::span<const SegmentEnds>()));
         tree.roots_.push_back(id);
         level.push_back(id);
     }
@@ -674,9 +675,7 @@ NodeJobResult NodeTree::run(NodeJob job, const NodeSettings& settings) {
     RegionResult refined = refineRegion(std::move(job.input), settings.refine);
     out.stats = refined.stats;
     out.parents = std::move(refined.parents);
-    std::vector<std::uint32_t> all(refined.points.size());
-    std::iota(all.begin(), all.end(), 0u);
-    out.children = childrenOf(refined.points, neighbourShapeOf(refined.points), all, region, refined.segments,
+    out.children = childrenOf(refined.points, neighbourShapeOf(refined.points), {}, region, refined.segments,
                               settings.maxNodePoints);
     return out;
 }
@@ -694,19 +693,22 @@ void NodeTree::adopt(NodeId parent, std::vector<NodeChild>&& children) {
     std::array<NodeId, 4> ids{kNoNode, kNoNode, kNoNode, kNoNode};
     for (std::size_t c = 0; c < children.size(); ++c) {
         ids[c] = allocate(); // may move nodes_: no references across this loop
-        NodeChild& made = children[c];
-        Node& child = nodes_[ids[c]];
-        child.region = made.region;
-        child.level = nodes_[parent].level + 1;
-        child.parent = parent;
-        child.points = std::move(made.points);
-        child.shape = std::move(made.shape);
-        child.segments = std::move(made.segments);
-        describePoints(child);
-        pointCount_ += child.points.size();
+        nodes_[ids[c]].level = nodes_[parent].level + 1;
+        nodes_[ids[c]].parent = parent;
+        place(ids[c], std::move(children[c]));
     }
     nodes_[parent].children = ids;
     nodes_[parent].childCount = static_cast<std::uint32_t>(children.size());
+}
+
+void NodeTree::place(NodeId id, NodeChild&& made) {
+    Node& node = nodes_[id];
+    node.region = made.region;
+    node.points = std::move(made.points);
+    node.shape = std::move(made.shape);
+    node.segments = std::move(made.segments);
+    describePoints(node);
+    pointCount_ += node.points.size();
 }
 
 void NodeTree::release(NodeId id) {

@@ -206,6 +206,8 @@ class NodeTree {
                                    std::span<const SegmentEnds> segments);
     // Makes `children` (1 to 4) the children of leaf `parent` (attach, splitUnder).
     void adopt(NodeId parent, std::vector<NodeChild>&& children);
+    // Gives node `id` (level and parent set) the region, points, shape and segments of `made`.
+    void place(NodeId id, NodeChild&& made);
 
     NodeSettings settings_;
     std::vector<Node> nodes_;

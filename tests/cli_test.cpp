@@ -316,8 +316,8 @@ TEST(CliRefine, FillHolesFindsTheHoleAndFillsIt) {
     EXPECT_EQ(jsonField(both.out, "holes_found"), "0") << both.out;
     EXPECT_NE(both.err.find("1 of them given by --fill-hole too"), std::string::npos) << both.err;
     // The real-time engine's commands fill the same hole before they refine (withHolesFilled).
-    const RunResult view =
-        run("bench view " + quote(in) + " --fill-holes 40x --frames 2 --width 64 --height 48");
+    const RunResult view = run("bench view " + quote(in) +
+                               " --fill-holes 40x --frames 2 --width 64 --height 48" + kFewWholeLevels);
     ASSERT_TRUE(view.exited && view.exitCode == 0) << view.err;
     EXPECT_NE(view.err.find("1 hole(s) up to"), std::string::npos) << view.err;
     EXPECT_EQ(view.err.find(fmt::format("({} points)", holed.size())), std::string::npos) << view.err;
@@ -1462,7 +1462,7 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
     const TempDir dir;
     const RunResult r =
         run("bench view --frames 4 --width 48 --height 36 --lockstep --validation --threads 1 --capture " +
-            quote(dir / "frames"));
+            quote(dir / "frames") + kFewWholeLevels);
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
     ASSERT_EQ(out.size(), 5u) << r.out;
@@ -1489,7 +1489,8 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
 // pixels) or the reference is not the settled picture.
 TEST(CliBenchView, QualityFramesAgainstTheSettledPicture) {
     const RunResult r =
-        run("bench view --frames 7 --width 64 --height 48 --lockstep --validation --quality-every 3");
+        run("bench view --frames 7 --width 64 --height 48 --lockstep --validation --quality-every 3" +
+            kFewWholeLevels);
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
     ASSERT_EQ(out.size(), 7u + 3u + 1u) << r.out; // frames, quality frames 0, 3 and 6, summary
@@ -1506,7 +1507,8 @@ TEST(CliBenchView, QualityFramesAgainstTheSettledPicture) {
     // Every frame a quality frame: more pictures waiting than frames in flight, each read before its
     // slot is reused (engine.image of a reused slot is an error).
     const RunResult every =
-        run("bench view --frames 5 --width 32 --height 24 --lockstep --validation --quality-every 1");
+        run("bench view --frames 5 --width 32 --height 24 --lockstep --validation --quality-every 1" +
+            kFewWholeLevels);
     ASSERT_TRUE(every.exited && every.exitCode == 0) << every.err;
     const std::vector<std::string> everyOut = lines(every.out);
     ASSERT_EQ(everyOut.size(), 5u + 5u + 1u) << every.out;
@@ -1515,7 +1517,7 @@ TEST(CliBenchView, QualityFramesAgainstTheSettledPicture) {
                   std::string::npos)
             << everyOut[5 + k];
     // Without it: no quality figures.
-    const RunResult plain = run("bench view --frames 2 --width 32 --height 24");
+    const RunResult plain = run("bench view --frames 2 --width 32 --height 24" + kFewWholeLevels);
     ASSERT_TRUE(plain.exited && plain.exitCode == 0) << plain.err;
     EXPECT_NE(plain.out.find("\"quality_frames\": 0, \"psnr_median\": null"), std::string::npos) << plain.out;
 }
@@ -1532,7 +1534,7 @@ TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
     ASSERT_TRUE(writePly(in, torus).ok());
     const RunResult r =
         run("bench settle " + quote(in) + " --cameras framing,grazing --width 64 --height 48 --validation " +
-            "--pictures " + quote(dir / "pictures"));
+            "--pictures " + quote(dir / "pictures") + kFewWholeLevels);
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     // The settled picture, the offline one at the deepest level drawn, their difference and the
     // offline one a level deeper, side by side over captions.
@@ -1568,8 +1570,9 @@ TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
                   std::stod(jsonField(out[k], "reference_points_in_view")));
     }
     // A reference whose next level would pass --max-reference-points stops there, capped.
-    const RunResult capped = run("bench settle " + quote(in) +
-                                 " --cameras framing --width 64 --height 48 --max-reference-points 100");
+    const RunResult capped =
+        run("bench settle " + quote(in) +
+            " --cameras framing --width 64 --height 48 --max-reference-points 100" + kFewWholeLevels);
     ASSERT_TRUE(capped.exited && capped.exitCode == 0) << capped.err;
     const std::string line = lines(capped.out).at(0);
     EXPECT_EQ(jsonField(line, "deeper_capped"), "true") << line;
@@ -1581,7 +1584,8 @@ TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
     ASSERT_TRUE(writePly(dense, sampleTorusUniform(3000, 1.0f, 0.4f)).ok());
     const auto closeUp = [&](const std::string& more) {
         const RunResult settled =
-            run("bench settle " + quote(dense) + " --cameras close-up --width 160 --height 120" + more);
+            run("bench settle " + quote(dense) + " --cameras close-up --width 160 --height 120" + more +
+                kFewWholeLevels);
         EXPECT_TRUE(settled.exited && settled.exitCode == 0) << settled.err;
         return lines(settled.out).at(0);
     };
@@ -1637,8 +1641,8 @@ TEST(CliBadInput, RealTimeEngineRefusesBadInputInOneLine) {
 TEST(CliBenchView, PathThatLeavesTheModelBehindDrawsBackground) {
     const TempDir dir;
     writeText(dir / "away.txt", "0 0 0 3 0 0 0\n3 0 0 3 0 0 6\n");
-    const RunResult r =
-        run("bench view --width 32 --height 24 --validation --camera-path " + quote(dir / "away.txt"));
+    const RunResult r = run("bench view --width 32 --height 24 --validation --camera-path " +
+                            quote(dir / "away.txt") + kFewWholeLevels);
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
     ASSERT_EQ(out.size(), 5u) << r.out;

@@ -15,6 +15,7 @@
 #include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/shapes/shapes.h"
+#include "test_data.h"
 
 namespace pnsplat {
 namespace {
@@ -36,9 +37,10 @@ PointSet defaultModel() {
     return points;
 }
 
-// Engine settings for the tests: 160x120, at `threshold` px.
+// Engine settings for the tests: 160x120, at `threshold` px, a few whole levels (test_data.h).
 EngineSettings small(float threshold) {
     EngineSettings settings;
+    settings.wholeLevelPoints = test::kFewWholeLevelPoints;
     settings.render.width = 160;
     settings.render.height = 120;
     settings.threshold = threshold;

@@ -56,8 +56,12 @@ PointSet load(const std::string& file) {
     return points;
 }
 
-EngineSettings adaptive(std::uint32_t width, std::uint32_t height) {
+// The real-time engine on `width` x `height`, two workers; the default whole levels for the tests of
+// the settled picture, a few (test_data.h) elsewhere.
+EngineSettings adaptive(std::uint32_t width, std::uint32_t height,
+                        std::size_t wholeLevelPoints = test::kFewWholeLevelPoints) {
     EngineSettings settings;
+    settings.wholeLevelPoints = wholeLevelPoints;
     settings.render.width = width;
     settings.render.height = height;
     settings.render.background = {1.0f, 1.0f, 1.0f};
@@ -124,7 +128,7 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
         PNSPLAT_REQUIRE_DATA(v.file);
         const PointSet input = load(v.file);
         const std::uint32_t kWidth = v.width, kHeight = v.height;
-        auto created = Engine::create(context(), input, adaptive(kWidth, kHeight));
+        auto created = Engine::create(context(), input, adaptive(kWidth, kHeight, engine::kWholeLevelPoints));
         ASSERT_TRUE(created.ok()) << created.error().message;
         Engine& engine = **created;
         const engine::Sphere bounds = engine.bounds();
@@ -151,10 +155,12 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
                engine::splatDiameterQuantile(offline.points().position, offline.points().normal,
                                              offline.points().radius, camera, kWidth, kHeight, 0.99f) > 2.0f)
             offline.refineLevel();
-        const RgbaImage offlineImage = render(offline.points(), adaptive(kWidth, kHeight).render, camera);
+        const RgbaImage offlineImage =
+            render(offline.points(), adaptive(kWidth, kHeight, engine::kWholeLevelPoints).render, camera);
         const auto difference = engine::compareImages(adaptiveImage, offlineImage);
         ASSERT_TRUE(difference.ok());
-        const glm::u8vec3 background = engine::backgroundPixel(adaptive(kWidth, kHeight).render.background);
+        const glm::u8vec3 background =
+            engine::backgroundPixel(adaptive(kWidth, kHeight, engine::kWholeLevelPoints).render.background);
         const auto holes = engine::enclosedBackgroundAbsentIn(adaptiveImage, offlineImage, background);
         ASSERT_TRUE(holes.ok());
         std::size_t holePixels = 0;
@@ -193,7 +199,7 @@ TEST_F(EngineTest, SettledPictureHasNoHoleTheOfflineRefinementLacks) {
         SCOPED_TRACE(c.file);
         PNSPLAT_REQUIRE_DATA(c.file);
         const PointSet input = load(c.file);
-        const EngineSettings settings = adaptive(c.width, c.height);
+        const EngineSettings settings = adaptive(c.width, c.height, engine::kWholeLevelPoints);
         auto created = Engine::create(context(), input, settings);
         ASSERT_TRUE(created.ok()) << created.error().message;
         Engine& engine = **created;

@@ -375,10 +375,11 @@ VirtualDisplay& virtualDisplay() {
         if (!virtualDisplay().ready()) GTEST_SKIP() << virtualDisplay().reason();                            \
     } while (0)
 
-// The viewer with the validation layer, no vsync and the threshold asked for in force (no frame-time
-// target, whose threshold would follow the machine's speed), in the display's environment.
+// The viewer with the validation layer, no vsync, a few whole levels and the threshold asked for in force (no
+// frame-time target, whose threshold would follow the machine's speed), in the display's environment.
 RunResult view(const std::string& args) {
-    return run("view --validation --vsync off --target-fps 0 " + args, virtualDisplay().environment());
+    return run("view --validation --vsync off --target-fps 0" + kFewWholeLevels + " " + args,
+               virtualDisplay().environment());
 }
 
 // Success: status 0, and nothing on standard error (no validation message, no error).
@@ -422,8 +423,8 @@ TEST(ViewerProgram, SettledScreenshotIsRenderAdaptivesPicture) {
         const RunResult shown =
             view(c.input + " " + c.options + " --screenshot " + quote(dir / "view.png") + " --frames 3");
         ASSERT_TRUE(succeedsQuietly(shown));
-        const RunResult rendered =
-            run("render --adaptive " + c.input + " " + c.options + " -o " + quote(dir / "render.png"));
+        const RunResult rendered = run("render --adaptive " + c.input + " " + c.options + kFewWholeLevels +
+                                       " -o " + quote(dir / "render.png"));
         ASSERT_EQ(rendered.exitCode, 0) << rendered.err;
         const double db = psnr(readImage(dir / "view.png"), readImage(dir / "render.png"));
         std::printf("[%s %s] PSNR %.2f dB\n", c.input.empty() ? "default model" : c.input.c_str(),
@@ -527,7 +528,8 @@ TEST(ViewerProgram, ScriptedSessionChangesThePictureOnlyWhereItMovesTheCamera) {
 )");
     // In the session's folder: the script's files, and P's screenshot, are there.
     const RunResult r = run("view --validation --vsync off --width 160 --height 120 --threshold 8 "
-                            "--target-fps 0 --script session.txt",
+                            "--target-fps 0 --script session.txt" +
+                                kFewWholeLevels,
                             "cd " + quote(dir.path()) + " && " + virtualDisplay().environment());
     ASSERT_TRUE(r.exited && r.exitCode == 0) << "exit " << r.exitCode << "\n" << r.err;
     // The one line of the bad file, and nothing else (no validation message).

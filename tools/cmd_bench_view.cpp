@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,10 @@ void runBenchView(BenchViewArgs args) {
     PointSet points = loadForRendering(args.input, {.keepOutliers = args.keepOutliers}, name, args.columns);
     points = withHolesFilled(std::move(points), holes, name);
     const std::size_t inputPoints = points.size();
+    // A path file is read before the engine is made: a bad one fails at once, not after the whole
+    // levels' refinement.
+    std::optional<CameraPath> loaded;
+    if (args.cameraPath != "orbit" && args.cameraPath != "zoom") loaded = CameraPath::load(args.cameraPath);
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
     // The quality frames' reference engine draws the same points (standard input cannot be read twice).
@@ -57,9 +62,10 @@ void runBenchView(BenchViewArgs args) {
     const float aspect = float(args.engine.width) / float(args.engine.height);
     const float fov = 40.0f * std::numbers::pi_v<float> / 180.0f;
     const std::size_t frames = args.frames > 0 ? args.frames : kDefaultFrames;
-    CameraPath path = args.cameraPath == "orbit"  ? CameraPath::orbit(engine.bounds(), aspect, fov, frames)
-                      : args.cameraPath == "zoom" ? CameraPath::zoom(engine.bounds(), aspect, fov, frames)
-                                                  : CameraPath::load(args.cameraPath);
+    const CameraPath path = loaded ? std::move(*loaded)
+                            : args.cameraPath == "orbit"
+                                ? CameraPath::orbit(engine.bounds(), aspect, fov, frames)
+                                : CameraPath::zoom(engine.bounds(), aspect, fov, frames);
     const std::size_t count = args.frames > 0 ? args.frames : path.frames();
     if (!args.capture.empty()) {
         std::error_code error;

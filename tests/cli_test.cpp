@@ -1457,11 +1457,13 @@ TEST(CliRender, CameraInsideOrLookingAwayRenders) {
 }
 
 // The real-time engine from the command line: bench view prints one JSON line per frame and a
-// summary, captures frames, and refuses bad input in one line (acceptance 7 of the real-time issue).
+// summary, captures frames, measures the splats drawn when asked, and refuses bad input in one line
+// (acceptance 7 of the real-time issue).
 TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
     const TempDir dir;
     const RunResult r =
-        run("bench view --frames 4 --width 48 --height 36 --lockstep --validation --threads 1 --capture " +
+        run("bench view --frames 4 --width 48 --height 36 --lockstep --validation --threads 1 "
+            "--measure-splats --capture " +
             quote(dir / "frames") + kFewWholeLevels);
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
@@ -1473,6 +1475,7 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
               "\"queue_length\"", "\"refine_busy_ms\"", "\"max_splat_px\""})
             EXPECT_NE(out[k].find(field), std::string::npos) << field << " in " << out[k];
         EXPECT_NE(out[k].find("\"settled\": true"), std::string::npos) << out[k]; // lockstep
+        EXPECT_GT(std::stod(jsonField(out[k], "max_splat_px")), 0.0) << out[k];
         EXPECT_TRUE(fs::exists(dir / "frames" / fmt::format("frame-{:05}.png", k)));
     }
     EXPECT_NE(out[4].find("\"summary\": true"), std::string::npos);
@@ -1516,10 +1519,15 @@ TEST(CliBenchView, QualityFramesAgainstTheSettledPicture) {
         EXPECT_NE(everyOut[5 + k].find(fmt::format("{{\"quality_frame\": {}, \"psnr\": ", k)),
                   std::string::npos)
             << everyOut[5 + k];
-    // Without it: no quality figures.
+    // Without it: no quality figures; nor, without --measure-splats, the splats' sizes.
     const RunResult plain = run("bench view --frames 2 --width 32 --height 24" + kFewWholeLevels);
     ASSERT_TRUE(plain.exited && plain.exitCode == 0) << plain.err;
     EXPECT_NE(plain.out.find("\"quality_frames\": 0, \"psnr_median\": null"), std::string::npos) << plain.out;
+    EXPECT_NE(plain.out.find("\"median_splat_px\": null, \"max_splat_px\": null, \"over_threshold\": null"),
+              std::string::npos)
+        << plain.out;
+    EXPECT_NE(plain.out.find("\"max_splat_px_max\": null, \"over_threshold_max\": null"), std::string::npos)
+        << plain.out;
 }
 
 // bench settle: per model and camera, the settled adaptive picture against the offline refinement

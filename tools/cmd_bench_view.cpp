@@ -29,7 +29,7 @@ struct BenchViewArgs {
     std::size_t frames = 0; // 0: the path's own (orbit and zoom: 240)
     std::string capture;
     bool lockstep = false;
-    bool measure = true;
+    bool measureSplats = false;
     std::size_t qualityEvery = 0; // 0: no quality frames
     EngineArgs engine;
     std::vector<std::string> columns; // the input's, when it is text
@@ -80,7 +80,7 @@ void runBenchView(BenchViewArgs args) {
 
     engine::FrameOptions options;
     options.lockstep = args.lockstep;
-    options.measureSplats = args.measure;
+    options.measureSplats = args.measureSplats;
     // Every frame is read back: its report counts the pixels it covers (a copy of the picture into
     // host memory in the frame's last command buffer, and a pass over it when the frame is done).
     options.readBack = true;
@@ -191,8 +191,9 @@ void addBenchViewCommand(CLI::App& bench) {
             "for every K-th frame, draw after the run the lockstep settled picture of its camera and "
             "print the frame's PSNR and SSIM against it (the summary: median and 5th percentile)")
         ->check(CLI::Range(std::size_t{1}, std::size_t{1000000}));
-    view->add_flag("!--no-measure", args->measure,
-                   "skip measuring each splat drawn (max_splat_px, over_threshold: a pass on the CPU)");
+    view->add_flag("--measure-splats", args->measureSplats,
+                   "measure each splat drawn (median_splat_px, max_splat_px, over_threshold; null "
+                   "without): a pass on the CPU that the viewer's frames do not have, so off by default");
     addEngineOptions(*view, args->engine, true, false);
     addKeepOutliersOption(*view, args->keepOutliers);
     addFillHolesOption(*view, args->fillHoles);

@@ -32,6 +32,13 @@ std::string cpuName() {
     return "unknown";
 }
 
+namespace {
+// A figure of FrameReport::splatsMeasured in JSON: null when the frame did not measure its splats.
+std::string measured(const engine::FrameReport& r, const std::string& figure) {
+    return r.splatsMeasured ? figure : "null";
+}
+} // namespace
+
 std::string frameJson(const engine::FrameReport& r, double frameMs) {
     return fmt::format(
         R"({{"frame": {}, "frame_ms": {:.2f}, "cpu_ms": {:.2f}, "selection_ms": {:.2f}, "upload_ms": {:.2f}, )"
@@ -39,15 +46,17 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
         R"("splats_drawn": {}, "covered_px": {}, "splats_per_covered_px": {}, "nodes_visible": {}, )"
         R"("nodes_refined": {}, "points_generated": {}, )"
         R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
-        R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "median_splat_px": {:.3f}, "max_splat_px": {:.3f}, )"
-        R"("over_threshold": {:.5f}, )"
+        R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "median_splat_px": {}, "max_splat_px": {}, )"
+        R"("over_threshold": {}, )"
         R"("resting": {}, "settled": {}}})",
         r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs,
         r.gpu.visibilityMs, r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.coveredPixels,
         r.coveredPixels > 0 ? fmt::format("{:.3f}", double(r.splatsDrawn) / double(r.coveredPixels)) : "null",
         r.nodesVisible, r.nodesRefined, r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed,
-        r.evictions, r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx, r.medianSplatPx,
-        r.maxSplatPx, r.overThreshold, r.resting ? "true" : "false", r.settled ? "true" : "false");
+        r.evictions, r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx,
+        measured(r, fmt::format("{:.3f}", r.medianSplatPx)), measured(r, fmt::format("{:.3f}", r.maxSplatPx)),
+        measured(r, fmt::format("{:.5f}", r.overThreshold)), r.resting ? "true" : "false",
+        r.settled ? "true" : "false");
 }
 
 void FrameSeries::add(const engine::FrameReport& report, double frameMs) {
@@ -72,6 +81,7 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
     std::size_t generated = 0, uploads = 0, uploadBytes = 0, evictions = 0;
     double busyMs = 0.0, worstOver = 0.0;
     float largest = 0.0f;
+    bool measuredAny = false;
     for (std::size_t k = 0; k < frames_.size(); ++k) {
         const engine::FrameReport& r = frames_[k].report;
         ms.push_back(frames_[k].ms);
@@ -86,6 +96,7 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         uploads += r.nodesUploaded;
         uploadBytes += r.bytesUploaded;
         evictions += r.evictions;
+        measuredAny |= r.splatsMeasured;
         largest = std::max(largest, r.maxSplatPx);
         worstOver = std::max(worstOver, r.overThreshold);
         // The time during which refinement jobs were waiting or running; what they made joins the
@@ -100,8 +111,8 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         R"("splats_per_covered_px_median": {}, "quality_frames": {}, "psnr_median": {}, "psnr_p5": {}, )"
         R"("ssim_median": {}, )"
         R"("selection_ms_median": {:.2f}, "upload_ms_median": {:.2f}, "visibility_ms_median": {:.2f}, )"
-        R"("accumulation_ms_median": {:.2f}, "normalization_ms_median": {:.2f}, "max_splat_px_max": {:.3f}, )"
-        R"("over_threshold_max": {:.5f}, "threshold_px": {}, "cache_mb": {:.1f}, "workers": {}, "width": {}, )"
+        R"("accumulation_ms_median": {:.2f}, "normalization_ms_median": {:.2f}, "max_splat_px_max": {}, )"
+        R"("over_threshold_max": {}, "threshold_px": {}, "cache_mb": {:.1f}, "workers": {}, "width": {}, )"
         R"("height": {}, "path": "{}", "device": "{}", "driver": "{}", "cpu": "{}"}})",
         frames_.size(), seconds, median(ms), quantile(ms, 0.95), median(ms) > 0 ? 1000.0 / median(ms) : 0.0,
         generated, seconds > 0 ? double(generated) / seconds : 0.0,
@@ -110,11 +121,12 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         seconds > 0 ? double(uploadBytes) / double(1 << 20) / seconds : 0.0, evictions, median(splats),
         orNull(perCovered, median(perCovered)), psnr_.size(), orNull(psnr_, median(psnr_)),
         orNull(psnr_, quantile(psnr_, 0.05)), orNull(ssim_, median(ssim_)), median(selection), median(upload),
-        median(visibility), median(accumulation), median(normalization), largest, worstOver,
-        settings.threshold, double(settings.cacheBytes) / double(1 << 20), settings.workers,
-        settings.render.width, settings.render.height,
-        settings.render.path == engine::RenderPath::Compute ? "compute" : "graphics", device, driver,
-        cpuName());
+        median(visibility), median(accumulation), median(normalization),
+        measuredAny ? fmt::format("{:.3f}", largest) : "null",
+        measuredAny ? fmt::format("{:.5f}", worstOver) : "null", settings.threshold,
+        double(settings.cacheBytes) / double(1 << 20), settings.workers, settings.render.width,
+        settings.render.height, settings.render.path == engine::RenderPath::Compute ? "compute" : "graphics",
+        device, driver, cpuName());
 }
 
 } // namespace pnsplat::tools

@@ -549,6 +549,7 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         // Measured once the passes are submitted, so that lavapipe's threads draw meanwhile.
         if (options.measureSplats) {
             const SplatSizes sizes = measureSplats(m.tree, m.drawnNodes, view, m.settings.threshold);
+            report.splatsMeasured = true;
             report.medianSplatPx = sizes.medianPx;
             report.maxSplatPx = sizes.maxPx;
             report.overThreshold = sizes.overThreshold;

@@ -733,7 +733,6 @@ Result<ViewerSummary> Session::run() {
             }
             engine::FrameOptions frameOptions;
             frameOptions.readBack = finalShot || !screenshots_.empty();
-            frameOptions.measureSplats = static_cast<bool>(sink_);
             frameOptions.output.record = [&](VkCommandBuffer cmd, const engine::FrameOutput::Source& source) {
                 presenter_->record(cmd, source, shown);
             };

@@ -116,10 +116,11 @@ struct FrameReport {
     // threshold asked for) until it moves again, and refinement goes on to the settled picture.
     bool resting = false;
     float thresholdPx = 0.0f; // the threshold in force (EngineSettings::targetFrameMs)
-    // With measureSplats: the median and the largest projected splat diameter drawn, as the level of
-    // detail measures it (Node::shape.splatRadius; pixels), and the
-    // share of the splats drawn (in view, facing the eye) above the threshold (about half of a
-    // node's splats may be: its median is what the level of detail holds to).
+    // With measureSplats (splatsMeasured): the median and the largest projected splat diameter
+    // drawn, as the level of detail measures it (Node::shape.splatRadius; pixels), and the share of
+    // the splats drawn (in view, facing the eye) above the threshold (about half of a node's splats
+    // may be: its median is what the level of detail holds to).
+    bool splatsMeasured = false;
     float medianSplatPx = 0.0f;
     float maxSplatPx = 0.0f;
     double overThreshold = 0.0;

@@ -41,7 +41,7 @@ struct EngineArgs {
     float radiusScale = 1.0f; // splat radius = point radius × this
     double cacheMb = 96.0;
     unsigned workers = 2;
-    int workerNice = 0;
+    int workerNice = engine::kWorkerNice;
     bool fast = false;      // the paper's faster variants for the levels the engine refines
     double targetFps = 0.0; // keep this frame rate by raising the threshold where needed (0: none)
     std::size_t wholeLevelPoints = engine::kWholeLevelPoints;

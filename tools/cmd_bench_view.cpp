@@ -102,11 +102,13 @@ void runBenchView(BenchViewArgs args) {
     FrameSeries series;
     const Clock::time_point start = Clock::now();
     std::vector<Clock::time_point> starts; // by frame of the run (the engine's frames count on)
+    Clock::time_point finished;            // the last frame's end: the engine finished
     const auto emit = [&](const std::vector<engine::FrameReport>& reports) {
         for (const engine::FrameReport& report : reports) {
-            // A frame lasts from its start to the next one's (the last: to the end of the run).
+            // A frame lasts from its start to the next one's (the last: until the engine finished,
+            // before the quality frames' pictures are read).
             const std::size_t k = report.frame - firstFrame;
-            const Clock::time_point end = k + 1 < starts.size() ? starts[k + 1] : Clock::now();
+            const Clock::time_point end = k + 1 < starts.size() ? starts[k + 1] : finished;
             const double frameMs = std::chrono::duration<double, std::milli>(end - starts[k]).count();
             fmt::print("{}\n", frameJson(report, frameMs));
             series.add(report, frameMs);
@@ -131,9 +133,10 @@ void runBenchView(BenchViewArgs args) {
         emit(engine.reports());
     }
     engine.finish();
+    finished = Clock::now();
     takeQuality(count);
     emit(engine.reports());
-    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    const double seconds = std::chrono::duration<double>(finished - start).count();
     if (!quality.empty()) {
         // The reference: the lockstep settled picture of each quality frame's camera, by an engine
         // of its own without hysteresis (each node decided for that camera alone) or target.

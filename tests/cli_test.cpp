@@ -1475,7 +1475,10 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
               "\"queue_length\"", "\"refine_busy_ms\"", "\"max_splat_px\""})
             EXPECT_NE(out[k].find(field), std::string::npos) << field << " in " << out[k];
         EXPECT_NE(out[k].find("\"settled\": true"), std::string::npos) << out[k]; // lockstep
+        EXPECT_NE(jsonField(out[k], "max_splat_px"), "null") << out[k];
         EXPECT_GT(std::stod(jsonField(out[k], "max_splat_px")), 0.0) << out[k];
+        // From the frame's start to the next one's, though each frame is done (captured) first.
+        EXPECT_GT(std::stod(jsonField(out[k], "frame_ms")), 0.0) << out[k];
         EXPECT_TRUE(fs::exists(dir / "frames" / fmt::format("frame-{:05}.png", k)));
     }
     EXPECT_NE(out[4].find("\"summary\": true"), std::string::npos);

@@ -404,7 +404,8 @@ double psnr(const engine::RgbaImage& a, const engine::RgbaImage& b) {
 
 // Acceptance 1 of the viewer issue: with no camera given, the viewer frames a model as
 // `render --adaptive` does, and its settled screenshot is render's picture (PSNR >= 40 dB): the
-// default model on both paths, and a sparse real model.
+// default model on both paths, and a sparse real model. Both with a few whole levels: the engine
+// is the same below both, and EngineTest's settled pictures test the default's.
 TEST(ViewerProgram, SettledScreenshotIsRenderAdaptivesPicture) {
     PNSPLAT_REQUIRE_DISPLAY();
     struct Case {

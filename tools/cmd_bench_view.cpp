@@ -103,16 +103,22 @@ void runBenchView(BenchViewArgs args) {
     const Clock::time_point start = Clock::now();
     std::vector<Clock::time_point> starts; // by frame of the run (the engine's frames count on)
     Clock::time_point finished;            // the last frame's end: the engine finished
-    const auto emit = [&](const std::vector<engine::FrameReport>& reports) {
-        for (const engine::FrameReport& report : reports) {
-            // A frame lasts from its start to the next one's (the last: until the engine finished,
-            // before the quality frames' pictures are read).
-            const std::size_t k = report.frame - firstFrame;
+    // A frame lasts from its start to the next one's (the last: until the engine finished, before
+    // the quality frames' pictures are read), so a frame done before the next one starts (a small
+    // one, or one captured) waits here until then; `last`: every frame has ended.
+    std::vector<engine::FrameReport> pending;
+    const auto emit = [&](const std::vector<engine::FrameReport>& reports, bool last) {
+        pending.insert(pending.end(), reports.begin(), reports.end());
+        std::size_t done = 0;
+        for (; done < pending.size(); ++done) {
+            const std::size_t k = pending[done].frame - firstFrame;
+            if (k + 1 >= starts.size() && !last) break;
             const Clock::time_point end = k + 1 < starts.size() ? starts[k + 1] : finished;
             const double frameMs = std::chrono::duration<double, std::milli>(end - starts[k]).count();
-            fmt::print("{}\n", frameJson(report, frameMs));
-            series.add(report, frameMs);
+            fmt::print("{}\n", frameJson(pending[done], frameMs));
+            series.add(pending[done], frameMs);
         }
+        pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(done));
         std::fflush(stdout);
     };
     for (std::size_t k = 0; k < count; ++k) {
@@ -130,12 +136,12 @@ void runBenchView(BenchViewArgs args) {
             const engine::RgbaImage image = unwrap(engine.image(report.frame));
             unwrap(engine::writePng(fmt::format("{}/frame-{:05}.png", args.capture, k), image));
         }
-        emit(engine.reports());
+        emit(engine.reports(), false);
     }
     engine.finish();
     finished = Clock::now();
     takeQuality(count);
-    emit(engine.reports());
+    emit(engine.reports(), true);
     const double seconds = std::chrono::duration<double>(finished - start).count();
     if (!quality.empty()) {
         // The reference: the lockstep settled picture of each quality frame's camera, by an engine

@@ -9,7 +9,8 @@
 
 namespace pnsplat::tools {
 
-// One line: the frame's fields (frame_ms is the wall time from its start to the next frame's).
+// One line: the frame's fields (frame_ms is the wall time from its start to the next frame's;
+// median_splat_px, max_splat_px and over_threshold are null unless FrameReport::splatsMeasured).
 std::string frameJson(const engine::FrameReport& report, double frameMs);
 
 // Frames of one run, summarised.
@@ -23,7 +24,8 @@ class FrameSeries {
     // median and 95th percentile frame time; points generated per second over the run and over the
     // frames that began with refinements queued; uploads per second; the per-frame split (medians);
     // the splats drawn per covered pixel (median, of the frames read back); the quality's median
-    // and 5th percentile PSNR and median SSIM (null without quality frames).
+    // and 5th percentile PSNR and median SSIM (null without quality frames); the largest splat and
+    // share over the threshold (null when no frame measured its splats).
     std::string summaryJson(double seconds, const engine::EngineSettings& settings, const std::string& device,
                             const std::string& driver) const;
 

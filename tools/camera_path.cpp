@@ -86,11 +86,14 @@ engine::Camera CameraPath::at(std::size_t k) const {
     const Key& a = keys_[next - 1];
     const Key& b = keys_[next];
     const float t = float(k - a.frame) / float(b.frame - a.frame);
+    // a + (b - a) t, which is a exactly where the keyframes agree (glm::mix's a (1 - t) + b t is
+    // not: a camera held between two equal keyframes moved by rounding and never came to rest).
+    const auto between = [t](const auto& from, const auto& to) { return from + (to - from) * t; };
     engine::Camera camera;
-    camera.eye = glm::mix(a.camera.eye, b.camera.eye, t);
-    camera.target = glm::mix(a.camera.target, b.camera.target, t);
-    camera.up = glm::mix(a.camera.up, b.camera.up, t);
-    camera.fovY = a.camera.fovY + (b.camera.fovY - a.camera.fovY) * t;
+    camera.eye = between(a.camera.eye, b.camera.eye);
+    camera.target = between(a.camera.target, b.camera.target);
+    camera.up = between(a.camera.up, b.camera.up);
+    camera.fovY = between(a.camera.fovY, b.camera.fovY);
     // Interpolation can pass through an invalid camera (eye on target, up along the view): keep the
     // nearer keyframe's then.
     return camera.valid() ? camera : (t < 0.5f ? a.camera : b.camera);

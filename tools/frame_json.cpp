@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <numbers>
 
 #include <fmt/format.h>
 
@@ -48,7 +49,7 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
         R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
         R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "median_splat_px": {}, "max_splat_px": {}, )"
         R"("over_threshold": {}, )"
-        R"("resting": {}, "settled": {}}})",
+        R"("resting": {}, "settled": {}, "camera": "{}", "fov_degrees": {:.6g}}})",
         r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs,
         r.gpu.visibilityMs, r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.coveredPixels,
         r.coveredPixels > 0 ? fmt::format("{:.3f}", double(r.splatsDrawn) / double(r.coveredPixels)) : "null",
@@ -56,7 +57,8 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
         r.evictions, r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx,
         measured(r, fmt::format("{:.3f}", r.medianSplatPx)), measured(r, fmt::format("{:.3f}", r.maxSplatPx)),
         measured(r, fmt::format("{:.5f}", r.overThreshold)), r.resting ? "true" : "false",
-        r.settled ? "true" : "false");
+        r.settled ? "true" : "false", engine::cameraText(r.camera),
+        r.camera.fovY * 180.0f / std::numbers::pi_v<float>);
 }
 
 void FrameSeries::add(const engine::FrameReport& report, double frameMs) {

@@ -10,7 +10,8 @@
 namespace pnsplat::tools {
 
 // One line: the frame's fields (frame_ms is the wall time from its start to the next frame's;
-// median_splat_px, max_splat_px and over_threshold are null unless FrameReport::splatsMeasured).
+// camera and fov_degrees as render's --camera and --fov take them; median_splat_px, max_splat_px and
+// over_threshold are null unless FrameReport::splatsMeasured).
 std::string frameJson(const engine::FrameReport& report, double frameMs);
 
 // Frames of one run, summarised.

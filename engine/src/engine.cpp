@@ -556,6 +556,7 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
         }
         report.cacheBytesUsed = std::size_t{m.cache->used()} * sizeof(gpu::Splat);
         report.thresholdPx = m.threshold;
+        report.camera = camera;
         report.resting = resting;
         report.queueLength = m.workers ? m.workers->outstanding() : 0;
         if (m.workers) {

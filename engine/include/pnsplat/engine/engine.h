@@ -98,6 +98,7 @@ struct FrameOptions {
 // frame has finished (reports()).
 struct FrameReport {
     std::uint64_t frame = 0;
+    Camera camera;                            // the camera drawn
     double cpuMs = 0.0;                       // frame() from entry to submission
     double selectionMs = 0.0, uploadMs = 0.0; // of that: choosing nodes; writing chunks
     double refineWaitMs = 0.0;                // of that, in lockstep: waiting for the workers

@@ -90,4 +90,9 @@ void NodeWorkers::waitIdle() {
     done_.wait(lock, [&] { return queue_.empty() && running_ == 0; });
 }
 
+bool NodeWorkers::waitIdleFor(std::chrono::milliseconds limit) {
+    std::unique_lock lock(mutex_);
+    return done_.wait_for(lock, limit, [&] { return queue_.empty() && running_ == 0; });
+}
+
 } // namespace pnsplat

@@ -101,7 +101,7 @@ struct FrameReport {
     Camera camera;                            // the camera drawn
     double cpuMs = 0.0;                       // frame() from entry to submission
     double selectionMs = 0.0, uploadMs = 0.0; // of that: choosing nodes; writing chunks
-    double refineWaitMs = 0.0;                // of that, in lockstep: waiting for the workers
+    double refineWaitMs = 0.0;                // of that, in lockstep or at rest: waiting for the workers
     double gpuWaitMs = 0.0;                   // of that: waiting for the frame kFramesInFlight back
     double refineMs = 0.0;                    // of that: results into the tree, jobs out, releases
     PassTimes gpu;

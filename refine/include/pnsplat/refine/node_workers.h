@@ -38,6 +38,8 @@ class NodeWorkers {
     std::size_t outstanding() const { return outstanding_; }
     // Waits until every submitted job has finished.
     void waitIdle();
+    // Waits until every submitted job has finished or `limit` has passed; whether they have.
+    bool waitIdleFor(std::chrono::milliseconds limit);
     // Seconds, since the pool was made, during which a job was waiting or running: the time the
     // refinement queue was not empty, measured when jobs are handed over and when the last one
     // finishes (a result waiting for takeResults does not count).

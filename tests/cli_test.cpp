@@ -1648,18 +1648,19 @@ TEST(CliBadInput, RealTimeEngineRefusesBadInputInOneLine) {
     EXPECT_FALSE(fs::exists(dir / "x.png"));
 }
 
-// A path file's frames between two equal keyframes draw that camera exactly, so a camera held still
-// comes to rest (interpolated as a (1 - t) + b t, it moved by rounding and never did); each frame's
-// line gives its camera as render --camera takes it.
+// A path file's frames between two equal keyframes, and a keyframe's own frame, draw that camera
+// exactly, so a camera held still comes to rest (interpolated as a (1 - t) + b t, it moved by
+// rounding and never did; frame 5 as 3 + (0.7 - 3) 1 missed 0.7); each frame's line gives its
+// camera as render --camera takes it.
 TEST(CliBenchView, APathHeldStillDrawsOneCamera) {
     const TempDir dir;
-    writeText(dir / "hold.txt", "0 0.3 0.1 2.9 0 0 0\n5 0.7 0.1 2.9 0 0 0\n40 0.7 0.1 2.9 0 0 0\n");
+    writeText(dir / "hold.txt", "0 3 0.1 2.9 0 0 0\n5 0.7 0.1 2.9 0 0 0\n40 0.7 0.1 2.9 0 0 0\n");
     const RunResult r =
         run("bench view --width 32 --height 24 --camera-path " + quote(dir / "hold.txt") + kFewWholeLevels);
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
     ASSERT_EQ(out.size(), 42u) << r.out;
-    EXPECT_EQ(jsonField(out[0], "camera"), "0.3,0.1,2.9,0,0,0,0,1,0") << out[0];
+    EXPECT_EQ(jsonField(out[0], "camera"), "3,0.1,2.9,0,0,0,0,1,0") << out[0];
     EXPECT_EQ(jsonField(out[0], "fov_degrees"), "40") << out[0];
     for (std::size_t k = 1; k < 5; ++k)
         EXPECT_NE(jsonField(out[k], "camera"), jsonField(out[k - 1], "camera"));

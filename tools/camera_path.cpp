@@ -82,7 +82,7 @@ engine::Camera CameraPath::at(std::size_t k) const {
     if (k <= keys_.front().frame) return keys_.front().camera;
     if (k >= keys_.back().frame) return keys_.back().camera;
     std::size_t next = 1;
-    while (keys_[next].frame < k) ++next;
+    while (keys_[next].frame <= k) ++next; // a keyframe's own frame: t = 0, its camera exactly
     const Key& a = keys_[next - 1];
     const Key& b = keys_[next];
     const float t = float(k - a.frame) / float(b.frame - a.frame);

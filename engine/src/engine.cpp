@@ -44,15 +44,17 @@ constexpr std::size_t kKeptReports = 256;
 constexpr float kMaxThresholdRise = 4.0f;
 // A camera unchanged for this long (and at least kRestFrames frames) is at rest: the frame-time
 // target lets go, and the threshold in force is the one asked for, so that refinement goes on to
-// it and the picture becomes the settled one; it applies again once the camera moves. QSplat
+// it and the picture becomes the settled one; it applies again once the camera moves (from the
+// moving frames' mean frame time: adaptThreshold). QSplat
 // (2000) shrank its splats after half a second at rest.
 constexpr double kRestSeconds = 0.5;
 constexpr std::size_t kRestFrames = 2;
 // At rest, a frame first waits up to this long for the refinement jobs outstanding: the picture
 // changes only as the tree does, and the processors the frames would take go to the workers, which
-// run at a lower priority than drawing (kWorkerNice). The bunny held still after a drag (640x480,
-// 2-core host): without the wait, at nice 10, the picture was 50 dB from the settled one after
-// 2.0 s and not settled 7 s later (docs/REALTIME.md, "At rest").
+// run at a lower priority than drawing (kWorkerNice). The bunny held still after a turn of a bench
+// view path (640x480, 2-core host): without the wait, at nice 10, the picture was 50 dB from the
+// settled one after 2.0 s and not settled 7 s later (docs/REALTIME.md, "At rest"). Engine::frame
+// blocks that long at most, so a camera that moves again is drawn that much later.
 constexpr auto kRestWait = std::chrono::milliseconds(100);
 
 // The splats of a node's points (normals, radii drawn: Node::shape.drawRadius, optional colours), 32 bytes
@@ -126,6 +128,7 @@ struct Engine::Impl {
     std::size_t stillFrames = 0;
     Clock::time_point lastFrameStart{};
     bool haveLastFrame = false;
+    bool lastResting = false; // the last frame was at rest
     std::vector<NodeId> drawnNodes;
     std::vector<FacingMask> drawnFacing; // Selection::facing of drawnNodes
     std::deque<FrameReport> submitted;   // frames in flight, oldest first
@@ -389,12 +392,16 @@ bool Engine::Impl::resting(const Camera& camera, Clock::time_point start) {
 }
 
 void Engine::Impl::adaptThreshold(Clock::time_point start, bool lockstep, bool resting) {
-    if (haveLastFrame) {
+    // The mean is the moving frames': a frame at rest draws at the threshold asked for and waits for
+    // the workers (kRestWait), so an interval that begins or ends at rest does not count (with it,
+    // the first frames after a rest rose toward the cap).
+    if (haveLastFrame && !resting && !lastResting) {
         const double ms = std::chrono::duration<double, std::milli>(start - lastFrameStart).count();
         meanFrameMs = meanFrameMs > 0.0 ? 0.7 * meanFrameMs + 0.3 * ms : ms;
     }
     lastFrameStart = start;
     haveLastFrame = true;
+    lastResting = resting;
     if (lockstep || settings.targetFrameMs <= 0.0f) {
         threshold = movingThreshold = settings.threshold;
         return;

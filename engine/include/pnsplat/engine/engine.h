@@ -144,7 +144,9 @@ class Engine {
     Engine(const Engine&) = delete;
     Engine& operator=(const Engine&) = delete;
 
-    // One frame for `camera` (which must be valid(): else an error, nothing drawn).
+    // One frame for `camera` (which must be valid(): else an error, nothing drawn). At rest
+    // (FrameReport::resting), not in lockstep, it first waits up to 100 ms for the refinement jobs
+    // outstanding, so that the workers have the processors (refineWaitMs).
     Result<FrameReport> frame(const Camera& camera, const FrameOptions& options = {});
     // New render settings (image size, path, splat look) for the frames that follow. A new size or
     // path waits for the frames in flight, then makes the passes anew; the rest (background, splat

@@ -6,8 +6,8 @@
 // result waits in a queue until takeResults(). A job's result depends only on the job, so which
 // worker runs it and how many there are changes nothing. Workers may run below the render thread's
 // priority where the system allows (Linux: a nice value for their threads), so that a busy pool
-// does not steal the frame. submit, takeResults, outstanding and waitIdle are for one thread (the
-// render thread).
+// does not steal the frame. submit, takeResults, outstanding, waitIdle and waitIdleFor are for one
+// thread (the render thread).
 #pragma once
 
 #include <chrono>

@@ -2,10 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <numbers>
-
 #include <fmt/format.h>
+#include <fstream>
+#include <glm/trigonometric.hpp>
 
 namespace pnsplat::tools {
 
@@ -34,9 +33,13 @@ std::string cpuName() {
 }
 
 namespace {
-// A figure of FrameReport::splatsMeasured in JSON: null when the frame did not measure its splats.
-std::string measured(const engine::FrameReport& r, const std::string& figure) {
-    return r.splatsMeasured ? figure : "null";
+// A figure in JSON: null when it is not `known`.
+std::string nullUnless(bool known, const std::string& figure) {
+    return known ? figure : "null";
+}
+// A figure of `values`: null when there are none.
+std::string orNull(const std::vector<double>& values, double figure) {
+    return nullUnless(!values.empty(), fmt::format("{:.4g}", figure));
 }
 } // namespace
 
@@ -52,13 +55,14 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
         R"("resting": {}, "settled": {}, "camera": "{}", "fov_degrees": {:.6g}}})",
         r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs,
         r.gpu.visibilityMs, r.gpu.accumulationMs, r.gpu.normalizationMs, r.splatsDrawn, r.coveredPixels,
-        r.coveredPixels > 0 ? fmt::format("{:.3f}", double(r.splatsDrawn) / double(r.coveredPixels)) : "null",
+        nullUnless(r.coveredPixels > 0,
+                   fmt::format("{:.3f}", double(r.splatsDrawn) / double(r.coveredPixels))),
         r.nodesVisible, r.nodesRefined, r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed,
         r.evictions, r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx,
-        measured(r, fmt::format("{:.3f}", r.medianSplatPx)), measured(r, fmt::format("{:.3f}", r.maxSplatPx)),
-        measured(r, fmt::format("{:.5f}", r.overThreshold)), r.resting ? "true" : "false",
-        r.settled ? "true" : "false", engine::cameraText(r.camera),
-        r.camera.fovY * 180.0f / std::numbers::pi_v<float>);
+        nullUnless(r.splatsMeasured, fmt::format("{:.3f}", r.medianSplatPx)),
+        nullUnless(r.splatsMeasured, fmt::format("{:.3f}", r.maxSplatPx)),
+        nullUnless(r.splatsMeasured, fmt::format("{:.5f}", r.overThreshold)), r.resting ? "true" : "false",
+        r.settled ? "true" : "false", engine::cameraText(r.camera), glm::degrees(r.camera.fovY));
 }
 
 void FrameSeries::add(const engine::FrameReport& report, double frameMs) {
@@ -69,13 +73,6 @@ void FrameSeries::addQuality(double psnr, double ssim) {
     psnr_.push_back(std::min(psnr, kIdenticalPsnr));
     ssim_.push_back(ssim);
 }
-
-namespace {
-// A figure of `values` in JSON: null when there are none.
-std::string orNull(const std::vector<double>& values, double figure) {
-    return values.empty() ? "null" : fmt::format("{:.4g}", figure);
-}
-} // namespace
 
 std::string FrameSeries::summaryJson(double seconds, const engine::EngineSettings& settings,
                                      const std::string& device, const std::string& driver) const {
@@ -124,8 +121,8 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         orNull(perCovered, median(perCovered)), psnr_.size(), orNull(psnr_, median(psnr_)),
         orNull(psnr_, quantile(psnr_, 0.05)), orNull(ssim_, median(ssim_)), median(selection), median(upload),
         median(visibility), median(accumulation), median(normalization),
-        measuredAny ? fmt::format("{:.3f}", largest) : "null",
-        measuredAny ? fmt::format("{:.5f}", worstOver) : "null", settings.threshold,
+        nullUnless(measuredAny, fmt::format("{:.3f}", largest)),
+        nullUnless(measuredAny, fmt::format("{:.5f}", worstOver)), settings.threshold,
         double(settings.cacheBytes) / double(1 << 20), settings.workers, settings.render.width,
         settings.render.height, settings.render.path == engine::RenderPath::Compute ? "compute" : "graphics",
         device, driver, cpuName());

@@ -13,8 +13,24 @@ layout(local_size_x = 32, local_size_y = 32) in;
 // Every splat has the colour frame.colour (compute_accumulate.comp).
 layout(constant_id = 0) const bool kOneColour = false;
 
+layout(set = 0, binding = kBindingDepth, std430) readonly buffer DepthBlock { uint depthBits[]; }; // float bits
 layout(set = 0, binding = kBindingAccum, std430) buffer AccumBlock { uint64_t accum[]; };
 layout(set = 0, binding = kBindingOutput, std430) writeonly buffer OutputBlock { uint pixels[]; }; // RGBA8
+
+// Whether a 4-neighbour of the pixel is background: no splat reached it, so the visibility pass left
+// its depth cleared (the accumulation pass adds at least the nearest splat's weight wherever it did).
+// The sums cannot tell: the neighbours' invocations clear them as they read them.
+bool besideBackground(ivec2 pixel) {
+    const ivec2 size = ivec2(frame.viewport.xy);
+    const ivec2 steps[4] = ivec2[4](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
+    for (int k = 0; k < 4; ++k) {
+        ivec2 p = pixel + steps[k];
+        if (all(greaterThanEqual(p, ivec2(0))) && all(lessThan(p, size)) &&
+            depthBits[uint(p.y) * uint(size.x) + uint(p.x)] == kDepthCleared)
+            return true;
+    }
+    return false;
+}
 
 vec2 unpack(uint64_t word) {
     return vec2(float(uint(word & 0xFFFFFFFFul)), float(uint(word >> 32))) / kFixedScale;
@@ -25,6 +41,7 @@ void main() {
     if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
     uint i = uint(pixel.y) * uint(frame.viewport.x) + uint(pixel.x);
     vec3 rgb;
+    float w; // the accumulated weight
     if (kOneColour) {
         // One colour: one word of three fields (w, w·a', w·b'), a' and b' the normal's components
         // across the ray as (a + 1) / 2 (compute_accumulate.comp, packAcrossRay).
@@ -33,7 +50,7 @@ void main() {
         uint64_t word = accum[i];
         if (word != 0ul) accum[i] = 0ul;
         const uint64_t mask = (1ul << kOneColourBits) - 1ul;
-        float w = float(uint(word & mask));
+        w = float(uint(word & mask));
         if (w == 0.0) {
             pixels[i] = packUnorm4x8(vec4(frame.background.rgb, 1.0));
             return;
@@ -42,6 +59,7 @@ void main() {
                                  float(uint(word >> (2 * kOneColourBits)))) / w - 1.0;
         rgb = frame.flags.x == 0u ? linearToSrgb(w / kOneColourScale * frame.colour.rgb)
                                   : shade(frame.colour.rgb, sqrt(max(1.0 - dot(across, across), 0.0)));
+        w /= kOneColourScale;
     } else {
         uint base = i * kAccumStride;
         // Every value a splat adds is at most its weight, so a zero (w·b, w) word means all four
@@ -54,10 +72,11 @@ void main() {
         vec2 rg = unpack(accum[base + 0]), bw = unpack(blueWeight);
         vec2 nxy = unpack(accum[base + 2]), nz = unpack(accum[base + 3]);
         for (uint k = 0; k < kAccumStride; ++k) accum[base + k] = 0ul;
-        float w = bw.y;
+        w = bw.y;
         // Σ w·n = 2 Σ w·n' − Σ w.
         vec3 normal = 2.0 * vec3(nxy, nz.x) - w;
         rgb = shadePixel(vec3(rg, bw.x), normal, w, pixelRay(vec2(pixel) + 0.5));
     }
+    if (mayBlend(w)) rgb = smoothEdge(rgb, w, besideBackground(pixel));
     pixels[i] = packUnorm4x8(vec4(rgb, 1.0));
 }

@@ -47,6 +47,11 @@ PNSPLAT_CONST float kOneColourScale = 4096.0f;
 // normalization pass leaves the sum buffer cleared for the next frame, touching it only where a
 // splat landed.
 PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
+// The outer silhouette, smoothed (RenderSettings::smoothEdges): a pixel beside the background (one
+// of its four neighbours covered by no splat) whose accumulated weight w is below kEdgeWeight is
+// drawn as mix(background, its colour, w / kEdgeWeight), so that a contour moved by a fraction of a
+// pixel changes pixels by a fraction, not whole (splat_common.glsl, smoothEdge).
+PNSPLAT_CONST float kEdgeWeight = 1.0f;
 
 // The bindings of the one descriptor set (set 0) that all passes of a path share
 // (splat_renderer.cpp makes it): the frame's uniforms and the splats on every path, then the
@@ -84,7 +89,7 @@ struct FrameUniforms {
     // map's diameter in pixels (RenderSettings::heatMapPx; 0: splats keep their colour).
     vec4 splat;
     // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y: workgroups of the
-    // compute path's splat passes, z, w: unused.
+    // compute path's splat passes, z: 1 to smooth the outer silhouette (kEdgeWeight), w: unused.
     uvec4 flags;
     // The compute path's pipelines for splats of one colour: that colour, linear RGB (a unused).
     vec4 colour;

@@ -109,6 +109,20 @@ vec3 shade(vec3 albedo, float ndl) {
     return linearToSrgb(albedo * (0.12 + 0.88 * ndl) + vec3(specular));
 }
 
+// A pixel of the outer silhouette blends toward the background by its accumulated weight: a pixel
+// that only the rims of splats reach is covered in part (kEdgeWeight in gpu_types.h; a splat's own
+// weight is 1 at its centre and exp(-k) at its rim). Only beside the background: inside the picture
+// a low weight is the edge of a nearer surface over a farther one, which the passes do not keep.
+vec3 smoothEdge(vec3 rgb, float sumWeight, bool besideBackground) {
+    return besideBackground ? mix(frame.background.rgb, rgb, sumWeight / kEdgeWeight) : rgb;
+}
+
+// Whether pixel p's colour may blend toward the background (smoothEdge): the option is on and its
+// weight below kEdgeWeight; its neighbours are read only then.
+bool mayBlend(float sumWeight) {
+    return frame.flags.z != 0u && sumWeight < kEdgeWeight;
+}
+
 // Deferred shading of one pixel from its accumulated sums (w·rgb, w·normal, w); ray as pixelRay.
 vec3 shadePixel(vec3 sumColour, vec3 sumNormal, float sumWeight, vec3 ray) {
     if (!(sumWeight > 0.0)) return frame.background.rgb;

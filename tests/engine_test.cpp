@@ -385,15 +385,16 @@ TEST_F(EngineTest, StagedUploadsAndTheGraphicsPathDrawTheSame) {
     EXPECT_LE(close, 1u);
 }
 
-// Acceptance 4 of the real-time issue: a long random walk in lockstep with a cache an eighth of the
-// refined model's size, under synchronization validation: no chunk written while a frame in flight
-// reads it, the cache read back at checkpoints equal to every resident node's points, resident
-// memory flat after warm-up, no validation message. Warm-up: the node tree reaches its bound (about
-// 1.0 million points) by frame 200, but the heap goes on growing to frame 700 or so as nodes of
-// every size are made and released (219 -> 282 MiB, then 284 MiB at frame 2,000; 198 -> 263 MiB
-// without the validation layer, the same with one malloc arena), so memory is compared between
-// the middle and the end of the walk. Sanitizers keep freed memory in quarantine: not checked there.
-TEST(EngineStress, CacheOfAnEighthOfTheModelOnALongWalk) {
+// Acceptance 4 of the real-time issue: a long random walk in lockstep with a cache a thirty-second of
+// the refined model's size, under synchronization validation: no chunk written while a frame in
+// flight reads it, the cache read back at checkpoints equal to every resident node's points,
+// resident memory flat after warm-up, no validation message. (An eighth before the silhouettes
+// coarsened to 0.2 px, selection.cpp: the walk draws fewer points since, and with an eighth or a
+// sixteenth the sanitizers' 300 frames evicted nothing.) Warm-up: the node tree reaches its bound
+// by frame 200, but the heap goes on growing to frame 700 or so as nodes of every size are made and
+// released, so memory is compared between the middle and the end of the walk. Sanitizers keep
+// freed memory in quarantine: not checked there.
+TEST(EngineStress, CacheOfAThirtySecondOfTheModelOnALongWalk) {
     PNSPLAT_REQUIRE_DATA("igea-600-uniform.ply");
     engine::ContextOptions options;
     options.validation = true;
@@ -404,7 +405,7 @@ TEST(EngineStress, CacheOfAnEighthOfTheModelOnALongWalk) {
     EngineSettings settings = adaptive(96, 72);
     // The model refined to level 8 (the walk draws up to level 10 at this size, close to the model).
     const double modelPoints = modelPointsAtLevel(input, 8);
-    settings.cacheBytes = static_cast<std::size_t>(modelPoints / 8.0) * 32;
+    settings.cacheBytes = static_cast<std::size_t>(modelPoints / 32.0) * 32;
     auto created = Engine::create(**context, input, settings);
     ASSERT_TRUE(created.ok()) << created.error().message;
     Engine& engine = **created;
@@ -436,7 +437,7 @@ TEST(EngineStress, CacheOfAnEighthOfTheModelOnALongWalk) {
         frames, deepest, double(settings.cacheBytes) / double(1 << 20), std::size_t(modelPoints), evictions,
         checked, double(rssEarly) / double(1 << 20), frames / 10, double(rssWarm) / double(1 << 20),
         frames / 2, double(rssEnd) / double(1 << 20), frames);
-    EXPECT_GT(evictions, 100u);
+    EXPECT_GT(evictions, 50u);
     EXPECT_EQ(engine.overwritesInFlight(), 0u);
     if (!kSanitized) {
         EXPECT_LT(double(rssEnd), 1.05 * double(rssWarm) + double(8 << 20));

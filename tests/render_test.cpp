@@ -63,6 +63,13 @@ PointSet withRadii(PointSet points) {
     return points;
 }
 
+// A red disk of radius 1 at the origin, 3 in front of a blue one of radius 2.5, both facing +z.
+PointSet redDiskBeforeBlueOne() {
+    PointSet points = disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 0, 0});
+    points.appendFrom(disk({0, 0, -3}, {0, 0, 1}, 2.5f, {0, 0, 255}), 0);
+    return points;
+}
+
 class PathTest : public GpuTest, public ::testing::WithParamInterface<RenderPath> {};
 
 // A white disk of radius 1 facing a camera 5 away: its image is the circle of radius
@@ -93,8 +100,7 @@ TEST_P(PathTest, SingleDiskCoversExactlyItsProjection) {
 // A red disk 3 in front of a larger blue one: red where both overlap (beyond ε·r), blue around
 // it; with a depth offset larger than their distance the two blend.
 TEST_P(PathTest, NearerDiskHidesFartherOne) {
-    PointSet points = disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 0, 0});
-    points.appendFrom(disk({0, 0, -3}, {0, 0, 1}, 2.5f, {0, 0, 255}), 0);
+    const PointSet points = redDiskBeforeBlueOne();
     RenderSettings settings = small(GetParam());
     const Camera camera = lookingDownZ(8.0f);
     const RgbaImage image = render(points, settings, camera);
@@ -109,6 +115,38 @@ TEST_P(PathTest, NearerDiskHidesFartherOne) {
     ASSERT_EQ(blended.width, 256u);
     EXPECT_GT(blended.at(128, 128).x, 100);
     EXPECT_GT(blended.at(128, 128).z, image.at(128, 128).z + 30);
+}
+
+// The outer silhouette is smoothed (RenderSettings::smoothEdges): the far blue disk's contour
+// against the background blends toward it, darker than the hard picture but not background; the
+// near red disk's contour over the blue one, a low weight too, stays as it was (the passes keep no
+// farther surface to blend with). Only pixels beside the background change.
+TEST_P(PathTest, TheOuterSilhouetteBlendsTowardTheBackground) {
+    const PointSet points = redDiskBeforeBlueOne();
+    RenderSettings settings = small(GetParam());
+    const Camera camera = lookingDownZ(8.0f);
+    const RgbaImage smooth = render(points, settings, camera);
+    settings.smoothEdges = false;
+    const RgbaImage hard = render(points, settings, camera);
+    ASSERT_EQ(smooth.width, 256u);
+    ASSERT_EQ(hard.width, 256u);
+    const auto background = [&](std::uint32_t x, std::uint32_t y) {
+        return x < 256 && y < 256 && glm::u8vec3(hard.at(x, y)) == glm::u8vec3(0);
+    };
+    std::size_t changed = 0;
+    for (std::uint32_t y = 0; y < 256; ++y)
+        for (std::uint32_t x = 0; x < 256; ++x) {
+            const glm::u8vec4 a = smooth.at(x, y), b = hard.at(x, y);
+            if (a == b) continue;
+            ++changed;
+            EXPECT_TRUE(background(x + 1, y) || background(x - 1, y) || background(x, y + 1) ||
+                        background(x, y - 1))
+                << x << "," << y;
+            EXPECT_LE(a.z, b.z) << x << "," << y;
+            EXPECT_GT(a.z, 0) << x << "," << y;
+        }
+    // The blue disk's contour, about 2 pi 110 pixels long; each of its pixels has a weight below 1.
+    EXPECT_GT(changed, 300u);
 }
 
 // One splat far larger than the screen covers every pixel (no size limit).
@@ -510,15 +548,20 @@ class GoldenTest : public GpuTest {
         broken = settings();
         broken.depthOffset = 0.0f;
         const double noDepthOffset = difference(render(points, broken, camera(points)), *golden).rmse;
+        broken = settings();
+        broken.smoothEdges = false;
+        const double hardEdges = difference(render(points, broken, camera(points)), *golden).rmse;
         PointSet flipped = points;
         for (auto& n : flipped.normal) n = -n;
         const double flippedNormals = difference(render(flipped, settings(), camera(points)), *golden).rmse;
         std::cout << "[golden " << name << "] RMSE " << d.rmse << " (tolerance " << kGoldenRmse
                   << "); broken passes: no normalization " << noNormalization << ", no depth offset "
-                  << noDepthOffset << ", flipped normals " << flippedNormals << "\n";
+                  << noDepthOffset << ", hard edges " << hardEdges << ", flipped normals " << flippedNormals
+                  << "\n";
         EXPECT_GT(noNormalization, 2.5 * kGoldenRmse) << "no normalization";
         EXPECT_GT(noDepthOffset, 2.5 * kGoldenRmse) << "no depth offset";
         EXPECT_GT(flippedNormals, 2.5 * kGoldenRmse) << "flipped normals";
+        EXPECT_GT(hardEdges, 2.5 * kGoldenRmse) << "hard edges";
     }
 };
 

@@ -126,7 +126,7 @@ TEST(Selection, ChildrenAreDrawnOnceResidentAndCoarseLeavesAreWantedRefined) {
 // The level of detail against the rule written out splat by splat (selection.cpp): a node is drawn
 // through its children while more than half of its splats drawn are wider than the threshold in
 // force T, or while more than a tenth of those within acos(0.3) of edge-on (at least 4) stand out by
-// more than 0.1 px · sqrt(T / asked) and are wider than 1 px. Each root of the sphere, first seen
+// more than 0.2 px · sqrt(T / asked) and are wider than 1 px. Each root of the sphere, first seen
 // (no hysteresis), at thresholds raised from the one asked; the cases where the silhouettes decide
 // differently from a median alone, and from a bulge limit that grows with T / asked itself, are
 // counted so that the test shows something.
@@ -165,13 +165,13 @@ TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquare
                 for (const NodeId id : tree.roots()) {
                     if (states[id].lastVisited != 1) continue; // culled
                     const Node& node = tree.node(id);
-                    const auto [median, silhouette] = rule(view, node, asked * rise, 0.1f * std::sqrt(rise));
+                    const auto [median, silhouette] = rule(view, node, asked * rise, 0.2f * std::sqrt(rise));
                     EXPECT_EQ(states[id].descended, median || silhouette)
                         << "root " << id << " from " << distance << " at " << asked * rise << " px, asked "
                         << asked;
                     ++roots;
                     bySilhouette += silhouette && !median;
-                    bySquareRoot += !median && silhouette != rule(view, node, asked * rise, 0.1f * rise)[1];
+                    bySquareRoot += !median && silhouette != rule(view, node, asked * rise, 0.2f * rise)[1];
                 }
             }
     EXPECT_GT(roots, 0u);

@@ -64,6 +64,9 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     cmd.add_option("--radius-scale", args.radiusScale, "splat radius as a multiple of the point radius")
         ->check(CLI::Range(0.01, 100.0))
         ->capture_default_str();
+    cmd.add_flag("--hard-edges", args.hardEdges,
+                 "cover each pixel of the outer silhouette whole (default: blended toward the background by "
+                 "its splats' weight, antialiased)");
     if (!adaptive) return;
     const std::string with = requiresFlag ? "with --adaptive: " : "";
     cmd.add_option("--threshold", args.threshold,
@@ -170,6 +173,7 @@ engine::EngineSettings engineSettings(const EngineArgs& args, const engine::Cont
     settings.render.path = choosePath(args.path, context);
     settings.adaptive = adaptive;
     settings.render.radiusScale = args.radiusScale;
+    settings.render.smoothEdges = !args.hardEdges;
     settings.threshold = args.threshold;
     settings.cacheBytes = static_cast<std::size_t>(args.cacheMb * double(1 << 20));
     settings.workers = args.workers;

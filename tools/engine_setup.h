@@ -39,6 +39,7 @@ struct EngineArgs {
     bool validation = false;
     float threshold = 3.0f;
     float radiusScale = 1.0f; // splat radius = point radius × this
+    bool hardEdges = false;   // RenderSettings::smoothEdges off
     double cacheMb = 96.0;
     unsigned workers = 2;
     int workerNice = engine::kWorkerNice;

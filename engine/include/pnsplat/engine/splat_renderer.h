@@ -47,6 +47,10 @@ struct RenderSettings {
     // Gaussian w = exp(-k ρ²) with ρ the distance from the centre over the radius. Choice: k = 2
     // (σ = r / 2): weight 0.14 at the rim, so the disk's cut-off barely shows.
     float sharpness = 2.0f;
+    // The outer silhouette smoothed: a pixel beside the background blends toward it by its
+    // accumulated weight (gpu::kEdgeWeight), so that the contour is antialiased and a contour moved
+    // by a fraction of a pixel changes pixels by a fraction. false: every covered pixel whole.
+    bool smoothEdges = true;
     bool normalize = true; // false shows raw accumulated colour (a switch for tests)
     bool cullNodes = true; // false draws every node (a switch for tests of the culling)
     // The heat map of splat size, in pixels (>= 0; 0: off): each splat is coloured by its projected
@@ -118,8 +122,8 @@ class SplatRenderer {
     const RenderSettings& settings() const;
     // Takes `settings` for the frames submitted from now on, without waiting, when they differ from
     // the current ones only in what the frame's uniforms carry (background, radius scale, depth
-    // offset, sharpness, normalize, heat map), and returns true; false, with nothing changed, when
-    // the size or path differ (a new renderer is needed) or a value is out of range.
+    // offset, sharpness, smooth edges, normalize, heat map), and returns true; false, with nothing changed,
+    // when the size or path differ (a new renderer is needed) or a value is out of range.
     bool adjust(const RenderSettings& settings);
 
   private:

@@ -17,19 +17,11 @@ layout(set = 0, binding = kBindingDepth, std430) readonly buffer DepthBlock { ui
 layout(set = 0, binding = kBindingAccum, std430) buffer AccumBlock { uint64_t accum[]; };
 layout(set = 0, binding = kBindingOutput, std430) writeonly buffer OutputBlock { uint pixels[]; }; // RGBA8
 
-// Whether a 4-neighbour of the pixel is background: no splat reached it, so the visibility pass left
-// its depth cleared (the accumulation pass adds at least the nearest splat's weight wherever it did).
-// The sums cannot tell: the neighbours' invocations clear them as they read them.
-bool besideBackground(ivec2 pixel) {
-    const ivec2 size = ivec2(frame.viewport.xy);
-    const ivec2 steps[4] = ivec2[4](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
-    for (int k = 0; k < 4; ++k) {
-        ivec2 p = pixel + steps[k];
-        if (all(greaterThanEqual(p, ivec2(0))) && all(lessThan(p, size)) &&
-            depthBits[uint(p.y) * uint(size.x) + uint(p.x)] == kDepthCleared)
-            return true;
-    }
-    return false;
+// No splat reached it: the visibility pass left its depth cleared (the accumulation pass adds at
+// least the nearest splat's weight wherever it did). The sums cannot tell: the neighbours'
+// invocations clear them as they read them.
+bool backgroundAt(ivec2 p) {
+    return depthBits[uint(p.y) * uint(frame.viewport.x) + uint(p.x)] == kDepthCleared;
 }
 
 vec2 unpack(uint64_t word) {

@@ -9,16 +9,9 @@ layout(set = 0, binding = kBindingAccumNormal) uniform sampler2D accumNormal; //
 
 layout(location = 0) out vec4 outColour;
 
-// Whether a 4-neighbour of the pixel is background: no splat reached it (weight 0).
-bool besideBackground(ivec2 pixel) {
-    const ivec2 size = ivec2(frame.viewport.xy);
-    const ivec2 steps[4] = ivec2[4](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
-    for (int k = 0; k < 4; ++k) {
-        ivec2 p = pixel + steps[k];
-        if (all(greaterThanEqual(p, ivec2(0))) && all(lessThan(p, size)) && !(texelFetch(accumColour, p, 0).a > 0.0))
-            return true;
-    }
-    return false;
+// No splat reached it: its weight is zero.
+bool backgroundAt(ivec2 p) {
+    return !(texelFetch(accumColour, p, 0).a > 0.0);
 }
 
 void main() {

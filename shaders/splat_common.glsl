@@ -123,6 +123,20 @@ bool mayBlend(float sumWeight) {
     return frame.flags.z != 0u && sumWeight < kEdgeWeight;
 }
 
+// Whether no splat reached pixel p, inside the picture: each path's normalization says how it knows.
+bool backgroundAt(ivec2 p);
+
+// Whether one of the pixel's four neighbours in the picture is background.
+bool besideBackground(ivec2 pixel) {
+    const ivec2 steps[4] = ivec2[4](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
+    for (int k = 0; k < 4; ++k) {
+        ivec2 p = pixel + steps[k];
+        if (all(greaterThanEqual(p, ivec2(0))) && all(lessThan(p, ivec2(frame.viewport.xy))) && backgroundAt(p))
+            return true;
+    }
+    return false;
+}
+
 // Deferred shading of one pixel from its accumulated sums (w·rgb, w·normal, w); ray as pixelRay.
 vec3 shadePixel(vec3 sumColour, vec3 sumNormal, float sumWeight, vec3 ray) {
     if (!(sumWeight > 0.0)) return frame.background.rgb;

@@ -51,6 +51,42 @@ Camera framing(const PointSet& points, float aspect) {
     return engine::frameSphere(engine::boundingSphere(points.position), aspect, radians(40.0f), 0.3f);
 }
 
+// At rest the level of detail decides without hysteresis: a camera that backs away from a close
+// view keeps, while it moves, nodes refined that a camera which was always there would draw
+// themselves (below threshold × 0.8: EngineSettings::hysteresis); held still, the picture becomes
+// the one a fresh engine draws in lockstep, bit for bit. The last moving frame differs from it, or
+// the test would show nothing.
+TEST_F(EngineControlsTest, AtRestTheLevelOfDetailLetsGoOfTheHysteresis) {
+    const PointSet points = defaultModel();
+    const EngineSettings settings = small(2.0f);
+    auto created = Engine::create(context(), points, settings);
+    ASSERT_TRUE(created.ok()) << created.error().message;
+    Engine& engine = **created;
+    const Camera far = framing(points, 160.0f / 120.0f);
+    Camera camera = far;
+    FrameReport report;
+    RgbaImage moving;
+    for (int k = 0; k <= 20; ++k) { // from half the distance back to the framing, in lockstep
+        camera.eye = far.target + (0.5f + 0.025f * float(k)) * (far.eye - far.target);
+        moving = frameOf(engine, camera, &report);
+        ASSERT_FALSE(report.resting) << k;
+    }
+    RgbaImage still;
+    bool rested = false;
+    for (int k = 0; k < 3000 && !(report.settled && rested); ++k) {
+        still = frameOf(engine, camera, &report, false);
+        rested = rested || report.resting;
+        if (!rested) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ASSERT_TRUE(rested);
+    ASSERT_TRUE(report.settled);
+    auto fresh = Engine::create(context(), points, settings);
+    ASSERT_TRUE(fresh.ok()) << fresh.error().message;
+    const RgbaImage settled = frameOf(**fresh, camera);
+    EXPECT_FALSE(moving.pixels == settled.pixels) << "the hysteresis kept nothing: the test shows nothing";
+    EXPECT_TRUE(still.pixels == settled.pixels);
+}
+
 // Acceptance 5 of the real-time issue: a camera that moves under a frame-time target no device
 // meets draws coarser (the threshold in force rises); held still, it is at rest after half a
 // second (FrameReport::resting), the target lets go, and the frames, not in lockstep, refine until

@@ -55,7 +55,8 @@ struct EngineSettings {
     // docs/REALTIME.md, "The level of detail"). At 3 px the points drawn lie about a pixel apart.
     float threshold = 3.0f;
     // A node drawn refined (its children) goes back to being drawn itself once its own splats are
-    // below threshold × hysteresis, in (0, 1]: a still camera never flips between two levels.
+    // below threshold × hysteresis, in (0, 1]: a moving camera does not flip between two levels. At
+    // rest the level of detail decides without it, as a camera that never moved would.
     float hysteresis = 0.8f;
     // A frame time to keep to, in milliseconds (0: none). Where frames take longer, the threshold in
     // force rises (coarser nodes, fewer splats) until they fit, and falls back towards `threshold`

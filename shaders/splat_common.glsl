@@ -117,7 +117,7 @@ vec3 smoothEdge(vec3 rgb, float sumWeight, bool besideBackground) {
     return besideBackground ? mix(frame.background.rgb, rgb, sumWeight / kEdgeWeight) : rgb;
 }
 
-// Whether pixel p's colour may blend toward the background (smoothEdge): the option is on and its
+// Whether a pixel's colour may blend toward the background (smoothEdge): the option is on and its
 // weight below kEdgeWeight; its neighbours are read only then.
 bool mayBlend(float sumWeight) {
     return frame.flags.z != 0u && sumWeight < kEdgeWeight;

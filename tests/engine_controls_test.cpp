@@ -53,8 +53,9 @@ Camera framing(const PointSet& points, float aspect) {
 
 // At rest the level of detail decides without hysteresis: a camera that backs away from a close
 // view keeps, while it moves, nodes refined that a camera which was always there would draw
-// themselves (below threshold × 0.8: EngineSettings::hysteresis); held still, the picture becomes
-// the one a fresh engine draws in lockstep, bit for bit. The last moving frame differs from it, or
+// themselves (their splats pass the test at the threshold, not at 0.8 times it:
+// EngineSettings::hysteresis), and is not settled while it does (not in lockstep); held still, the picture
+// becomes the one a fresh engine draws in lockstep, bit for bit. The last moving frame differs from it, or
 // the test would show nothing.
 TEST_F(EngineControlsTest, AtRestTheLevelOfDetailLetsGoOfTheHysteresis) {
     const PointSet points = defaultModel();
@@ -71,6 +72,9 @@ TEST_F(EngineControlsTest, AtRestTheLevelOfDetailLetsGoOfTheHysteresis) {
         moving = frameOf(engine, camera, &report);
         ASSERT_FALSE(report.resting) << k;
     }
+    EXPECT_GT(report.heldByHysteresis, 0u);
+    frameOf(engine, camera, &report, false);
+    EXPECT_FALSE(report.settled) << "held by the hysteresis, not in lockstep: not the settled picture";
     RgbaImage still;
     bool rested = false;
     for (int k = 0; k < 3000 && !(report.settled && rested); ++k) {
@@ -80,6 +84,7 @@ TEST_F(EngineControlsTest, AtRestTheLevelOfDetailLetsGoOfTheHysteresis) {
     }
     ASSERT_TRUE(rested);
     ASSERT_TRUE(report.settled);
+    EXPECT_EQ(report.heldByHysteresis, 0u);
     auto fresh = Engine::create(context(), points, settings);
     ASSERT_TRUE(fresh.ok()) << fresh.error().message;
     const RgbaImage settled = frameOf(**fresh, camera);

@@ -403,7 +403,7 @@ TEST(EngineStress, CacheOfAThirtySecondOfTheModelOnALongWalk) {
     ASSERT_TRUE(context.ok()) << context.error().message;
     const PointSet input = load("igea-600-uniform.ply");
     EngineSettings settings = adaptive(96, 72);
-    // The model refined to level 8 (the walk draws up to level 10 at this size, close to the model).
+    // The model refined to level 8 (the walk draws up to level 7 at this size, close to the model).
     const double modelPoints = modelPointsAtLevel(input, 8);
     settings.cacheBytes = static_cast<std::size_t>(modelPoints / 32.0) * 32;
     auto created = Engine::create(**context, input, settings);

@@ -145,7 +145,7 @@ TEST_P(PathTest, TheOuterSilhouetteBlendsTowardTheBackground) {
             EXPECT_LE(a.z, b.z) << x << "," << y;
             EXPECT_GT(a.z, 0) << x << "," << y;
         }
-    // The blue disk's contour, about 2 pi 110 pixels long; each of its pixels has a weight below 1.
+    // The blue disk's contour, about 2 pi 80 pixels long; each of its pixels has a weight below 1.
     EXPECT_GT(changed, 300u);
 }
 

@@ -265,7 +265,8 @@ Engine::Engine(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Engine::~Engine() = default;
 
 // At rest the level of detail decides without hysteresis, as a camera that never moved would: the
-// nodes a turn left refined below the threshold × hysteresis are drawn themselves again, so that
+// nodes a turn left refined whose splats pass the test at the threshold (not at its hysteresis
+// multiple: Selection::heldByHysteresis) are drawn themselves again, so that
 // the picture becomes the lockstep settled one (after the bunny's and the lion's turns it stayed
 // 1 to 2 dB short of 50 dB from it); the camera does not move, so no level flips.
 Selection Engine::Impl::select(const FrameView& view, bool resting) {
@@ -522,12 +523,15 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
             const Clock::time_point uploading = Clock::now();
             const std::size_t uploaded = m.upload(selection.upload, options.lockstep, report, uploads);
             report.uploadMs += millisecondsSince(uploading);
-            // Settled: nothing more wanted at the threshold asked for (a threshold in force raised by
-            // the frame-time target settles only once the camera rests).
-            report.settled = selection.refine.empty() && selection.upload.empty() &&
-                             (!m.workers || m.workers->outstanding() == 0) &&
-                             m.threshold == m.settings.threshold;
-            if (!options.lockstep || report.settled) break;
+            // Nothing more wanted at the threshold asked for (a threshold in force raised by the
+            // frame-time target is wanted no more only once the camera rests); not in lockstep, settled
+            // once no node is held by the hysteresis either, which lets go at rest.
+            const bool done = selection.refine.empty() && selection.upload.empty() &&
+                              (!m.workers || m.workers->outstanding() == 0) &&
+                              m.threshold == m.settings.threshold;
+            report.heldByHysteresis = selection.heldByHysteresis;
+            report.settled = done && (options.lockstep || selection.heldByHysteresis == 0);
+            if (!options.lockstep || done) break;
             if (m.workers && m.workers->outstanding() > 0) {
                 const Clock::time_point waiting = Clock::now();
                 m.workers->waitIdle();

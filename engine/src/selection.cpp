@@ -215,7 +215,11 @@ void Walk::visit(NodeId id) {
     s.lastVisited = stamp_;
     // Order of refinement and upload: the node's 99th percentile splat at its nearest depth.
     const float size = bound(v, node.drawnRadius);
-    if (!node.isLeaf() && exceeds(node, v, descended ? settings_.hysteresis : 1.0f)) {
+    const bool coarse = !node.isLeaf() && exceeds(node, v, 1.0f);
+    const bool held = !coarse && descended && !node.isLeaf() && settings_.hysteresis < 1.0f &&
+                      exceeds(node, v, settings_.hysteresis);
+    out_.heldByHysteresis += held;
+    if (coarse || held) {
         bool ready = true;
         for (const NodeId c : node.childIds()) {
             if (stateOf_(c).resident || !see(tree_.node(c)).visible) continue;

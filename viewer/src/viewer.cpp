@@ -760,9 +760,11 @@ Result<ViewerSummary> Session::run() {
             }
             const bool idle =
                 report.nodesRefined == 0 && report.nodesUploaded == 0 && report.queueLength == 0;
-            // A threshold in force raised by the frame-time target is not a stall: the camera's rest
-            // (half a second) lets it go, and the refinement goes on (engine.h, FrameReport::resting).
-            const bool raised = report.thresholdPx > engine_->settings().threshold;
+            // A threshold in force raised by the frame-time target is not a stall, nor are nodes held
+            // by the hysteresis: the camera's rest (half a second) lets both go, and the picture goes
+            // on to the settled one (engine.h, FrameReport::resting).
+            const bool raised =
+                report.thresholdPx > engine_->settings().threshold || report.heldByHysteresis > 0;
             stalledFrames_ = !report.settled && idle && !raised ? stalledFrames_ + 1 : 0;
             const bool still = report.settled || stalledFrames_ >= kStalledFrames;
             if (stalledFrames_ == kStalledFrames)

@@ -118,8 +118,14 @@ struct FrameReport {
     double refineBusyMs = 0.0;
     std::size_t treeNodes = 0, treePoints = 0; // on the CPU
     // Nothing was wanted for this camera at the threshold asked for: no refinement, no upload, and the
-    // threshold in force is the one asked for (the frame-time target has not raised it, or let go).
+    // threshold in force is the one asked for (the frame-time target has not raised it, or let go);
+    // and, but in lockstep, no node is drawn through its children by the hysteresis alone
+    // (heldByHysteresis), which lets go at rest: the picture is the one a fresh engine draws in
+    // lockstep.
     bool settled = false;
+    // Nodes drawn through their children by the hysteresis alone (Selection::heldByHysteresis): a
+    // camera that stopped after a move draws them so until it is at rest.
+    std::size_t heldByHysteresis = 0;
     // The camera has not moved for half a second: the frame-time target let go (thresholdPx is the
     // threshold asked for) until it moves again, and refinement goes on to the settled picture.
     bool resting = false;

@@ -79,6 +79,10 @@ struct Selection {
     std::vector<NodeId> draw;
     std::vector<FacingMask> facing; // per node drawn: the facing classes drawn (bit c: class c)
     std::vector<WantedNode> refine, upload;
+    // Nodes drawn through their children only by the hysteresis (their splats pass the test at the
+    // threshold in force, not at its hysteresis multiple): a camera that never moved would draw them
+    // themselves.
+    std::size_t heldByHysteresis = 0;
 };
 
 // Walks the tree from its roots for the frame `stamp` (index + 1). A node is drawn through its

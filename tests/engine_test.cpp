@@ -37,6 +37,13 @@ constexpr bool kSanitized = false;
 #else
 constexpr bool kSanitized = false;
 #endif
+// Sanitizers keep freed memory in quarantine (ASan) or in their own allocator (TSan): resident
+// memory is checked in the other builds only.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kMemoryChecked = false;
+#else
+constexpr bool kMemoryChecked = true;
+#endif
 // The validation layer, unloaded after an instance with synchronization validation is destroyed,
 // leaves blocks that LeakSanitizer reports from an unknown module (102 in EngineStress, now and
 // then); preloading the layer to name them hides Vulkan from GLFW. The address suite therefore runs
@@ -385,16 +392,16 @@ TEST_F(EngineTest, StagedUploadsAndTheGraphicsPathDrawTheSame) {
     EXPECT_LE(close, 1u);
 }
 
-// Acceptance 4 of the real-time issue: a long random walk in lockstep with a cache a thirty-second of
-// the refined model's size, under synchronization validation: no chunk written while a frame in
+// Acceptance 4 of the real-time issue: a long random walk in lockstep with a cache a sixteenth of the
+// refined model's size, under synchronization validation: no chunk written while a frame in
 // flight reads it, the cache read back at checkpoints equal to every resident node's points,
 // resident memory flat after warm-up, no validation message. (An eighth before the silhouettes
-// coarsened to 0.2 px, selection.cpp: the walk draws fewer points since, and with an eighth or a
-// sixteenth the sanitizers' 300 frames evicted nothing.) Warm-up: the node tree reaches its bound
+// coarsened to 0.2 px, selection.cpp: the walk draws fewer points since, and an eighth evicted 87
+// times in 2,000 frames.) Warm-up: the node tree reaches its bound
 // by frame 200, but the heap goes on growing to frame 700 or so as nodes of every size are made and
 // released, so memory is compared between the middle and the end of the walk. Sanitizers keep
 // freed memory in quarantine: not checked there.
-TEST(EngineStress, CacheOfAThirtySecondOfTheModelOnALongWalk) {
+TEST(EngineStress, CacheOfASixteenthOfTheModelOnALongWalk) {
     PNSPLAT_REQUIRE_DATA("igea-600-uniform.ply");
     engine::ContextOptions options;
     options.validation = true;
@@ -405,7 +412,7 @@ TEST(EngineStress, CacheOfAThirtySecondOfTheModelOnALongWalk) {
     EngineSettings settings = adaptive(96, 72);
     // The model refined to level 8 (the walk draws up to level 7 at this size, close to the model).
     const double modelPoints = modelPointsAtLevel(input, 8);
-    settings.cacheBytes = static_cast<std::size_t>(modelPoints / 32.0) * 32;
+    settings.cacheBytes = static_cast<std::size_t>(modelPoints / 16.0) * 32;
     auto created = Engine::create(**context, input, settings);
     ASSERT_TRUE(created.ok()) << created.error().message;
     Engine& engine = **created;
@@ -439,7 +446,7 @@ TEST(EngineStress, CacheOfAThirtySecondOfTheModelOnALongWalk) {
         frames / 2, double(rssEnd) / double(1 << 20), frames);
     EXPECT_GT(evictions, 50u);
     EXPECT_EQ(engine.overwritesInFlight(), 0u);
-    if (!kSanitized) {
+    if (kMemoryChecked) {
         EXPECT_LT(double(rssEnd), 1.05 * double(rssWarm) + double(8 << 20));
     }
     EXPECT_EQ((*context)->validationMessages(), 0u) << (*context)->lastValidationMessage();

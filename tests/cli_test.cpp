@@ -1488,6 +1488,28 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
     EXPECT_NE(out[4].find("\"workers\": 1,"), std::string::npos) << out[4]; // --threads is --workers
 }
 
+// --hard-edges reaches the engine of bench view: the summary says which silhouette was drawn, and
+// the frames differ (the default blends the outer silhouette's pixels toward the background).
+TEST(CliBenchView, HardEdgesCoverTheSilhouetteWhole) {
+    const TempDir dir;
+    std::vector<engine::RgbaImage> frames;
+    for (const bool hard : {false, true}) {
+        const fs::path capture = dir / (hard ? "hard" : "smooth");
+        const RunResult r =
+            run("bench view --frames 1 --width 64 --height 48 --lockstep --validation --capture " +
+                quote(capture) + (hard ? " --hard-edges" : "") + kFewWholeLevels);
+        ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+        const std::vector<std::string> out = lines(r.out);
+        ASSERT_EQ(out.size(), 2u) << r.out;
+        EXPECT_EQ(jsonField(out[1], "smooth_edges"), hard ? "false" : "true") << out[1];
+        auto image = engine::readPng(capture / "frame-00000.png");
+        ASSERT_TRUE(image.ok()) << image.error().message;
+        frames.push_back(std::move(*image));
+    }
+    ASSERT_EQ(frames[0].pixels.size(), frames[1].pixels.size());
+    EXPECT_NE(frames[0].pixels, frames[1].pixels);
+}
+
 // Issue 26's quality figures: every frame counts the pixels it covers; --quality-every K compares
 // every K-th frame with the lockstep settled picture of its camera, drawn after the run. In
 // lockstep the first frame is that picture (no history yet): PSNR 99, identical; the later ones

@@ -523,6 +523,30 @@ TEST(NodeDetail, SplatsAtAnOpenBoundaryAreDrawnWithTheSpacingInside) {
     EXPECT_EQ(inside, std::size_t(kSide - 2) * (kSide - 2) - 4u);
 }
 
+// A point whose nearest lie on both sides of it along a line (a strand a spacing thick) is not at an
+// open boundary, though each of its two sides leaves 180 degrees free: drawn with the spacing of
+// its 4th nearest, the lion's tail broke (docs/REALTIME.md, "Where the points made go"). A strand's
+// two ends are open.
+TEST(NodeDetail, SplatsAlongAStrandAreNotAtAnOpenBoundary) {
+    PointSet strand;
+    constexpr int kLength = 20;
+    for (int x = 0; x < kLength; ++x) {
+        strand.position.push_back({float(x), 0.0f, 0.0f});
+        strand.normal.push_back({0.0f, 0.0f, 1.0f});
+    }
+    strand.radius.assign(strand.size(), 10.0f); // beyond every sixth nearest
+    const NeighbourShape shape = neighbourShapeOf(strand);
+    ASSERT_EQ(shape.drawRadius.size(), strand.size());
+    for (int x = 3; x < kLength - 3; ++x) {
+        EXPECT_FLOAT_EQ(shape.splatRadius[std::size_t(x)], 3.0f) << x;
+        EXPECT_FLOAT_EQ(shape.drawRadius[std::size_t(x)], 3.0f) << x;
+    }
+    for (const std::size_t end : {std::size_t(0), std::size_t(kLength - 1)}) {
+        EXPECT_FLOAT_EQ(shape.splatRadius[end], 6.0f) << end;
+        EXPECT_FLOAT_EQ(shape.drawRadius[end], 4.0f) << end;
+    }
+}
+
 // neighbourShapeOf's nearest points (a grid searched cell block by cell block, node_tree.cpp) are exactly a
 // brute-force search's, ties in distance to the lower index: random normals make the widest
 // angle depend on which points are taken. A plane grid (every distance tied many times over), and

@@ -126,14 +126,15 @@ TEST(Selection, ChildrenAreDrawnOnceResidentAndCoarseLeavesAreWantedRefined) {
 // The level of detail against the rule written out splat by splat (selection.cpp): a node is drawn
 // through its children while more than half of its splats drawn are wider than the threshold in
 // force T, or while more than a tenth of those within acos(0.3) of edge-on (at least 4) stand out by
-// more than 0.2 px · sqrt(T / asked) and are wider than 1 px. Each root of the sphere, first seen
-// (no hysteresis), at thresholds raised from the one asked; the cases where the silhouettes decide
-// differently from a median alone, and from a bulge limit that grows with T / asked itself, are
-// counted so that the test shows something.
+// more than 0.2 px · sqrt(T / asked) and are wider than 1 px, if more than half of them are wider
+// than T / √3 (at most a level past the median). Each root of the sphere, first seen (no
+// hysteresis), at thresholds raised from the one asked; the cases where the silhouettes decide
+// differently from a median alone, from a bulge limit that grows with T / asked itself, and from
+// the silhouettes without the level's bound are counted so that the test shows something.
 TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquareRootOfTheRise) {
     const NodeTree tree = sphereTree(1);
     const auto rule = [](const FrameView& view, const Node& node, float threshold, float bulgeLimit) {
-        std::size_t drawn = 0, over = 0, rim = 0, rimOver = 0;
+        std::size_t drawn = 0, over = 0, coarse = 0, rim = 0, rimOver = 0;
         for (std::size_t i = 0; i < node.points.size(); ++i) {
             const glm::vec3 d = node.points.position[i] - view.camera.eye;
             const float depth = glm::dot(d, view.forward);
@@ -145,15 +146,17 @@ TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquare
             const float px = 2.0f * node.shape.splatRadius[i] * view.focal / depth;
             ++drawn;
             over += px > threshold;
+            coarse += px * std::sqrt(3.0f) > threshold; // wider than a level finer would draw it
             if (facing < 0.3f * glm::length(d)) {
                 ++rim;
                 rimOver += px * node.shape.bend[i] / 4.0f > bulgeLimit && px > 1.0f;
             }
         }
-        return std::array<bool, 2>{double(over) > 0.5 * double(drawn),
-                                   rim >= 4 && double(rimOver) > 0.1 * double(rim)};
+        const bool silhouette = rim >= 4 && double(rimOver) > 0.1 * double(rim);
+        return std::array<bool, 3>{double(over) > 0.5 * double(drawn),
+                                   silhouette && double(coarse) > 0.5 * double(drawn), silhouette};
     };
-    std::size_t roots = 0, bySilhouette = 0, bySquareRoot = 0;
+    std::size_t roots = 0, bySilhouette = 0, bySquareRoot = 0, stoppedALevelPast = 0;
     for (const float distance : {2.2f, 6.0f, 12.0f, 24.0f})
         for (const float asked : {0.5f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f})
             for (const float rise : {1.0f, 1.5f, 2.0f, 3.0f, 4.0f}) {
@@ -165,16 +168,20 @@ TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquare
                 for (const NodeId id : tree.roots()) {
                     if (states[id].lastVisited != 1) continue; // culled
                     const Node& node = tree.node(id);
-                    const auto [median, silhouette] = rule(view, node, asked * rise, 0.2f * std::sqrt(rise));
+                    const auto [median, silhouette, uncapped] =
+                        rule(view, node, asked * rise, 0.2f * std::sqrt(rise));
                     EXPECT_EQ(states[id].descended, median || silhouette)
                         << "root " << id << " from " << distance << " at " << asked * rise << " px, asked "
                         << asked;
                     ++roots;
                     bySilhouette += silhouette && !median;
                     bySquareRoot += !median && silhouette != rule(view, node, asked * rise, 0.2f * rise)[1];
+                    stoppedALevelPast += uncapped && !silhouette && !median;
                 }
             }
     EXPECT_GT(roots, 0u);
+    EXPECT_GT(stoppedALevelPast, 0u)
+        << "no root whose silhouette the median a level finer stops: the test shows nothing";
     EXPECT_GT(bySilhouette, 0u) << "no root refined for its silhouette alone: the test shows nothing";
     EXPECT_GT(bySquareRoot, 0u) << "no root where the square root decides: the test shows nothing";
 }

@@ -39,7 +39,17 @@ constexpr double kOverShare = 0.5;
 // from the offline refinement a level deeper, with at most 5.84 splats drawn a covered pixel, where
 // 0.1 px drew up to 10.21 (the lion's grazing camera) and 0.3 px opened a one-pixel hole on the lion
 // (docs/REALTIME.md, "Smooth silhouettes").
+//
+// The silhouette test refines a node at most one level past the median rule: only while its median
+// splat is wider than the threshold over kRimDeepest, the ratio of a level's spacing to the next's
+// (√3: a level holds three times the points). Where `bend` stays large at every level (a crease
+// or a fold seen edge-on: the refinement interpolates its normals over a spacing, so the angle
+// across the 6 nearest does not shrink), the bulge r · bend / 2 only shrinks with r, and the test
+// went on two levels past the median rule or more: the nefertiti's headdress at render's framing
+// made 16.41 points a covered pixel, now 9.52, with 42.48 dB from the offline refinement a level
+// deeper, against 42.67 (docs/REALTIME.md, "Where the points made go").
 constexpr float kRimCosine = 0.3f;
+constexpr float kRimDeepest = 1.7320508f;
 constexpr float kRimBulgePx = 0.2f;
 constexpr float kRimMinPx = 1.0f;
 constexpr double kRimShare = 0.1;
@@ -124,13 +134,13 @@ float Walk::bound(const NodeView& v, float radius) const {
 
 // Whether the node's splats drawn (in view, facing the eye) are too coarse for the threshold in
 // force times `factor` (the hysteresis, or 1): more than kOverShare of them wider than it (its
-// median splat), or more than kRimShare of those at the silhouette standing out by more than
-// kRimBulgePx times `factor` and the square root of the frame-time target's rise (threshold /
-// asked). The silhouettes coarsen more slowly than the median because they decide most of a
-// picture's difference from the settled one: the bunny's and the lion's zooms in bench view at
-// 640x480, the threshold in force at most 3 times the one asked, gave 38.0 and 35.3 dB median with
-// the rise itself, 40.4 and 39.3 with its square root, for 3 and 9 ms more a frame; with the square
-// root and at most 4 times (engine.cpp, kMaxThresholdRise), 39.3 and 37.4 dB for 2 and 4 ms more
+// median splat), or, while more than kOverShare are wider than it over kRimDeepest, more than
+// kRimShare of those at the silhouette standing out by more than kRimBulgePx times `factor` and the square
+// root of the frame-time target's rise (threshold / asked). The silhouettes coarsen more slowly than the
+// median because they decide most of a picture's difference from the settled one: the bunny's and the lion's
+// zooms in bench view at 640x480, the threshold in force at most 3 times the one asked, gave 38.0 and 35.3 dB
+// median with the rise itself, 40.4 and 39.3 with its square root, for 3 and 9 ms more a frame; with the
+// square root and at most 4 times (engine.cpp, kMaxThresholdRise), 39.3 and 37.4 dB for 2 and 4 ms more
 // (docs/REALTIME.md, "Frame-time target"). The box settles most nodes at once:
 // none of its splats reaches kRimMinPx or the limit; or, for a node all in view and facing the eye, its
 // median radii at the nearest and the farthest corner (Node::medianRadius) and, for the silhouette, its
@@ -148,15 +158,17 @@ bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
     const bool rimPossible =
         !v.noRim && node.maxRadius * node.maxBend * bulge > v.nearest && node.maxRadius * rimK > v.nearest;
     if (v.inView && v.allFront) { // every splat drawn: the median radii settle the first test
-        if (node.medianRadius[0] * k > v.farthest) return true;                  // more than half wider
-        if (node.medianRadius[1] * k <= v.nearest && !rimPossible) return false; // at most half
+        if (node.medianRadius[0] * k > v.farthest) return true; // more than half wider
+        // At most half wider (than the limit, or than the limit over kRimDeepest for the rim test).
+        if (node.medianRadius[1] * k * (rimPossible ? kRimDeepest : 1.0f) <= v.nearest) return false;
     }
     const PointSet& points = node.points;
     const glm::vec3 eye = v_.camera.eye;
     const Frustum& frustum = v_.frustum;
     // Without branches, so that the loop runs on SIMD lanes: a splat out of view or facing away
     // counts nowhere; one at the silhouette counts for the rim test when the node may have a rim.
-    std::uint32_t drawn = 0, over = 0, rim = 0, rimOver = 0;
+    std::uint32_t drawn = 0, over = 0, coarse = 0, rim = 0, rimOver = 0;
+    const float coarseK = k * kRimDeepest; // wider than the limit over kRimDeepest
     const std::size_t n = points.size();
     const glm::vec3* position = points.position.data();
     const glm::vec3* normal = points.normal.data();
@@ -175,12 +187,14 @@ bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
         const float r = radius[i];
         drawn += seen;
         over += seen & (r * k > depth);
+        coarse += seen & (r * coarseK > depth);
         const bool edgeOn = seen & (facing * facing < rimCosine2 * glm::dot(d, d));
         rim += edgeOn;
         rimOver += edgeOn & (r * bend[i] * bulge > depth) & (r * rimK > depth);
     }
     return double(over) > kOverShare * double(drawn) ||
-           (rim >= kRimPoints && double(rimOver) > kRimShare * double(rim));
+           (rim >= kRimPoints && double(rimOver) > kRimShare * double(rim) &&
+            double(coarse) > kOverShare * double(drawn));
 }
 
 // The facing classes of a node that hold a splat facing the eye (the passes skip a splat seen from

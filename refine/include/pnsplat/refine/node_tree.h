@@ -65,10 +65,15 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    sampling: two along the boundary and two inwards at one spacing, then two at √3), so its disk
 //    reached past the last points by that; the fourth nearest is the spacing an inside point's sixth
 //    nearest gives. The level of detail still measures splatRadius: drawn smaller, the boundary's
-//    splats would let the nodes there settle a level coarser, whose rim reaches farther.
+//    splats would let the nodes there settle a level coarser, whose rim reaches farther. Nor is a
+//    point open whose nearest leave a second gap wider than kStrandGap: they lie on both sides of
+//    it, on a strand a spacing or two thick (the lion's tail), whose smaller splats would break it
+//    (a one-pixel hole in the lion's tail at render's framing; at 90 degrees it stayed, at 60 and
+//    45 it closed: docs/REALTIME.md, "Where the points made go").
 inline constexpr std::size_t kBendNeighbours = 6;
 inline constexpr std::size_t kOpenNearest = 4;
 inline constexpr float kOpenAngle = 2.61799388f; // 150 degrees
+inline constexpr float kStrandGap = 1.04719755f; // 60 degrees
 // Arrays apart (the selection's per-splat loop reads two of them in SIMD lanes).
 struct NeighbourShape {
     std::vector<float> bend, splatRadius, drawRadius;

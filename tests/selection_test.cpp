@@ -127,13 +127,14 @@ TEST(Selection, ChildrenAreDrawnOnceResidentAndCoarseLeavesAreWantedRefined) {
 // through its children while more than half of its splats drawn are wider than the threshold in
 // force T, or while more than a tenth of those within acos(0.3) of edge-on (at least 4) stand out by
 // more than 0.2 px · sqrt(T / asked) and are wider than 1 px, if more than half of them are wider
-// than T / √3 (at most a level past the median). Each root of the sphere, first seen (no
-// hysteresis), at thresholds raised from the one asked; the cases where the silhouettes decide
+// than asked / √3 (at most a level past the median at the threshold asked). Each root of the sphere, first
+// seen (no hysteresis), at thresholds raised from the one asked; the cases where the silhouettes decide
 // differently from a median alone, from a bulge limit that grows with T / asked itself, and from
 // the silhouettes without the level's bound are counted so that the test shows something.
 TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquareRootOfTheRise) {
     const NodeTree tree = sphereTree(1);
-    const auto rule = [](const FrameView& view, const Node& node, float threshold, float bulgeLimit) {
+    const auto rule = [](const FrameView& view, const Node& node, float threshold, float asked,
+                         float bulgeLimit) {
         std::size_t drawn = 0, over = 0, coarse = 0, rim = 0, rimOver = 0;
         for (std::size_t i = 0; i < node.points.size(); ++i) {
             const glm::vec3 d = node.points.position[i] - view.camera.eye;
@@ -146,7 +147,7 @@ TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquare
             const float px = 2.0f * node.shape.splatRadius[i] * view.focal / depth;
             ++drawn;
             over += px > threshold;
-            coarse += px * std::sqrt(3.0f) > threshold; // wider than a level finer would draw it
+            coarse += px * std::sqrt(3.0f) > asked; // wider than a level past the asked median would draw it
             if (facing < 0.3f * glm::length(d)) {
                 ++rim;
                 rimOver += px * node.shape.bend[i] / 4.0f > bulgeLimit && px > 1.0f;
@@ -158,7 +159,7 @@ TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquare
     };
     std::size_t roots = 0, bySilhouette = 0, bySquareRoot = 0, stoppedALevelPast = 0;
     for (const float distance : {2.2f, 6.0f, 12.0f, 24.0f})
-        for (const float asked : {0.5f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f})
+        for (const float asked : {0.5f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f, 32.0f})
             for (const float rise : {1.0f, 1.5f, 2.0f, 3.0f, 4.0f}) {
                 const FrameView view = viewFrom(distance);
                 SelectionSettings settings = thresholdOf(asked * rise);
@@ -169,13 +170,14 @@ TEST(Selection, TheLevelOfDetailIsTheMedianAndTheSilhouettesCoarsenedByTheSquare
                     if (states[id].lastVisited != 1) continue; // culled
                     const Node& node = tree.node(id);
                     const auto [median, silhouette, uncapped] =
-                        rule(view, node, asked * rise, 0.2f * std::sqrt(rise));
+                        rule(view, node, asked * rise, asked, 0.2f * std::sqrt(rise));
                     EXPECT_EQ(states[id].descended, median || silhouette)
                         << "root " << id << " from " << distance << " at " << asked * rise << " px, asked "
                         << asked;
                     ++roots;
                     bySilhouette += silhouette && !median;
-                    bySquareRoot += !median && silhouette != rule(view, node, asked * rise, 0.2f * rise)[1];
+                    bySquareRoot +=
+                        !median && silhouette != rule(view, node, asked * rise, asked, 0.2f * rise)[1];
                     stoppedALevelPast += uncapped && !silhouette && !median;
                 }
             }

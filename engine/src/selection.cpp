@@ -40,9 +40,9 @@ constexpr double kOverShare = 0.5;
 // 0.1 px drew up to 10.21 (the lion's grazing camera) and 0.3 px opened a one-pixel hole on the lion
 // (docs/REALTIME.md, "Smooth silhouettes").
 //
-// The silhouette test refines a node at most one level past the median rule: only while its median
-// splat is wider than the threshold over kRimDeepest, the ratio of a level's spacing to the next's
-// (√3: a level holds three times the points). Where `bend` stays large at every level (a crease
+// The silhouette test refines a node at most one level past the median rule at the threshold asked:
+// only while its median splat is wider than that threshold over kRimDeepest, the ratio of a level's spacing
+// to the next's (√3: a level holds three times the points). Where `bend` stays large at every level (a crease
 // or a fold seen edge-on: the refinement interpolates its normals over a spacing, so the angle
 // across the 6 nearest does not shrink), the bulge r · bend / 2 only shrinks with r, and the test
 // went on two levels past the median rule or more: the nefertiti's headdress at render's framing
@@ -134,19 +134,23 @@ float Walk::bound(const NodeView& v, float radius) const {
 
 // Whether the node's splats drawn (in view, facing the eye) are too coarse for the threshold in
 // force times `factor` (the hysteresis, or 1): more than kOverShare of them wider than it (its
-// median splat), or, while more than kOverShare are wider than it over kRimDeepest, more than
-// kRimShare of those at the silhouette standing out by more than kRimBulgePx times `factor` and the square
-// root of the frame-time target's rise (threshold / asked). The silhouettes coarsen more slowly than the
-// median because they decide most of a picture's difference from the settled one: the bunny's and the lion's
-// zooms in bench view at 640x480, the threshold in force at most 3 times the one asked, gave 38.0 and 35.3 dB
-// median with the rise itself, 40.4 and 39.3 with its square root, for 3 and 9 ms more a frame; with the
-// square root and at most 4 times (engine.cpp, kMaxThresholdRise), 39.3 and 37.4 dB for 2 and 4 ms more
-// (docs/REALTIME.md, "Frame-time target"). The box settles most nodes at once:
-// none of its splats reaches kRimMinPx or the limit; or, for a node all in view and facing the eye, its
-// median radii at the nearest and the farthest corner (Node::medianRadius) and, for the silhouette, its
-// normal cone or its largest radius and bend (Node::maxBend). The others are measured splat by splat (no
-// division: r · k > depth), which is exact where a box seen at a grazing angle or reaching out of the view
-// would refine a node for its nearest corner alone.
+// median splat), or, while more than kOverShare are wider than the threshold asked (times
+// `factor`) over kRimDeepest, more than kRimShare of those at the silhouette standing out by more than
+// kRimBulgePx times `factor` and the square root of the frame-time target's rise (threshold /
+// asked). The silhouettes coarsen more slowly than the median because they decide most of a
+// picture's difference from the settled one: the bunny's and the lion's zooms in bench view at
+// 640x480, the threshold in force at most 3 times the one asked, gave 38.0 and 35.3 dB median with
+// the rise itself, 40.4 and 39.3 with its square root, for 3 and 9 ms more a frame; with the square
+// root and at most 4 times (engine.cpp, kMaxThresholdRise), 39.3 and 37.4 dB for 2 and 4 ms more
+// (docs/REALTIME.md, "Frame-time target"). The bound of one level past the median is the asked
+// threshold's, not the one in force: bound to the raised median, the lion's zoom fell to 37.4 dB
+// median, and to 37.98 with the bound coarsened by the square root of the rise; 39.83 so. The
+// box settles most nodes at once: none of its splats reaches kRimMinPx or the
+// limit; or, for a node all in view and facing the eye, its median radii at the nearest and the
+// farthest corner (Node::medianRadius) and, for the silhouette, its normal cone or its largest
+// radius and bend (Node::maxBend). The others are measured splat by splat (no division: r · k >
+// depth), which is exact where a box seen at a grazing angle or reaching out of the view would
+// refine a node for its nearest corner alone.
 bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
     const float limit = settings_.threshold * factor;
     if (bound(v, node.maxRadius) <= std::min(limit, kRimMinPx)) return false;
@@ -155,12 +159,14 @@ bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
     // The bulge r · bend / 2 over its limit, times depth.
     const float bulge = scale * focal * 0.5f / (kRimBulgePx * std::sqrt(rise) * factor);
     const float rimK = 2.0f * scale * focal / kRimMinPx;
+    // The rim test's bound: one level past where the median rule settles at the threshold asked.
+    const float rimDeepest = kRimDeepest * rise;
     const bool rimPossible =
         !v.noRim && node.maxRadius * node.maxBend * bulge > v.nearest && node.maxRadius * rimK > v.nearest;
     if (v.inView && v.allFront) { // every splat drawn: the median radii settle the first test
         if (node.medianRadius[0] * k > v.farthest) return true; // more than half wider
-        // At most half wider (than the limit, or than the limit over kRimDeepest for the rim test).
-        if (node.medianRadius[1] * k * (rimPossible ? kRimDeepest : 1.0f) <= v.nearest) return false;
+        // At most half wider (than the limit, or than the rim test's bound below).
+        if (node.medianRadius[1] * k * (rimPossible ? rimDeepest : 1.0f) <= v.nearest) return false;
     }
     const PointSet& points = node.points;
     const glm::vec3 eye = v_.camera.eye;
@@ -168,7 +174,7 @@ bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
     // Without branches, so that the loop runs on SIMD lanes: a splat out of view or facing away
     // counts nowhere; one at the silhouette counts for the rim test when the node may have a rim.
     std::uint32_t drawn = 0, over = 0, coarse = 0, rim = 0, rimOver = 0;
-    const float coarseK = k * kRimDeepest; // wider than the limit over kRimDeepest
+    const float coarseK = k * rimDeepest; // wider than the limit over rimDeepest
     const std::size_t n = points.size();
     const glm::vec3* position = points.position.data();
     const glm::vec3* normal = points.normal.data();

@@ -1584,6 +1584,7 @@ TEST(CliBenchSettle, ComparesTheSettledPictureWithTheOfflineRefinement) {
         EXPECT_EQ(jsonField(out[k], "model"), "torus");
         EXPECT_EQ(jsonField(out[k], "camera"), k == 0 ? "framing" : "grazing");
         EXPECT_EQ(jsonField(out[k], "settled"), "true");
+        EXPECT_EQ(jsonField(out[k], "smooth_edges"), "true");
         EXPECT_GT(std::stod(jsonField(out[k], "psnr")), 30.0);
         EXPECT_GT(std::stod(jsonField(out[k], "covered_px")), 100.0);
         EXPECT_GT(std::stod(jsonField(out[k], "drawn_per_covered_px")), 0.0);

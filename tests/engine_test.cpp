@@ -40,11 +40,7 @@ constexpr bool kSanitized = false;
 #endif
 // Sanitizers keep freed memory in quarantine (ASan) or in their own allocator (TSan): resident
 // memory is checked in the other builds only.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr bool kMemoryChecked = false;
-#else
-constexpr bool kMemoryChecked = true;
-#endif
+constexpr bool kMemoryChecked = !kSanitized;
 // The validation layer, unloaded after an instance with synchronization validation is destroyed,
 // leaves blocks that LeakSanitizer reports from an unknown module (102 in EngineStress, now and
 // then); preloading the layer to name them hides Vulkan from GLFW. The address suite therefore runs

@@ -40,13 +40,13 @@ constexpr double kOverShare = 0.5;
 // 0.1 px drew up to 10.21 (the lion's grazing camera) and 0.3 px opened a one-pixel hole on the lion
 // (docs/REALTIME.md, "Smooth silhouettes").
 //
-// The silhouette test refines a node at most one level past the median rule at the threshold asked:
-// only while its median splat is wider than that threshold over kRimDeepest, the ratio of a level's spacing
-// to the next's (√3: a level holds three times the points). Where `bend` stays large at every level (a crease
-// or a fold seen edge-on: the refinement interpolates its normals over a spacing, so the angle
-// across the 6 nearest does not shrink), the bulge r · bend / 2 only shrinks with r, and the test
-// went on two levels past the median rule or more: the nefertiti's headdress at render's framing
-// made 16.41 points a covered pixel, now 9.52, with 42.48 dB from the offline refinement a level
+// The silhouette test refines a node at most one level past the median rule at the threshold
+// asked: only while its median splat is wider than that threshold over kRimDeepest, the ratio of a
+// level's spacing to the next's (√3: a level holds three times the points). Where `bend` stays
+// large at every level (a crease or a fold seen edge-on: the refinement interpolates its normals
+// over a spacing, so the angle across the 6 nearest does not shrink), the bulge r · bend / 2 only shrinks
+// with r, and the test went on two levels past the median rule or more: the nefertiti's headdress at render's
+// framing made 16.41 points a covered pixel, now 9.52, with 42.60 dB from the offline refinement a level
 // deeper, against 42.67 (docs/REALTIME.md, "Where the points made go").
 constexpr float kRimCosine = 0.3f;
 constexpr float kRimDeepest = 1.7320508f;
@@ -135,8 +135,8 @@ float Walk::bound(const NodeView& v, float radius) const {
 // Whether the node's splats drawn (in view, facing the eye) are too coarse for the threshold in
 // force times `factor` (the hysteresis, or 1): more than kOverShare of them wider than it (its
 // median splat), or, while more than kOverShare are wider than the threshold asked (times
-// `factor`) over kRimDeepest, more than kRimShare of those at the silhouette standing out by more than
-// kRimBulgePx times `factor` and the square root of the frame-time target's rise (threshold /
+// `factor`) over kRimDeepest, more than kRimShare of those at the silhouette standing out by more
+// than kRimBulgePx times `factor` and the square root of the frame-time target's rise (threshold /
 // asked). The silhouettes coarsen more slowly than the median because they decide most of a
 // picture's difference from the settled one: the bunny's and the lion's zooms in bench view at
 // 640x480, the threshold in force at most 3 times the one asked, gave 38.0 and 35.3 dB median with
@@ -144,13 +144,12 @@ float Walk::bound(const NodeView& v, float radius) const {
 // root and at most 4 times (engine.cpp, kMaxThresholdRise), 39.3 and 37.4 dB for 2 and 4 ms more
 // (docs/REALTIME.md, "Frame-time target"). The bound of one level past the median is the asked
 // threshold's, not the one in force: bound to the raised median, the lion's zoom fell to 37.4 dB
-// median, and to 37.98 with the bound coarsened by the square root of the rise; 39.83 so. The
-// box settles most nodes at once: none of its splats reaches kRimMinPx or the
-// limit; or, for a node all in view and facing the eye, its median radii at the nearest and the
-// farthest corner (Node::medianRadius) and, for the silhouette, its normal cone or its largest
-// radius and bend (Node::maxBend). The others are measured splat by splat (no division: r · k >
-// depth), which is exact where a box seen at a grazing angle or reaching out of the view would
-// refine a node for its nearest corner alone.
+// median, and to 37.98 with the bound coarsened by the square root of the rise; 39.5 to 41.0 so. The
+// box settles most nodes at once: none of its splats reaches kRimMinPx or the limit; or, for a node all in
+// view and facing the eye, its median radii at the nearest and the farthest corner (Node::medianRadius) and,
+// for the silhouette, its normal cone or its largest radius and bend (Node::maxBend). The others are measured
+// splat by splat (no division: r · k > depth), which is exact where a box seen at a grazing angle or reaching
+// out of the view would refine a node for its nearest corner alone.
 bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
     const float limit = settings_.threshold * factor;
     if (bound(v, node.maxRadius) <= std::min(limit, kRimMinPx)) return false;

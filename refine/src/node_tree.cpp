@@ -8,7 +8,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <numeric>
 #include <span>
 #include <string>
@@ -387,17 +386,6 @@ class NearestGrid {
     std::vector<float> x_, y_, z_;              // their positions, in the same order
 };
 
-// Whether sorted angles (radians) leave two gaps wider than kStrandGap around the circle: the
-// nearest lie on both sides of the point along a line, as on a strand a spacing or two thick.
-bool alongAStrand(std::span<const float> angles) {
-    constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
-    if (angles.empty()) return false;
-    std::size_t wide = static_cast<std::size_t>(kTwoPi - (angles.back() - angles.front()) > kStrandGap);
-    for (std::size_t k = 1; k < angles.size(); ++k)
-        wide += static_cast<std::size_t>(angles[k] - angles[k - 1] > kStrandGap);
-    return wide >= 2;
-}
-
 } // namespace
 
 float drawnRadiusOf(std::span<const float> radii) {
@@ -451,8 +439,9 @@ NeighbourShape neighbourShapeOf(const PointSet& points) {
             for (; at > 0 && angle[at - 1] > a; --at) angle[at] = angle[at - 1];
             angle[at] = a;
         }
-        if (widestGap({angle.data(), around}).first <= kOpenAngle || alongAStrand({angle.data(), around}))
-            return;
+        // Open: one gap wider than kOpenAngle, and no second one wider than kStrandGap (a strand's).
+        const std::span<const float> angles(angle.data(), around);
+        if (widestGap(angles).first <= kOpenAngle || gapsWiderThan(angles, kStrandGap) >= 2) return;
         const float inward = glm::length(points.position[nearest[kOpenNearest]] - points.position[i]);
         if (inward > 0.0f) shape.drawRadius[i] = std::min(shape.drawRadius[i], inward);
     });

@@ -57,7 +57,7 @@ constexpr std::size_t kRestFrames = 2;
 // blocks that long at most, so a camera that moves again is drawn that much later.
 constexpr auto kRestWait = std::chrono::milliseconds(100);
 
-// The splats of a node's points (normals, radii drawn: Node::shape.drawRadius, optional colours), 32 bytes
+// The splats of a node's points (normals, radii drawn: Node::shape.splatRadius, optional colours), 32 bytes
 // each (gpu::Splat): a chunk's contents, for its upload and its check, and the classes' starts. By facing
 // class, then in order of radius (then of index): the compute path gives each splat one invocation, and
 // invocations run in lockstep in groups (8 lanes of a SIMD batch on lavapipe, a subgroup on a GPU), each
@@ -234,7 +234,7 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
             const auto chunk = impl->cache->allocatePermanent(static_cast<std::uint32_t>(node.points.size()));
             assert(chunk);
             splats.resize(node.points.size());
-            const ClassStarts classes = packSplats(node.points, node.shape.drawRadius, splats.data());
+            const ClassStarts classes = packSplats(node.points, node.shape.splatRadius, splats.data());
             impl->cache->write(*chunk, splats, *impl->frames, uploads);
             Impl::NodeState& s = impl->stateOf(root);
             s.chunk = *chunk;
@@ -362,7 +362,7 @@ std::size_t Engine::Impl::upload(const std::vector<WantedNode>& wanted, bool loc
                 if (d.first < chunk->first + chunk->count && chunk->first < d.first + d.count) ++overwrites;
         }
         splats.resize(node.points.size());
-        s.classes = packSplats(node.points, node.shape.drawRadius, splats.data());
+        s.classes = packSplats(node.points, node.shape.splatRadius, splats.data());
         cache->write(*chunk, splats, *frames, uploads);
         s.chunk = *chunk;
         s.resident = true;
@@ -697,7 +697,7 @@ Result<std::size_t> Engine::verifyCache() {
                 return Error{fmt::format("node {}: chunk of {} splats for {} points", id, chunk.count,
                                          node.points.size())};
             expected.resize(chunk.count);
-            packSplats(node.points, node.shape.drawRadius, expected.data());
+            packSplats(node.points, node.shape.splatRadius, expected.data());
             if (std::memcmp(expected.data(), gpu + chunk.first, chunk.count * sizeof(gpu::Splat)) != 0)
                 return Error{fmt::format("node {} (level {}): its chunk at splat {} differs from its points",
                                          id, node.level, chunk.first)};

@@ -34,15 +34,6 @@ std::pair<float, float> widestGap(std::span<const float> angles) {
     return {gap, bisector};
 }
 
-std::size_t gapsWiderThan(std::span<const float> angles, float angle) {
-    constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
-    if (angles.empty()) return static_cast<std::size_t>(kTwoPi > angle);
-    std::size_t wide = static_cast<std::size_t>(kTwoPi - (angles.back() - angles.front()) > angle);
-    for (std::size_t k = 1; k < angles.size(); ++k)
-        wide += static_cast<std::size_t>(angles[k] - angles[k - 1] > angle);
-    return wide;
-}
-
 void NeighbourSet::clear() {
     index.clear();
     position.clear();

@@ -16,8 +16,6 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
-#include "pnsplat/refine/neighbourhood.h"
-
 namespace pnsplat {
 
 namespace {
@@ -401,20 +399,17 @@ float drawnRadiusOf(std::span<const float> radii) {
 void NeighbourShape::reserve(std::size_t count) {
     bend.reserve(count);
     splatRadius.reserve(count);
-    drawRadius.reserve(count);
 }
 
 void NeighbourShape::appendFrom(const NeighbourShape& from, std::size_t i) {
     bend.push_back(from.bend[i]);
     splatRadius.push_back(from.splatRadius[i]);
-    drawRadius.push_back(from.drawRadius[i]);
 }
 
 NeighbourShape neighbourShapeOf(const PointSet& points) {
     NeighbourShape shape;
     shape.bend.assign(points.size(), 0.0f);
     shape.splatRadius.assign(points.radius.begin(), points.radius.end()); // none without radii
-    shape.drawRadius = shape.splatRadius;
     if (points.size() < 2) return shape;
     const NearestGrid grid(points.position);
     grid.forEachNearest<kBendNeighbours + 1>([&](std::uint32_t i, const auto& nearest, std::size_t found) {
@@ -425,25 +420,6 @@ NeighbourShape neighbourShapeOf(const PointSet& points) {
         if (!points.hasRadius()) return; // no radii to draw with: the bend only
         const float farthest = glm::length(points.position[nearest[found - 1]] - points.position[i]);
         if (farthest > 0.0f) shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
-        shape.drawRadius[i] = shape.splatRadius[i];
-        // A crease point's nearest across the crease lie off its plane (as for hole_detection.cpp's
-        // rim points): it is left as it is.
-        if (found < kOpenNearest + 1 || points.isCrease(i)) return;
-        // Its nearest but itself, by angle around its normal (an insertion sort of at most 6).
-        const TangentFrame frame(points.normal[i]);
-        std::array<float, kBendNeighbours> angle{};
-        const std::size_t around = std::min(found - 1, angle.size());
-        for (std::size_t k = 0; k < around; ++k) {
-            const float a = frame.angleOf(points.position[nearest[k + 1]] - points.position[i]);
-            std::size_t at = k;
-            for (; at > 0 && angle[at - 1] > a; --at) angle[at] = angle[at - 1];
-            angle[at] = a;
-        }
-        // Open: one gap wider than kOpenAngle, and no second one wider than kStrandGap (a strand's).
-        const std::span<const float> angles(angle.data(), around);
-        if (widestGap(angles).first <= kOpenAngle || gapsWiderThan(angles, kStrandGap) >= 2) return;
-        const float inward = glm::length(points.position[nearest[kOpenNearest]] - points.position[i]);
-        if (inward > 0.0f) shape.drawRadius[i] = std::min(shape.drawRadius[i], inward);
     });
     return shape;
 }
@@ -548,7 +524,7 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     }
     // A tree only drawn draws the radii it was given.
     NeighbourShape shape = neighbourShapeOf(input);
-    if (!forRefinement) shape.splatRadius = shape.drawRadius = {input.radius.begin(), input.radius.end()};
+    if (!forRefinement) shape.splatRadius = {input.radius.begin(), input.radius.end()};
     std::vector<NodeId> level; // the nodes of the level being built, in tree order
     for (SplitPart& part : roots) {
         const NodeId id = tree.allocate();

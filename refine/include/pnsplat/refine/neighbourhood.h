@@ -35,10 +35,6 @@ struct TangentFrame {
 // its bisector (the whole circle when there is none).
 std::pair<float, float> widestGap(std::span<const float> angles);
 
-// How many of the gaps that `angles` (sorted as for widestGap) leave around the circle are wider
-// than `angle` (the whole circle, one gap, when there is none).
-std::size_t gapsWiderThan(std::span<const float> angles, float angle);
-
 // Neighbours of one point as flat arrays. `index` is opaque to this module (the caller's id).
 struct NeighbourSet {
     std::vector<std::uint32_t> index;

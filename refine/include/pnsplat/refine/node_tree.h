@@ -51,32 +51,19 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    (the sagitta of a circle turning by bend over r), which the next level's smaller splats halve;
 //    the engine refines the nodes whose silhouette splats stand out visibly (selection.cpp, the level
 //    of detail).
-//  - splatRadius: the radius its splat is measured with (and drawn with, drawRadius below), the
-//    distance to the farthest of them, at most its own radius (the point's radius when it has no
-//    neighbour). Choice (docs/REALTIME.md, "Splats of the local spacing"): the refinement's radius
-//    reaches the farthest member of the point's next one-ring, about twice the spacing, so that its
-//    disk covers each pixel many times over; the sixth nearest point lies about 1.3 spacings away
-//    and still covers the surface.
-//  - drawRadius: the radius its splat is drawn with: splatRadius, except at an open boundary (its
-//    nearest leave more than kOpenAngle free around it in its tangent plane; not a crease point,
-//    whose nearest across the crease lie off its plane), where it is at most
-//    the distance to its kOpenNearest-th nearest. Choice (docs/REALTIME.md, "Splats of the local
-//    spacing"): there the six nearest lie on one side and reach about √3 spacings (on a hexagonal
-//    sampling: two along the boundary and two inwards at one spacing, then two at √3), so its disk
-//    reached past the last points by that; the fourth nearest is the spacing an inside point's sixth
-//    nearest gives. The level of detail still measures splatRadius: drawn smaller, the boundary's
-//    splats would let the nodes there settle a level coarser, whose rim reaches farther. Nor is a
-//    point open whose nearest leave a second gap wider than kStrandGap: they lie on both sides of
-//    it, on a strand a spacing or two thick (the lion's tail), whose smaller splats would break it
-//    (a one-pixel hole in the lion's tail at render's framing; at 90 degrees it stayed, at 60 and
-//    45 it closed: docs/REALTIME.md, "Where the points made go").
+//  - splatRadius: the radius its splat is measured and drawn with, the distance to the farthest
+//    of them, at most its own radius (the point's radius when it has no neighbour). Choice
+//    (docs/REALTIME.md, "Splats of the local spacing"): the refinement's radius reaches the
+//    farthest member of the point's next one-ring, about twice the spacing, so that its disk
+//    covers each pixel many times over; the sixth nearest point lies about 1.3 spacings away and
+//    still covers the surface. At an open boundary the sixth nearest lie on one side and reach
+//    past the last points by about a spacing: the splats there are drawn so too (docs/REALTIME.md,
+//    "Where the points made go": drawn with the fourth nearest, they opened the borders of nodes,
+//    whose points find their nearest on one side only, and strands).
 inline constexpr std::size_t kBendNeighbours = 6;
-inline constexpr std::size_t kOpenNearest = 4;
-inline constexpr float kOpenAngle = 2.61799388f; // 150 degrees
-inline constexpr float kStrandGap = 1.04719755f; // 60 degrees
 // Arrays apart (the selection's per-splat loop reads two of them in SIMD lanes).
 struct NeighbourShape {
-    std::vector<float> bend, splatRadius, drawRadius;
+    std::vector<float> bend, splatRadius;
 
     void reserve(std::size_t count);
     void appendFrom(const NeighbourShape& from, std::size_t i); // point i of `from`
@@ -88,8 +75,12 @@ void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& an
 
 struct NodeSettings {
     // A node is split so that its children hold at most this many points (the paper: "one or two
-    // thousands points per cell"). At least 16.
-    std::uint32_t maxNodePoints = 2048;
+    // thousands points per cell"). At least 16. Choice (docs/REALTIME.md, "Where the points made
+    // go"): 1,024, where 2,048 made up to 12.5 points a covered pixel (the rockerarm's close-up),
+    // 2.8 times what it drew: a job refines a whole node, whose children out of the view or
+    // facing away nothing draws. Smaller nodes waste less, but each job refines the context
+    // along its borders too (512 made 2 % fewer points there than 1,024).
+    std::uint32_t maxNodePoints = 1024;
     // Nodes of this level are not refined further (each level shrinks the radii by about √3).
     std::uint32_t maxLevel = 14;
     // Whole levels first: the refinement of the whole input (Refiner, as `pnsplat refine` builds
@@ -127,7 +118,7 @@ struct Node {
     PointSet points;              // its points (normals, radii, colours, creases as P0's)
     // Per point, neighbourShapeOf over its level's points of its parent's region (a root: of the
     // input; a node of the whole levels: of its whole level); a tree only drawn draws points.radius.
-    // Selection measures shape.splatRadius; the cache's splats are drawn with shape.drawRadius.
+    // Selection measures shape.splatRadius, and the cache's splats are drawn with it.
     NeighbourShape shape;
     std::vector<SegmentEnds> segments; // boundary and crease segments whose first point is its own
 

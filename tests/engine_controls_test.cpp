@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <string>
 #include <thread>
@@ -27,7 +28,27 @@ using engine::FrameReport;
 using engine::RenderPath;
 using engine::RgbaImage;
 
-class EngineControlsTest : public test::GpuTest {};
+class EngineControlsTest : public test::GpuTest {
+  protected:
+    struct Rest {
+        RgbaImage picture; // the last frame's
+        bool rested = false;
+    };
+    // Frames of a camera held still, not in lockstep, until it is at rest (FrameReport::resting)
+    // and the frame settled, 20 ms apart until the rest (bounded: 3,000 frames); `resting` sees the
+    // report of every frame at rest. `report` is the last frame's.
+    Rest drawUntilSettledAtRest(Engine& engine, const Camera& camera, FrameReport& report,
+                                const std::function<void(const FrameReport&)>& resting = {}) {
+        Rest rest;
+        for (int k = 0; k < 3000 && !(report.settled && rest.rested); ++k) {
+            rest.picture = frameOf(engine, camera, &report, false);
+            if (report.resting && resting) resting(report);
+            rest.rested = rest.rested || report.resting;
+            if (!rest.rested) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        return rest;
+    }
+};
 
 // The bumpy sphere (the default model before issue 26), completed (normals and radii), and a camera
 // that frames it.
@@ -75,21 +96,15 @@ TEST_F(EngineControlsTest, AtRestTheLevelOfDetailLetsGoOfTheHysteresis) {
     EXPECT_GT(report.heldByHysteresis, 0u);
     frameOf(engine, camera, &report, false);
     EXPECT_FALSE(report.settled) << "held by the hysteresis, not in lockstep: not the settled picture";
-    RgbaImage still;
-    bool rested = false;
-    for (int k = 0; k < 3000 && !(report.settled && rested); ++k) {
-        still = frameOf(engine, camera, &report, false);
-        rested = rested || report.resting;
-        if (!rested) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    ASSERT_TRUE(rested);
+    const Rest still = drawUntilSettledAtRest(engine, camera, report);
+    ASSERT_TRUE(still.rested);
     ASSERT_TRUE(report.settled);
     EXPECT_EQ(report.heldByHysteresis, 0u);
     auto fresh = Engine::create(context(), points, settings);
     ASSERT_TRUE(fresh.ok()) << fresh.error().message;
     const RgbaImage settled = frameOf(**fresh, camera);
     EXPECT_FALSE(moving.pixels == settled.pixels) << "the hysteresis kept nothing: the test shows nothing";
-    EXPECT_TRUE(still.pixels == settled.pixels);
+    EXPECT_TRUE(still.picture.pixels == settled.pixels);
 }
 
 // Acceptance 5 of the real-time issue: a camera that moves under a frame-time target no device
@@ -120,23 +135,15 @@ TEST_F(EngineControlsTest, ACameraAtRestConvergesToTheSettledPicture) {
     const float moving = report.thresholdPx;
     EXPECT_GT(moving, 2.0f);
     // Held still: at rest within a second, then refined until settled (bounded: 3,000 frames).
-    RgbaImage still;
-    bool rested = false;
-    for (int k = 0; k < 3000 && !(report.settled && rested); ++k) {
-        still = frameOf(engine, camera, &report, false);
-        if (report.resting) {
-            rested = true;
-            EXPECT_EQ(report.thresholdPx, 2.0f);
-        }
-        if (!rested) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    ASSERT_TRUE(rested);
+    const Rest still = drawUntilSettledAtRest(
+        engine, camera, report, [](const FrameReport& resting) { EXPECT_EQ(resting.thresholdPx, 2.0f); });
+    ASSERT_TRUE(still.rested);
     ASSERT_TRUE(report.settled);
     settings.targetFrameMs = 0.0f;
     auto fresh = Engine::create(context(), points, settings);
     ASSERT_TRUE(fresh.ok()) << fresh.error().message;
     const RgbaImage settled = frameOf(**fresh, camera);
-    const auto d = engine::compareImages(still, settled);
+    const auto d = engine::compareImages(still.picture, settled);
     ASSERT_TRUE(d.ok());
     std::printf("[rest: threshold in force %.2f px while moving; at rest, the picture %.1f dB from the "
                 "lockstep one]\n",

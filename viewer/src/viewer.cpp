@@ -763,9 +763,9 @@ Result<ViewerSummary> Session::run() {
             // A threshold in force raised by the frame-time target is not a stall, nor are nodes held
             // by the hysteresis: the camera's rest (half a second) lets both go, and the picture goes
             // on to the settled one (engine.h, FrameReport::resting).
-            const bool raised =
+            const bool awaitingRest =
                 report.thresholdPx > engine_->settings().threshold || report.heldByHysteresis > 0;
-            stalledFrames_ = !report.settled && idle && !raised ? stalledFrames_ + 1 : 0;
+            stalledFrames_ = !report.settled && idle && !awaitingRest ? stalledFrames_ + 1 : 0;
             const bool still = report.settled || stalledFrames_ >= kStalledFrames;
             if (stalledFrames_ == kStalledFrames)
                 message(fmt::format(

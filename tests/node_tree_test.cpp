@@ -364,7 +364,8 @@ TEST(NodeTree, ChildrenDoNotDependOnHistory) {
 }
 
 // The radii a node's splats are measured and drawn with reach every node, the roots and the
-// children of jobs: one per point, none above the point's own radius (the refinement's), and most
+// children of jobs: one per point, none above the point's own radius (the refinement's; the
+// input's for the roots), and most
 // below it (the sixth nearest lies nearer than the refinement's radius, which reaches the farthest
 // member of the next one-ring: node_tree.h, splatRadius).
 TEST(NodeTree, NodesCarryTheRadiiTheirSplatsAreDrawnWith) {

@@ -19,11 +19,10 @@ constexpr float kPi = 3.14159265359f;
 // children while more than kOverShare of its splats drawn are wider than the threshold: its median
 // splat. Splats are measured with Node::shape.splatRadius, about the local spacing (the
 // refinement's radii are about twice it: docs/REALTIME.md, "Splats of the local spacing"), and drawn
-// with it. The 99th
-// percentile (a share of 0.008, before) let the sparsest patches of a node decide for all of it: the
-// refinement's radii spread (the 99th percentile is about 1.9 times the median), so at 2 px the median splat
-// drawn was 0.8 px and a covered pixel held 28 splats (the bunny at 640x480), while away from the silhouettes
-// a picture changes little from one level to the next.
+// with it. The 99th percentile (a share of 0.008, before) let the sparsest patches of a node decide for all
+// of it: the refinement's radii spread (the 99th percentile is about 1.9 times the median), so at 2 px the
+// median splat drawn was 0.8 px and a covered pixel held 28 splats (the bunny at 640x480), while away from
+// the silhouettes a picture changes little from one level to the next.
 constexpr double kOverShare = 0.5;
 // At the silhouettes it does: there a coarser level covers more pixels than the next (a splat's
 // disk stands out of a curved surface by about r · bend / 2, node_tree.h, neighbourShapeOf, which the next

@@ -56,12 +56,13 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    (docs/REALTIME.md, "Splats of the local spacing"): the refinement's radius reaches the
 //    farthest member of the point's next one-ring, about twice the spacing, so that its disk
 //    covers each pixel many times over; the sixth nearest point lies about 1.3 spacings away and
-//    still covers the surface. At an open boundary the sixth nearest lie on one side and reach
-//    past the last points by about a spacing: the splats there are drawn so too (docs/REALTIME.md,
-//    "Where the points made go": drawn with the fourth nearest, they opened the borders of nodes,
-//    whose points find their nearest on one side only, and strands).
+//    still covers the surface. At an open boundary the sixth nearest lie on one side, about √3
+//    spacings away, and the splats reach that far past the last points; they are drawn so too
+//    (docs/REALTIME.md, "Smaller nodes, and no open boundaries": drawn with the fourth nearest, the
+//    splats along the borders of nodes, whose points find their nearest on one side only, and of
+//    strands left holes).
 inline constexpr std::size_t kBendNeighbours = 6;
-// Arrays apart (the selection's per-splat loop reads two of them in SIMD lanes).
+// Arrays apart (the selection's per-splat loop reads both in SIMD lanes).
 struct NeighbourShape {
     std::vector<float> bend, splatRadius;
 
@@ -75,11 +76,12 @@ void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& an
 
 struct NodeSettings {
     // A node is split so that its children hold at most this many points (the paper: "one or two
-    // thousands points per cell"). At least 16. Choice (docs/REALTIME.md, "Where the points made
-    // go"): 1,024, where 2,048 made up to 12.5 points a covered pixel (the rockerarm's close-up),
-    // 2.8 times what it drew: a job refines a whole node, whose children out of the view or
-    // facing away nothing draws. Smaller nodes waste less, but each job refines the context
-    // along its borders too (512 made 2 % fewer points there than 1,024).
+    // thousands points per cell"). At least 16. Choice (docs/REALTIME.md, "Smaller nodes, and no
+    // open boundaries"): 1,024, where 2,048 made up to 12.5 points a covered pixel (the
+    // rockerarm's close-up), 2.8 times what it drew: a job refines a whole node, whose children
+    // out of the view or facing away nothing draws. Smaller nodes waste less, but each job
+    // refines the context along its borders too: 512 made only 2 % fewer points than 1,024 on
+    // the rockerarm's close-up.
     std::uint32_t maxNodePoints = 1024;
     // Nodes of this level are not refined further (each level shrinks the radii by about √3).
     std::uint32_t maxLevel = 14;

@@ -149,6 +149,39 @@ TEST_P(PathTest, TheOuterSilhouetteBlendsTowardTheBackground) {
     EXPECT_GT(changed, 300u);
 }
 
+// How much the outer silhouette blends, against the Gaussian: the white disk of
+// SingleDiskCoversExactlyItsProjection, whose weight at a pixel is exp(-k ρ²) (ρ its distance from
+// the centre over the disk's radius on screen, k the sharpness), over a black background. A pixel of
+// its rim beside the background is drawn as mix(background, colour, w / kEdgeWeight): its hard value
+// times exp(-k ρ²). Fails with the weight's square root or square, or another kEdgeWeight.
+TEST_P(PathTest, TheSilhouetteBlendsByTheGaussianWeight) {
+    constexpr double kEdgeWeight = 1.0; // shaders/gpu_types.h, not visible to the tests
+    const PointSet white = disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 255, 255});
+    RenderSettings settings = small(GetParam());
+    const RgbaImage smooth = render(white, settings, lookingDownZ(5.0f));
+    settings.smoothEdges = false;
+    const RgbaImage hard = render(white, settings, lookingDownZ(5.0f));
+    ASSERT_EQ(smooth.width, 256u);
+    ASSERT_EQ(hard.width, 256u);
+    const double radiusPx = 0.2 / std::tan(radians(20.0)) * 128.0;
+    const auto background = [&](std::uint32_t x, std::uint32_t y) {
+        return x < 256 && y < 256 && hard.at(x, y).x == 0;
+    };
+    std::size_t rim = 0;
+    for (std::uint32_t y = 0; y < 256; ++y)
+        for (std::uint32_t x = 0; x < 256; ++x) {
+            if (background(x, y) || !(background(x + 1, y) || background(x - 1, y) || background(x, y + 1) ||
+                                      background(x, y - 1)))
+                continue;
+            const double rho = std::hypot(x + 0.5 - 128.0, y + 0.5 - 128.0) / radiusPx;
+            const double weight = std::exp(-double(settings.sharpness) * rho * rho) / kEdgeWeight;
+            EXPECT_NEAR(double(smooth.at(x, y).x), double(hard.at(x, y).x) * weight, 2.0)
+                << x << "," << y << " rho " << rho;
+            ++rim;
+        }
+    EXPECT_GT(rim, 300u); // about 2 pi 70 pixels
+}
+
 // One splat far larger than the screen covers every pixel (no size limit).
 TEST_P(PathTest, HugeSplatCoversTheScreen) {
     const RgbaImage image = render(disk({0, 0, 0}, {0, 0, 1}, 50.0f, {255, 255, 255}),

@@ -365,9 +365,8 @@ TEST(NodeTree, ChildrenDoNotDependOnHistory) {
 
 // The radii a node's splats are measured and drawn with reach every node, the roots and the
 // children of jobs: one per point, none above the point's own radius (the refinement's; the
-// input's for the roots), and most
-// below it (the sixth nearest lies nearer than the refinement's radius, which reaches the farthest
-// member of the next one-ring: node_tree.h, splatRadius).
+// input's for the roots), and most below it (the sixth nearest lies nearer than the refinement's
+// radius, which reaches the farthest member of the next one-ring: node_tree.h, splatRadius).
 TEST(NodeTree, NodesCarryTheRadiiTheirSplatsAreDrawnWith) {
     auto tree = NodeTree::create(withRadii(sampleSphereRandom(3000, 1.0f, 5)), smallNodes());
     ASSERT_TRUE(tree);

@@ -58,6 +58,22 @@ RenderSettings small(RenderPath path, std::uint32_t w = 256, std::uint32_t h = 2
     return s;
 }
 
+// Whether pixel (x, y) lies in the picture and is black (the tests' background); x and y may have
+// wrapped below 0.
+bool backgroundAt(const RgbaImage& image, std::uint32_t x, std::uint32_t y) {
+    return x < image.width && y < image.height && glm::u8vec3(image.at(x, y)) == glm::u8vec3(0);
+}
+
+// Whether one of the pixel's four neighbours is background (the pixels the smooth silhouette blends).
+bool besideBackground(const RgbaImage& image, std::uint32_t x, std::uint32_t y) {
+    return backgroundAt(image, x + 1, y) || backgroundAt(image, x - 1, y) || backgroundAt(image, x, y + 1) ||
+           backgroundAt(image, x, y - 1);
+}
+
+// The white disk of radius 1 seen from 5 away (lookingDownZ(5), 40 degrees, 256 px high): the
+// radius of its image in pixels, (1/5) / tan(20°) · 128.
+const double kWhiteDiskRadiusPx = 0.2 / std::tan(radians(20.0)) * 128.0;
+
 PointSet withRadii(PointSet points) {
     estimateRadii(points, 1);
     return points;
@@ -78,16 +94,15 @@ TEST_P(PathTest, SingleDiskCoversExactlyItsProjection) {
     const RgbaImage image =
         render(disk({0, 0, 0}, {0, 0, 1}, 1.0f, {255, 255, 255}), small(GetParam()), lookingDownZ(5.0f));
     ASSERT_EQ(image.width, 256u);
-    const double radiusPx = 0.2 / std::tan(radians(20.0)) * 128.0;
     int inside = 0, outside = 0;
     for (std::uint32_t y = 0; y < 256; ++y)
         for (std::uint32_t x = 0; x < 256; ++x) {
             const double d = std::hypot(x + 0.5 - 128.0, y + 0.5 - 128.0);
             const glm::u8vec4 c = image.at(x, y);
-            if (d < radiusPx - 1.0) {
+            if (d < kWhiteDiskRadiusPx - 1.0) {
                 ++inside;
                 EXPECT_GT(c.x, 200) << x << "," << y;
-            } else if (d > radiusPx + 1.0) {
+            } else if (d > kWhiteDiskRadiusPx + 1.0) {
                 ++outside;
                 EXPECT_EQ(c.x, 0) << x << "," << y;
             }
@@ -130,18 +145,13 @@ TEST_P(PathTest, TheOuterSilhouetteBlendsTowardTheBackground) {
     const RgbaImage hard = render(points, settings, camera);
     ASSERT_EQ(smooth.width, 256u);
     ASSERT_EQ(hard.width, 256u);
-    const auto background = [&](std::uint32_t x, std::uint32_t y) {
-        return x < 256 && y < 256 && glm::u8vec3(hard.at(x, y)) == glm::u8vec3(0);
-    };
     std::size_t changed = 0;
     for (std::uint32_t y = 0; y < 256; ++y)
         for (std::uint32_t x = 0; x < 256; ++x) {
             const glm::u8vec4 a = smooth.at(x, y), b = hard.at(x, y);
             if (a == b) continue;
             ++changed;
-            EXPECT_TRUE(background(x + 1, y) || background(x - 1, y) || background(x, y + 1) ||
-                        background(x, y - 1))
-                << x << "," << y;
+            EXPECT_TRUE(besideBackground(hard, x, y)) << x << "," << y;
             EXPECT_LE(a.z, b.z) << x << "," << y;
             EXPECT_GT(a.z, 0) << x << "," << y;
         }
@@ -163,17 +173,11 @@ TEST_P(PathTest, TheSilhouetteBlendsByTheGaussianWeight) {
     const RgbaImage hard = render(white, settings, lookingDownZ(5.0f));
     ASSERT_EQ(smooth.width, 256u);
     ASSERT_EQ(hard.width, 256u);
-    const double radiusPx = 0.2 / std::tan(radians(20.0)) * 128.0;
-    const auto background = [&](std::uint32_t x, std::uint32_t y) {
-        return x < 256 && y < 256 && hard.at(x, y).x == 0;
-    };
     std::size_t rim = 0;
     for (std::uint32_t y = 0; y < 256; ++y)
         for (std::uint32_t x = 0; x < 256; ++x) {
-            if (background(x, y) || !(background(x + 1, y) || background(x - 1, y) || background(x, y + 1) ||
-                                      background(x, y - 1)))
-                continue;
-            const double rho = std::hypot(x + 0.5 - 128.0, y + 0.5 - 128.0) / radiusPx;
+            if (backgroundAt(hard, x, y) || !besideBackground(hard, x, y)) continue;
+            const double rho = std::hypot(x + 0.5 - 128.0, y + 0.5 - 128.0) / kWhiteDiskRadiusPx;
             const double weight = std::exp(-double(settings.sharpness) * rho * rho) / kEdgeWeight;
             EXPECT_NEAR(double(smooth.at(x, y).x), double(hard.at(x, y).x) * weight, 2.0)
                 << x << "," << y << " rho " << rho;

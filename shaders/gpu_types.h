@@ -89,7 +89,8 @@ struct FrameUniforms {
     // map's diameter in pixels (RenderSettings::heatMapPx; 0: splats keep their colour).
     vec4 splat;
     // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y: workgroups of the
-    // compute path's splat passes, z: 1 to smooth the outer silhouette (kEdgeWeight), w: unused.
+    // compute path's splat passes, z: 1 to smooth the outer silhouette (kEdgeWeight), w: 1 to fill
+    // pinholes (splat_common.glsl, pinholeAt).
     uvec4 flags;
     // The compute path's pipelines for splats of one colour: that colour, linear RGB (a unused).
     vec4 colour;

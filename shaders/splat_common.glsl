@@ -124,7 +124,26 @@ bool mayBlend(float sumWeight) {
 }
 
 // Whether no splat reached pixel p, inside the picture: each path's normalization says how it knows.
-bool backgroundAt(ivec2 p);
+bool uncoveredAt(ivec2 p);
+
+// A pinhole: a pixel no splat reached whose four neighbours splats did reach, inside the picture
+// (RenderSettings::fillPinholes). It is drawn as the other pixel of its pair, (2x, y) and
+// (2x + 1, y), not as background. Choice, after the surfels of Pfister et al. (2000), which fill
+// the holes of their splatted image: two samplings of one surface leave different single uncovered
+// pixels where a strand is one or two pixels wide or where two nodes' splats only just meet
+// (docs/REALTIME.md, "Pinholes"); a hole of two pixels or more, or a gap open on one side, stays.
+bool pinholeAt(ivec2 p) {
+    if (frame.flags.w == 0u || any(lessThan(p, ivec2(1))) || any(greaterThanEqual(p, ivec2(frame.viewport.xy) - 1)) ||
+        !uncoveredAt(p))
+        return false;
+    return !uncoveredAt(p + ivec2(1, 0)) && !uncoveredAt(p - ivec2(1, 0)) && !uncoveredAt(p + ivec2(0, 1)) &&
+           !uncoveredAt(p - ivec2(0, 1));
+}
+
+// Whether pixel p, inside the picture, shows the background: no splat reached it and it is no pinhole.
+bool backgroundAt(ivec2 p) {
+    return uncoveredAt(p) && !pinholeAt(p);
+}
 
 // Whether one of the pixel's four neighbours in the picture is background.
 bool besideBackground(ivec2 pixel) {

@@ -1489,7 +1489,8 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
 }
 
 // --hard-edges reaches the engine of bench view: the summary says which silhouette was drawn, and
-// the frames differ (the default blends the outer silhouette's pixels toward the background).
+// the frames differ (the default blends the outer silhouette's pixels toward the background). The
+// summary says whether pinholes were filled too (--keep-pinholes).
 TEST(CliBenchView, HardEdgesCoverTheSilhouetteWhole) {
     const TempDir dir;
     std::vector<engine::RgbaImage> frames;
@@ -1502,12 +1503,20 @@ TEST(CliBenchView, HardEdgesCoverTheSilhouetteWhole) {
         const std::vector<std::string> out = lines(r.out);
         ASSERT_EQ(out.size(), 2u) << r.out;
         EXPECT_EQ(jsonField(out[1], "smooth_edges"), hard ? "false" : "true") << out[1];
+        EXPECT_EQ(jsonField(out[1], "fill_pinholes"), "true") << out[1];
         auto image = engine::readPng(capture / "frame-00000.png");
         ASSERT_TRUE(image.ok()) << image.error().message;
         frames.push_back(std::move(*image));
     }
     ASSERT_EQ(frames[0].pixels.size(), frames[1].pixels.size());
     EXPECT_NE(frames[0].pixels, frames[1].pixels);
+    const RunResult kept =
+        run("bench view --frames 1 --width 64 --height 48 --lockstep --validation --keep-pinholes" +
+            kFewWholeLevels);
+    ASSERT_TRUE(kept.exited && kept.exitCode == 0) << kept.err;
+    const std::vector<std::string> out = lines(kept.out);
+    ASSERT_EQ(out.size(), 2u) << kept.out;
+    EXPECT_EQ(jsonField(out[1], "fill_pinholes"), "false") << out[1];
 }
 
 // Issue 26's quality figures: every frame counts the pixels it covers; --quality-every K compares

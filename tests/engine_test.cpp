@@ -203,7 +203,8 @@ TEST_F(EngineTest, SettledPictureHasNoHoleTheOfflineRefinementLacks) {
         SCOPED_TRACE(c.file);
         PNSPLAT_REQUIRE_DATA(c.file);
         const PointSet input = load(c.file);
-        const EngineSettings settings = adaptive(c.width, c.height, engine::kWholeLevelPoints);
+        EngineSettings settings = adaptive(c.width, c.height, engine::kWholeLevelPoints);
+        settings.render.fillPinholes = false; // a seam of one pixel fails the test too
         auto created = Engine::create(context(), input, settings);
         ASSERT_TRUE(created.ok()) << created.error().message;
         Engine& engine = **created;

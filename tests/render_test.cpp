@@ -8,6 +8,7 @@
 #include <iostream>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include <fmt/format.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -184,6 +185,43 @@ TEST_P(PathTest, TheSilhouetteBlendsByTheGaussianWeight) {
             ++rim;
         }
     EXPECT_GT(rim, 300u); // about 2 pi 70 pixels
+}
+
+// A pinhole (RenderSettings::fillPinholes): four small disks, of four colours, around the centre of
+// the picture, each covering one of the centre pixel's four neighbours and not the centre (0.9 px
+// in radius, 1.4 px from it). The centre is drawn as the other pixel of its pair, (2x, y) and
+// (2x + 1, y): its left neighbour in a picture 255 pixels wide (centre 127), its right one at 257
+// (centre 128). Background with the fill off, and when one of the four disks is missing (a gap
+// open on one side).
+TEST_P(PathTest, APinholeIsDrawnAsTheOtherPixelOfItsPair) {
+    const Camera camera = lookingDownZ(5.0f);
+    const float pxPerUnit = 127.5f / (5.0f * std::tan(radians(20.0f))); // 255 pixels high
+    const float step = 1.4f / pxPerUnit, radius = 0.9f / pxPerUnit;
+    PointSet four = disk({-step, 0, 0}, {0, 0, 1}, radius, {255, 0, 0});
+    four.appendFrom(disk({step, 0, 0}, {0, 0, 1}, radius, {0, 255, 0}), 0);
+    four.appendFrom(disk({0, -step, 0}, {0, 0, 1}, radius, {0, 0, 255}), 0);
+    const PointSet three = four;
+    four.appendFrom(disk({0, step, 0}, {0, 0, 1}, radius, {255, 255, 255}), 0);
+    for (const std::uint32_t width : {255u, 257u}) {
+        SCOPED_TRACE(width);
+        RenderSettings settings = small(GetParam(), width, 255);
+        const std::uint32_t x = (width - 1) / 2, y = 127;
+        const RgbaImage filled = render(four, settings, camera);
+        ASSERT_EQ(filled.width, width);
+        for (const auto& [nx, ny] : {std::pair{x - 1, y}, {x + 1, y}, {x, y - 1}, {x, y + 1}})
+            EXPECT_FALSE(backgroundAt(filled, nx, ny)) << nx << "," << ny;
+        const glm::u8vec3 left(filled.at(x - 1, y)), right(filled.at(x + 1, y));
+        EXPECT_NE(left, right);
+        EXPECT_EQ(glm::u8vec3(filled.at(x, y)), x % 2 == 1 ? left : right);
+
+        settings.fillPinholes = false;
+        EXPECT_TRUE(backgroundAt(render(four, settings, camera), x, y));
+        settings.fillPinholes = true;
+        const RgbaImage open = render(three, settings, camera);
+        ASSERT_EQ(open.width, width);
+        EXPECT_TRUE(backgroundAt(open, x, y));
+        EXPECT_FALSE(backgroundAt(open, x - 1, y));
+    }
 }
 
 // One splat far larger than the screen covers every pixel (no size limit).
@@ -431,7 +469,9 @@ TEST_F(RenderTest, ComputeRowSpansKeepEveryPixelTheDiskCovers) {
         for (std::uint32_t x = 0; x < w; ++x) rho2[std::size_t{y} * w + x] = rho2At(x, y);
     for (const bool coloured : {true, false}) {
         disks.colour.assign(coloured ? disks.size() : 0, glm::u8vec3(255));
-        const RgbaImage image = render(disks, small(RenderPath::Compute, w, h), camera);
+        RenderSettings settings = small(RenderPath::Compute, w, h);
+        settings.fillPinholes = false; // the disks' own pixels: a pinhole between them is background
+        const RgbaImage image = render(disks, settings, camera);
         ASSERT_EQ(image.width, w);
         std::size_t inside = 0, missed = 0, spilled = 0;
         std::string first; // the first pixel missed or spilled, with its rho²

@@ -333,7 +333,7 @@ void runBenchSettle(const SettleArgs& args) {
                 R"("points_made": {}, "made_per_covered_px": {:.2f}, "median_splat_px": {:.2f}, "deepest_level": {}, )"
                 R"("refine_ms": {:.0f}, "reference_levels": {}, "reference_points_in_view": {}, "reference_capped": {}, )"
                 R"("deeper_levels": {}, "deeper_points_in_view": {}, "deeper_capped": {}, "box_from_level": {}, )"
-                R"("smooth_edges": {}}})"
+                R"("smooth_edges": {}, "fill_pinholes": {}}})"
                 "\n",
                 jsonString(name), jsonString(view->name), args.engine.width, args.engine.height,
                 settled.settled ? "true" : "false", std::min(difference.psnr, kIdenticalPsnr),
@@ -343,7 +343,7 @@ void runBenchSettle(const SettleArgs& args) {
                 first.capped ? "true" : "false", second.levels, second.points.size(),
                 second.capped ? "true" : "false",
                 second.regionFrom ? std::to_string(*second.regionFrom) : std::string("null"),
-                args.engine.hardEdges ? "false" : "true");
+                args.engine.hardEdges ? "false" : "true", args.engine.keepPinholes ? "false" : "true");
             std::fflush(stdout);
             lowestPsnr = std::min(lowestPsnr, std::min(difference.psnr, kIdenticalPsnr));
             lowestDeeperPsnr = std::min(lowestDeeperPsnr, std::min(deeper.psnr, kIdenticalPsnr));

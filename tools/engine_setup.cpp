@@ -67,6 +67,9 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     cmd.add_flag("--hard-edges", args.hardEdges,
                  "cover each pixel of the outer silhouette whole (default: blended toward the background by "
                  "its splats' weight, antialiased)");
+    cmd.add_flag("--keep-pinholes", args.keepPinholes,
+                 "draw a pixel no splat reached as background even where splats reached its four neighbours "
+                 "(default: such a pinhole is drawn as its horizontal neighbour)");
     if (!adaptive) return;
     const std::string with = requiresFlag ? "with --adaptive: " : "";
     cmd.add_option("--threshold", args.threshold,
@@ -174,6 +177,7 @@ engine::EngineSettings engineSettings(const EngineArgs& args, const engine::Cont
     settings.adaptive = adaptive;
     settings.render.radiusScale = args.radiusScale;
     settings.render.smoothEdges = !args.hardEdges;
+    settings.render.fillPinholes = !args.keepPinholes;
     settings.threshold = args.threshold;
     settings.cacheBytes = static_cast<std::size_t>(args.cacheMb * double(1 << 20));
     settings.workers = args.workers;

@@ -38,8 +38,9 @@ struct EngineArgs {
     std::string device;
     bool validation = false;
     float threshold = 3.0f;
-    float radiusScale = 1.0f; // splat radius = point radius × this
-    bool hardEdges = false;   // RenderSettings::smoothEdges off
+    float radiusScale = 1.0f;  // splat radius = point radius × this
+    bool hardEdges = false;    // RenderSettings::smoothEdges off
+    bool keepPinholes = false; // RenderSettings::fillPinholes off
     double cacheMb = 96.0;
     unsigned workers = 2;
     int workerNice = engine::kWorkerNice;

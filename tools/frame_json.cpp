@@ -112,7 +112,7 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         R"("selection_ms_median": {:.2f}, "upload_ms_median": {:.2f}, "visibility_ms_median": {:.2f}, )"
         R"("accumulation_ms_median": {:.2f}, "normalization_ms_median": {:.2f}, "max_splat_px_max": {}, )"
         R"("over_threshold_max": {}, "threshold_px": {}, "cache_mb": {:.1f}, "workers": {}, "width": {}, )"
-        R"("height": {}, "smooth_edges": {}, "path": "{}", "device": "{}", "driver": "{}", "cpu": "{}"}})",
+        R"("height": {}, "smooth_edges": {}, "fill_pinholes": {}, "path": "{}", "device": "{}", "driver": "{}", "cpu": "{}"}})",
         frames_.size(), seconds, median(ms), quantile(ms, 0.95), median(ms) > 0 ? 1000.0 / median(ms) : 0.0,
         generated, seconds > 0 ? double(generated) / seconds : 0.0,
         busyMs > 0 ? double(generated) / (busyMs * 1e-3) : 0.0, busyMs * 1e-3,
@@ -125,6 +125,7 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         nullUnless(measuredAny, fmt::format("{:.5f}", worstOver)), settings.threshold,
         double(settings.cacheBytes) / double(1 << 20), settings.workers, settings.render.width,
         settings.render.height, settings.render.smoothEdges ? "true" : "false",
+        settings.render.fillPinholes ? "true" : "false",
         settings.render.path == engine::RenderPath::Compute ? "compute" : "graphics", device, driver,
         cpuName());
 }

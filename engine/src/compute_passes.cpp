@@ -127,7 +127,7 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
             std::min(frame.workgroups, context_.properties().limits.maxComputeWorkGroupCount[0]);
         if (frame.workgroups > 0) vkCmdDispatch(cmd, row, (frame.workgroups + row - 1) / row, 1);
     } else {
-        vkCmdDispatch(cmd, (settings_.width + 31) / 32, (settings_.height + 31) / 32, 1);
+        vkCmdDispatch(cmd, (settings_.width + 63) / 64, (settings_.height + 31) / 32, 1); // pairs of pixels
     }
 }
 

@@ -231,7 +231,8 @@ void SplatRenderer::Impl::submit(FrameRing& frames, VkBufferView splats,
                       1.0f / float(settings.height)};
     frame.rayScale = {tanY * aspect, tanY, range.near, 0.0f};
     frame.splat = {settings.radiusScale, settings.depthOffset, settings.sharpness, settings.heatMapPx};
-    frame.flags = {settings.normalize ? 1u : 0u, slot.workgroups, settings.smoothEdges ? 1u : 0u, 0u};
+    frame.flags = {settings.normalize ? 1u : 0u, slot.workgroups, settings.smoothEdges ? 1u : 0u,
+                   settings.fillPinholes ? 1u : 0u};
     if (slot.oneColour) frame.colour = glm::vec4(linearColour(*oneColour), 1.0f);
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
     const PathFrame pathFrame{pipelineLayout.get(), slot.set,       slot.rangeTexels.get(),

@@ -2,10 +2,12 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_ARB_gpu_shader_int64 : require
 // Pass 3, compute path: decode the fixed-point sums, divide by the weight and shade; one
-// invocation per pixel, in large workgroups (lavapipe pays per workgroup). It also clears the sums
-// it read for the next frame, so that no frame pays a fill of them: a pixel no splat reached costs
-// one 64-bit read and one 32-bit write. (The depth is filled at each frame's start, a memset on
-// lavapipe, which costs less than a write per invocation: 1.4 ms less a frame at 1280x720.)
+// invocation per pair of pixels (main), in large workgroups (lavapipe pays per workgroup). It also
+// clears the sums it read for the next frame, so that no frame pays a fill of them: a pixel no
+// splat reached costs one 64-bit read and one 32-bit write, and a few reads of the depth where the
+// other of its pair has weight (a pinhole's test). (The depth is filled at each frame's start, a
+// memset on lavapipe, which costs less than a write per invocation: 1.4 ms less a frame at
+// 1280x720.)
 #include "splat_common.glsl"
 
 layout(local_size_x = 32, local_size_y = 32) in;
@@ -72,8 +74,9 @@ Shaded shadeAt(ivec2 pixel, uint i) {
 }
 
 // Each invocation draws a pair of pixels, (2x, y) and (2x + 1, y). A pinhole (pinholeAt) takes the
-// colour of the other pixel of its pair, so that no invocation reads what another writes, and only
-// a pixel of zero weight beside one of weight reads the depth to test it. (A pixel whose depth is
+// colour of the other pixel of its pair, so that no invocation reads what another writes; a pixel
+// of zero weight tests it only where the other of its pair has weight. (The smooth silhouette's
+// rim pixels test their four neighbours too: besideBackground.) (A pixel whose depth is
 // set but whose weight rounded to zero, a splat's rim with a sharp Gaussian, counts as covered in
 // the test, and as background here: the other of its pair is not filled from it.)
 void main() {

@@ -48,9 +48,9 @@ PNSPLAT_CONST float kOneColourScale = 4096.0f;
 // splat landed.
 PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 // The outer silhouette, smoothed (RenderSettings::smoothEdges): a pixel beside the background (one
-// of its four neighbours covered by no splat) whose accumulated weight w is below kEdgeWeight is
-// drawn as mix(background, its colour, w / kEdgeWeight), so that a contour moved by a fraction of a
-// pixel changes pixels by a fraction, not whole (splat_common.glsl, smoothEdge).
+// of its four neighbours covered by no splat, and no pinhole: splat_common.glsl) whose accumulated
+// weight w is below kEdgeWeight is drawn as mix(background, its colour, w / kEdgeWeight), so that a
+// contour moved by a fraction of a pixel changes pixels by a fraction, not whole (smoothEdge).
 PNSPLAT_CONST float kEdgeWeight = 1.0f;
 
 // The bindings of the one descriptor set (set 0) that all passes of a path share

@@ -22,7 +22,8 @@ void main() {
     // A pinhole is drawn as the other pixel of its pair, (2x, y) and (2x + 1, y), as on the compute
     // path; a pixel of zero weight beside one of none is background, with one read.
     ivec2 other = ivec2(pixel.x ^ 1, pixel.y);
-    if (!(cw.a > 0.0) && other.x < int(frame.viewport.x) && !uncoveredAt(other) && pinholeAt(pixel)) {
+    if (frame.flags.w != 0u && !(cw.a > 0.0) && other.x < int(frame.viewport.x) && !uncoveredAt(other) &&
+        pinholeAt(pixel)) {
         pixel = other;
         centre.x = float(other.x) + 0.5;
         cw = texelFetch(accumColour, pixel, 0);

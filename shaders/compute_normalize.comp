@@ -75,10 +75,10 @@ Shaded shadeAt(ivec2 pixel, uint i) {
 
 // Each invocation draws a pair of pixels, (2x, y) and (2x + 1, y). A pinhole (pinholeAt) takes the
 // colour of the other pixel of its pair, so that no invocation reads what another writes; a pixel
-// of zero weight tests it only where the other of its pair has weight. (The smooth silhouette's
-// rim pixels test their four neighbours too: besideBackground.) (A pixel whose depth is
-// set but whose weight rounded to zero, a splat's rim with a sharp Gaussian, counts as covered in
-// the test, and as background here: the other of its pair is not filled from it.)
+// of zero weight tests it only where the other of its pair has weight (the smooth silhouette's rim
+// pixels test their four neighbours too: besideBackground). A pixel whose depth is set but whose
+// weight rounded to zero (a splat's rim with a sharp Gaussian) counts as covered in the test and is
+// drawn as background: the other of its pair is not filled from it.
 void main() {
     ivec2 first = ivec2(2 * gl_GlobalInvocationID.x, gl_GlobalInvocationID.y);
     if (first.x >= int(frame.viewport.x) || first.y >= int(frame.viewport.y)) return;

@@ -195,7 +195,7 @@ TEST_P(PathTest, TheSilhouetteBlendsByTheGaussianWeight) {
 // open on that side). Without colours (the compute path's one-word sums) it is filled too.
 TEST_P(PathTest, APinholeIsDrawnAsTheOtherPixelOfItsPair) {
     const Camera camera = lookingDownZ(5.0f);
-    const float pxPerUnit = 127.5f / (5.0f * std::tan(radians(20.0f))); // 255 pixels high
+    const float pxPerUnit = float(kWhiteDiskRadiusPx) * 127.5f / 128.0f; // 255 pixels high, not 256
     const float step = 1.4f / pxPerUnit, radius = 0.9f / pxPerUnit;
     const std::array<PointSet, 4> disks = {disk({-step, 0, 0}, {0, 0, 1}, radius, {255, 0, 0}),
                                            disk({step, 0, 0}, {0, 0, 1}, radius, {0, 255, 0}),

@@ -533,6 +533,30 @@ TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
     }
 }
 
+// neighbourShapeOf on a pool (the whole levels' shapes, NodeTree::create) splits the grid's cells into
+// slab ranges that workers take in any order: every point's nearest are found exactly, so the
+// shape is the one thread's bit for bit, whatever the thread count (a range skipped or visited
+// twice by the wrong worker leaves a bend of zero or a radius not shrunk).
+TEST(NodeDetail, ShapeOnWorkersIsTheSameAsOnOneThread) {
+    PointSet set = sampleSphereRandom(20000, 1.0f, 3);
+    std::mt19937 random(17);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int k = 0; k < 2000; ++k) { // a dense cluster: slabs of unlike counts
+        set.position.push_back(glm::vec3(0.0f, 0.0f, 1.0f) +
+                               0.02f * glm::vec3(unit(random), unit(random), unit(random)));
+        set.normal.push_back(glm::normalize(glm::vec3(unit(random), unit(random), 1.0f)));
+    }
+    set.radius.assign(set.size(), 0.05f);
+    const NeighbourShape one = neighbourShapeOf(set);
+    ASSERT_GT(std::ranges::count_if(one.bend, [](float b) { return b > 0.0f; }), 20000);
+    for (const unsigned threads : {2u, 3u, 5u}) {
+        WorkerPool pool(threads);
+        const NeighbourShape many = neighbourShapeOf(set, &pool);
+        EXPECT_EQ(many.bend, one.bend) << threads << " threads";
+        EXPECT_EQ(many.splatRadius, one.splatRadius) << threads << " threads";
+    }
+}
+
 // medianRadiiOf, which settles the engine's median test for a node in full view (engine.cpp): more
 // than half of the radii are at least the first, at most half exceed the second.
 TEST(NodeDetail, MedianRadiiBoundTheMedianSplat) {

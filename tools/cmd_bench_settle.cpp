@@ -278,7 +278,7 @@ void runBenchSettle(const SettleArgs& args) {
             std::uint32_t deepest = 0;
             for (const NodeId id : engine.drawn()) deepest = std::max(deepest, engine.tree().node(id).level);
             const std::size_t made = engine.tree().pointCount();
-            const double wholeLevelSeconds = engine.tree().wholeLevelSeconds();
+            const double creationSeconds = engine.tree().creationSeconds();
             engine.finish();
 
             const OfflineReferences references =
@@ -339,7 +339,7 @@ void runBenchSettle(const SettleArgs& args) {
                 settled.settled ? "true" : "false", std::min(difference.psnr, kIdenticalPsnr),
                 difference.ssim, std::min(deeper.psnr, kIdenticalPsnr), deeper.ssim, holes.size(), holeArea,
                 covered, settled.splatsDrawn, drawnPerPixel, made, madePerPixel, settled.medianSplatPx,
-                deepest, settled.refineWaitMs + 1000.0 * wholeLevelSeconds, first.levels, first.points.size(),
+                deepest, settled.refineWaitMs + 1000.0 * creationSeconds, first.levels, first.points.size(),
                 first.capped ? "true" : "false", second.levels, second.points.size(),
                 second.capped ? "true" : "false",
                 second.regionFrom ? std::to_string(*second.regionFrom) : std::string("null"),

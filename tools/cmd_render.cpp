@@ -240,7 +240,7 @@ void runRender(const RenderArgs& args) {
         engine::coveredPixels(image.pixels, engine::backgroundPixel(settings.render.background));
     const double perCovered = covered > 0 ? double(drawn.splatsDrawn) / double(covered) : 0.0;
     // The refinement's time: the whole levels (made with the engine) and the jobs waited for.
-    const double refineMs = drawn.refineWaitMs + 1000.0 * engine.tree().wholeLevelSeconds();
+    const double refineMs = drawn.refineWaitMs + 1000.0 * engine.tree().creationSeconds();
     if (args.json) {
         fmt::print(
             summary,

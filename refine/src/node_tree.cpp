@@ -209,18 +209,21 @@ class NearestGrid {
         }
     }
 
-    // visit(i, nearest, found) for every point i with its min(K, size) nearest as nearest() gives
-    // them, cell after cell: a point's candidates are the points of the 3×3×3 cells around its
-    // own that lie nearer than every point outside them; where fewer than K do, nearest() widens
-    // the search.
+    // Slabs of cells across x: forEachNearest visits the points of slabs [begin, end).
+    int slabs() const { return dims_.x; }
+
+    // visit(i, nearest, found) for every point i of the cells of slabs [begin, end) with its
+    // min(K, size) nearest as nearest() gives them, cell after cell: a point's candidates are the
+    // points of the 3×3×3 cells around its own that lie nearer than every point outside them; where
+    // fewer than K do, nearest() widens the search. Calls over disjoint slabs may run concurrently.
     template <std::size_t K, typename Visit>
-    void forEachNearest(Visit&& visit) const {
+    void forEachNearest(int begin, int end, Visit&& visit) const {
         // A point's candidates nearer than the block's sides: their distances and positions in the
         // sorted order, appended without a branch.
         std::vector<float> near2;
         std::vector<std::uint32_t> nearAt;
         std::array<std::uint32_t, K> nearest{};
-        for (int cx = 0; cx < dims_.x; ++cx)
+        for (int cx = begin; cx < end; ++cx)
             for (int cy = 0; cy < dims_.y; ++cy)
                 for (int cz = 0; cz < dims_.z; ++cz) {
                     const glm::ivec3 home(cx, cy, cz);
@@ -249,20 +252,27 @@ class NearestGrid {
                         const auto limit2 = whole ? std::numeric_limits<float>::infinity()
                                                   : static_cast<float>(clear * clear);
                         std::size_t count = 0;
+                        // Through local pointers: through the vectors, every store reloaded them.
                         const auto gather = [&](float bound2, bool all) {
-                            count = 0;
+                            float* __restrict distances = near2.data();
+                            std::uint32_t* __restrict at = nearAt.data();
+                            const float* __restrict xs = x_.data();
+                            const float* __restrict ys = y_.data();
+                            const float* __restrict zs = z_.data();
+                            std::size_t n = 0;
                             for (int ox = first.x; ox <= last.x; ++ox)
                                 for (int oy = first.y; oy <= last.y; ++oy) {
                                     const std::size_t row = cellIndex({ox, oy, 0});
-                                    for (std::uint32_t j = start_[row + first.z];
-                                         j < start_[row + last.z + 1]; ++j) {
-                                        const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
+                                    const std::uint32_t rowEnd = start_[row + last.z + 1];
+                                    for (std::uint32_t j = start_[row + first.z]; j < rowEnd; ++j) {
+                                        const float dx = xs[j] - px, dy = ys[j] - py, dz = zs[j] - pz;
                                         const float d2 = dx * dx + dy * dy + dz * dz;
-                                        near2[count] = d2;
-                                        nearAt[count] = j;
-                                        count += static_cast<std::size_t>(d2 < bound2 || all);
+                                        distances[n] = d2;
+                                        at[n] = j;
+                                        n += static_cast<std::size_t>(d2 < bound2 || all);
                                     }
                                 }
+                            count = n;
                         };
                         if (guess2 < limit2) gather(guess2, false);
                         const bool narrowed = guess2 < limit2 && count >= K;
@@ -406,13 +416,13 @@ void NeighbourShape::appendFrom(const NeighbourShape& from, std::size_t i) {
     splatRadius.push_back(from.splatRadius[i]);
 }
 
-NeighbourShape neighbourShapeOf(const PointSet& points) {
+NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool) {
     NeighbourShape shape;
     shape.bend.assign(points.size(), 0.0f);
     shape.splatRadius.assign(points.radius.begin(), points.radius.end()); // none without radii
     if (points.size() < 2) return shape;
     const NearestGrid grid(points.position);
-    grid.forEachNearest<kBendNeighbours + 1>([&](std::uint32_t i, const auto& nearest, std::size_t found) {
+    const auto visit = [&](std::uint32_t i, const auto& nearest, std::size_t found) {
         float lowest = 1.0f; // the point itself is among its nearest, at angle 0
         for (std::size_t k = 0; k < found; ++k)
             lowest = std::min(lowest, glm::dot(points.normal[i], points.normal[nearest[k]]));
@@ -420,6 +430,18 @@ NeighbourShape neighbourShapeOf(const PointSet& points) {
         if (!points.hasRadius()) return; // no radii to draw with: the bend only
         const float farthest = glm::length(points.position[nearest[found - 1]] - points.position[i]);
         if (farthest > 0.0f) shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
+    };
+    const auto slabs = static_cast<std::size_t>(grid.slabs());
+    if (pool == nullptr || pool->size() < 2 || slabs < 2) {
+        grid.forEachNearest<kBendNeighbours + 1>(0, grid.slabs(), visit);
+        return shape;
+    }
+    // Each point's nearest are found exactly, whichever slab range holds it: the same bits for any
+    // thread count. Ranges of a few slabs each, handed out as workers free up (slabs hold unlike
+    // counts of points).
+    const std::size_t chunk = std::max<std::size_t>(1, slabs / (8 * std::size_t{pool->size()}));
+    parallelForRanges(*pool, slabs, chunk, [&](std::size_t begin, std::size_t end, unsigned) {
+        grid.forEachNearest<kBendNeighbours + 1>(static_cast<int>(begin), static_cast<int>(end), visit);
     });
     return shape;
 }
@@ -473,6 +495,7 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     } else if (input.normal.size() != input.size() || input.radius.size() != input.size()) {
         return Error{"the point set lacks normals or radii"};
     }
+    const auto start = std::chrono::steady_clock::now();
     NodeTree tree;
     tree.settings_ = settings;
     tree.inputPoints_ = input.size();
@@ -481,12 +504,9 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     std::vector<PointSet> whole;
     std::vector<SegmentEnds> segments;
     if (forRefinement && double(input.size()) * kLevelGrowth <= double(settings.wholeLevelPoints)) {
-        const auto start = std::chrono::steady_clock::now();
         whole = refineWholeLevels(std::move(input), settings, segments);
         tree.wholeLevels_ = static_cast<std::uint32_t>(whole.size() - 1);
         input = std::move(whole.front());
-        tree.wholeLevelSeconds_ =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     } else if (forRefinement) {
         segments = findSegments(input, settings.refine);
     }
@@ -523,7 +543,8 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         pending.push_back(std::move(halves[0]));
     }
     // A tree only drawn draws the radii it was given.
-    NeighbourShape shape = neighbourShapeOf(input);
+    WorkerPool pool(settings.refine.threads);
+    NeighbourShape shape = neighbourShapeOf(input, &pool);
     if (!forRefinement) shape.splatRadius = {input.radius.begin(), input.radius.end()};
     std::vector<NodeId> level; // the nodes of the level being built, in tree order
     for (SplitPart& part : roots) {
@@ -539,14 +560,16 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     for (std::uint32_t l = 1; l < whole.size(); ++l) {
         level = tree.splitUnder(level, whole[l],
                                 l + 1 == whole.size() ? std::span<const SegmentEnds>(segments)
-                                                      : std::span<const SegmentEnds>());
+                                                      : std::span<const SegmentEnds>(),
+                                pool);
     }
+    tree.creationSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return tree;
 }
 
 std::vector<NodeId> NodeTree::splitUnder(std::span<const NodeId> level, const PointSet& points,
-                                         std::span<const SegmentEnds> segments) {
-    const NeighbourShape levelShape = neighbourShapeOf(points);
+                                         std::span<const SegmentEnds> segments, WorkerPool& pool) {
+    const NeighbourShape levelShape = neighbourShapeOf(points, &pool);
     // The regions of each level partition space: a point's node of the level above is found from
     // the root that holds it, child by child.
     const std::uint32_t parentLevel = nodes_[level.front()].level;

@@ -33,6 +33,7 @@
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/result.h"
+#include "pnsplat/refine/worker_pool.h"
 
 namespace pnsplat {
 
@@ -69,7 +70,8 @@ struct NeighbourShape {
     void reserve(std::size_t count);
     void appendFrom(const NeighbourShape& from, std::size_t i); // point i of `from`
 };
-NeighbourShape neighbourShapeOf(const PointSet& points);
+// With a pool, on its workers (the same bits as without).
+NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool = nullptr);
 // The cone of `normals` (unit): axis their normalised sum, half-angle the largest angle to it (π
 // when the sum is too short to be an axis).
 void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& angle);
@@ -171,10 +173,11 @@ class NodeTree {
     std::size_t pointCount() const { return pointCount_; }
     std::size_t inputPoints() const { return inputPoints_; }
     // The whole levels refined when the tree was made (NodeSettings::wholeLevelPoints): the nodes of
-    // these levels and above hold them, and the time they took. A node of a lower level is not
-    // released (its children are the whole level's, which no job makes again).
+    // these levels and above hold them. A node of a lower level is not released (its children are
+    // the whole level's, which no job makes again).
     std::uint32_t wholeLevels() const { return wholeLevels_; }
-    double wholeLevelSeconds() const { return wholeLevelSeconds_; }
+    // The time create took: the whole levels refined, split into nodes and their shapes measured.
+    double creationSeconds() const { return creationSeconds_; }
 
     // Whether leaf `id` can be refined now (balance rule, see the top). When it cannot, the coarser
     // leaves whose refinement must come first are appended to `blockers` (each once per call).
@@ -199,9 +202,10 @@ class NodeTree {
                        PointSet& context) const;
     // Under each node of `level` (one level, in tree order), children that split the points of
     // `points` (the next whole level) in its region, as a job's result is split (run), with their
-    // shape over the whole level and the `segments` their regions hold; returns them in tree order.
+    // shape over the whole level (on `pool`) and the `segments` their regions hold; returns them in
+    // tree order.
     std::vector<NodeId> splitUnder(std::span<const NodeId> level, const PointSet& points,
-                                   std::span<const SegmentEnds> segments);
+                                   std::span<const SegmentEnds> segments, WorkerPool& pool);
     // Makes `children` (1 to 4) the children of leaf `parent` (attach, splitUnder).
     void adopt(NodeId parent, std::vector<NodeChild>&& children);
     // Gives node `id` (level and parent set) the region, points, shape and segments of `made`.
@@ -214,7 +218,7 @@ class NodeTree {
     std::vector<NodeId> roots_;
     std::size_t liveCount_ = 0, pointCount_ = 0, inputPoints_ = 0;
     std::uint32_t wholeLevels_ = 0;
-    double wholeLevelSeconds_ = 0.0;
+    double creationSeconds_ = 0.0;
 };
 
 // The regions and point lists of a split (pure; exposed for tests): `points` split into children

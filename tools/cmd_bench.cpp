@@ -28,6 +28,7 @@
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes/shapes.h"
 #include "pnsplat/refine/text.h"
+#include "progress.h"
 #include "refine_run.h"
 #include "shared_models.h"
 
@@ -374,30 +375,63 @@ std::string pclMlsJson(const BenchInput& input, std::size_t pointsOut, const std
 #endif
 }
 
-// One input's JSON record: per thread count one warm-up run and args.repeat timed ones (medians per
-// level), then one profiled run on the first thread count for the phase split and the counters.
-std::string benchInputJson(const BenchInput& input, const std::vector<unsigned>& threads, unsigned levels,
-                           const BenchArgs& args) {
+// The timed runs of one input: per level and thread count, and over all levels per thread count.
+struct InputRates {
+    std::vector<std::vector<std::vector<double>>> byLevel; // [level][thread count][run]
+    std::vector<std::vector<double>> total;                // [thread count][run]
+};
+
+// args.repeat rounds of one run per input and thread count, after one warm-up run of each. The
+// inputs take turns within a round, so that a slower or faster spell of the machine (a busy
+// neighbour, memory touched for the first time) falls on every input alike: issue 28 compares the
+// models' rates with the sphere's, in the same run.
+std::vector<InputRates> timeInputs(const std::vector<BenchInput>& inputs,
+                                   const std::vector<unsigned>& threads, unsigned levels,
+                                   const BenchArgs& args) {
     RefineOptions options;
-    std::vector<std::vector<std::vector<double>>> rates;     // [level][thread count][run]
-    std::vector<std::vector<double>> totals(threads.size()); // [thread count][run]: all levels
-    for (std::size_t t = 0; t < threads.size(); ++t) {
-        options.threads = threads[t];
-        runLevels(input.points, options, levels, args.targetPoints);
-        for (unsigned k = 0; k < args.repeat; ++k) {
-            const std::vector<LevelRecord> run = runLevels(input.points, options, levels, args.targetPoints);
-            if (rates.size() < run.size())
-                rates.resize(run.size(), std::vector<std::vector<double>>(threads.size()));
-            std::size_t inserted = 0;
-            double seconds = 0.0;
-            for (std::size_t l = 0; l < run.size(); ++l) {
-                rates[l][t].push_back(run[l].rate());
-                inserted += run[l].stats.inserted;
-                seconds += run[l].stats.seconds;
-            }
-            totals[t].push_back(static_cast<double>(inserted) / seconds);
+    ProgressBar bar("bench refine: warm-up");
+    const std::size_t runs = (std::size_t{args.repeat} + 1) * inputs.size() * threads.size();
+    std::size_t done = 0;
+    for (const BenchInput& input : inputs)
+        for (const unsigned t : threads) {
+            options.threads = t;
+            runLevels(input.points, options, levels, args.targetPoints);
+            bar.update(++done, runs);
         }
-    }
+    std::vector<InputRates> rates(inputs.size());
+    for (InputRates& r : rates) r.total.resize(threads.size());
+    for (unsigned k = 0; k < args.repeat; ++k)
+        for (std::size_t i = 0; i < inputs.size(); ++i)
+            for (std::size_t t = 0; t < threads.size(); ++t) {
+                bar.setLabel(
+                    fmt::format("bench refine: round {} of {}, {}", k + 1, args.repeat, inputs[i].name));
+                bar.update(done++, runs);
+                options.threads = threads[t];
+                const std::vector<LevelRecord> run =
+                    runLevels(inputs[i].points, options, levels, args.targetPoints);
+                InputRates& r = rates[i];
+                if (r.byLevel.size() < run.size())
+                    r.byLevel.resize(run.size(), std::vector<std::vector<double>>(threads.size()));
+                std::size_t inserted = 0;
+                double seconds = 0.0;
+                for (std::size_t l = 0; l < run.size(); ++l) {
+                    r.byLevel[l][t].push_back(run[l].rate());
+                    inserted += run[l].stats.inserted;
+                    seconds += run[l].stats.seconds;
+                }
+                r.total[t].push_back(static_cast<double>(inserted) / seconds);
+            }
+    bar.finish();
+    return rates;
+}
+
+// One input's JSON record from its timed runs (medians per level and thread count), and one
+// profiled run on the first thread count for the phase split and the counters.
+std::string benchInputJson(const BenchInput& input, const std::vector<unsigned>& threads, unsigned levels,
+                           const BenchArgs& args, const InputRates& timed) {
+    const auto& rates = timed.byLevel;
+    const auto& totals = timed.total;
+    RefineOptions options;
     options.threads = threads.front();
     options.profile = true;
     const std::vector<LevelRecord> profiled = runLevels(input.points, options, levels, args.targetPoints);
@@ -449,8 +483,10 @@ void runBenchInputs(const BenchArgs& args) {
                inputs.size(), levels,
                args.targetPoints != 0 ? fmt::format(" or >= {} points", args.targetPoints) : "",
                fmt::join(threads, ","), args.repeat);
+    const std::vector<InputRates> timed = timeInputs(inputs, threads, levels, args);
     std::vector<std::string> records;
-    for (const BenchInput& input : inputs) records.push_back(benchInputJson(input, threads, levels, args));
+    for (std::size_t i = 0; i < inputs.size(); ++i)
+        records.push_back(benchInputJson(inputs[i], threads, levels, args, timed[i]));
     const std::string json = fmt::format(
         R"({{"benchmark": "refine", "case": "inputs per level, full method", "cpu": "{}", "hardware_threads": {}, "repeat": {}, )"
         R"("threads": [{}], "levels": {}, "target_points": {}, "inputs": [

@@ -287,8 +287,8 @@ TEST(Selection, FacingClassesLeaveOutTheClassesThatFaceAway) {
     EXPECT_EQ(all.draw.size(), tree.roots().size());
 }
 
-// The median and largest splat drawn (at 1.5 times their radii) and the share over the threshold,
-// against the quantiles of camera.h's splatDiameterQuantile over the same points and radii.
+// The median, 99th-percentile and largest splat drawn (at 1.5 times their radii) and the share over the
+// threshold, against the quantiles of camera.h's splatDiameterQuantile over the same points and radii.
 TEST(Selection, MeasuredSplatsMatchTheQuantilesOfTheDrawnPoints) {
     const NodeTree tree = sphereTree(1);
     std::vector<NodeSelection> states = allResident(tree);
@@ -308,6 +308,8 @@ TEST(Selection, MeasuredSplatsMatchTheQuantilesOfTheDrawnPoints) {
     // Over the 90th percentile's diameter: between 0 and a tenth of them.
     const SplatSizes sizes = measureSplats(tree, s.draw, view, quantile(0.9f));
     EXPECT_FLOAT_EQ(sizes.medianPx, quantile(0.5f));
+    EXPECT_FLOAT_EQ(sizes.p99Px, quantile(0.99f));
+    EXPECT_LT(sizes.p99Px, sizes.maxPx); // a sphere seen whole: its splats' sizes spread
     EXPECT_FLOAT_EQ(sizes.maxPx, quantile(1.0f));
     EXPECT_GT(sizes.overThreshold, 0.0);
     EXPECT_LE(sizes.overThreshold, 0.1);

@@ -247,7 +247,8 @@ void runRender(const RenderArgs& args) {
             R"({{"input": {}, "output": {}, "input_points": {}, "levels": {}, "splats": {}, "splats_in_view": {}, )"
             R"("width": {}, "height": {}, "device": {}, "path": "{}", "visibility_ms": {:.3f}, "accumulation_ms": {:.3f}, )"
             R"("normalization_ms": {:.3f}, "camera": "{}", "fov_degrees": {}, "frame": {}, "up": {}, "eye_side": {}, )"
-            R"("adaptive": {}, "threshold_px": {}, "nodes": {}, "median_splat_px": {:.3f}, "max_splat_px": {:.3f}, )"
+            R"("adaptive": {}, "threshold_px": {}, "nodes": {}, "median_splat_px": {:.3f}, "p99_splat_px": {:.3f}, )"
+            R"("max_splat_px": {:.3f}, )"
             R"("over_threshold": {:.5f}, "covered_px": {}, "splats_per_covered_px": {:.3f}, "refine_ms": {:.1f}, )"
             R"("outliers": {}}})"
             "\n",
@@ -258,8 +259,8 @@ void runRender(const RenderArgs& args) {
             args.frame.empty() ? "null" : jsonString(args.frame),
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
-            drawn.medianSplatPx, drawn.maxSplatPx, drawn.overThreshold, covered, perCovered, refineMs,
-            completion.outliers);
+            drawn.medianSplatPx, drawn.p99SplatPx, drawn.maxSplatPx, drawn.overThreshold, covered, perCovered,
+            refineMs, completion.outliers);
         return;
     }
     fmt::print(
@@ -273,10 +274,10 @@ void runRender(const RenderArgs& args) {
         fmt::print(
             summary,
             "{}: refined for this camera until its median splat is at most {} px wide and its "
-            "silhouettes are smooth (median {:.2f} px, {:.1f} % above, the largest {:.2f} px): {} nodes, "
-            "{} points from {} in {:.0f} ms\n",
-            name, args.engine.threshold, drawn.medianSplatPx, 100.0 * drawn.overThreshold, drawn.maxSplatPx,
-            engine.tree().nodeCount(), splats, pointsIn, refineMs);
+            "silhouettes are smooth (median {:.2f} px, {:.1f} % above, 99 % at most {:.2f} px, the largest "
+            "{:.2f} px): {} nodes, {} points from {} in {:.0f} ms\n",
+            name, args.engine.threshold, drawn.medianSplatPx, 100.0 * drawn.overThreshold, drawn.p99SplatPx,
+            drawn.maxSplatPx, engine.tree().nodeCount(), splats, pointsIn, refineMs);
     if (view)
         fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
                    viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);

@@ -577,6 +577,7 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
             const SplatSizes sizes = measureSplats(m.tree, m.drawnNodes, view, m.settings.threshold);
             report.splatsMeasured = true;
             report.medianSplatPx = sizes.medianPx;
+            report.p99SplatPx = sizes.p99Px;
             report.maxSplatPx = sizes.maxPx;
             report.overThreshold = sizes.overThreshold;
         }

@@ -329,7 +329,12 @@ SplatSizes measureSplats(const NodeTree& tree, std::span<const NodeId> drawn, co
     const auto middle = sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2);
     std::nth_element(sizes.begin(), middle, sizes.end());
     out.medianPx = *middle;
-    out.maxPx = *std::max_element(middle, sizes.end());
+    const auto p99 =
+        sizes.begin() +
+        static_cast<std::ptrdiff_t>(std::min(sizes.size() - 1, std::size_t(0.99f * float(sizes.size()))));
+    std::nth_element(middle, p99, sizes.end()); // past the median: the larger half
+    out.p99Px = *p99;
+    out.maxPx = *std::max_element(p99, sizes.end());
     out.overThreshold = double(over) / double(sizes.size());
     return out;
 }

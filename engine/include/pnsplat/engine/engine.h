@@ -136,6 +136,7 @@ struct FrameReport {
     // may be: its median is what the level of detail holds to).
     bool splatsMeasured = false;
     float medianSplatPx = 0.0f;
+    float p99SplatPx = 0.0f; // the 99th percentile (SplatSizes::p99Px)
     float maxSplatPx = 0.0f;
     double overThreshold = 0.0;
 };

@@ -252,27 +252,20 @@ class NearestGrid {
                         const auto limit2 = whole ? std::numeric_limits<float>::infinity()
                                                   : static_cast<float>(clear * clear);
                         std::size_t count = 0;
-                        // Through local pointers: through the vectors, every store reloaded them.
                         const auto gather = [&](float bound2, bool all) {
-                            float* __restrict distances = near2.data();
-                            std::uint32_t* __restrict at = nearAt.data();
-                            const float* __restrict xs = x_.data();
-                            const float* __restrict ys = y_.data();
-                            const float* __restrict zs = z_.data();
-                            std::size_t n = 0;
+                            count = 0;
                             for (int ox = first.x; ox <= last.x; ++ox)
                                 for (int oy = first.y; oy <= last.y; ++oy) {
                                     const std::size_t row = cellIndex({ox, oy, 0});
-                                    const std::uint32_t rowEnd = start_[row + last.z + 1];
-                                    for (std::uint32_t j = start_[row + first.z]; j < rowEnd; ++j) {
-                                        const float dx = xs[j] - px, dy = ys[j] - py, dz = zs[j] - pz;
+                                    for (std::uint32_t j = start_[row + first.z];
+                                         j < start_[row + last.z + 1]; ++j) {
+                                        const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
                                         const float d2 = dx * dx + dy * dy + dz * dz;
-                                        distances[n] = d2;
-                                        at[n] = j;
-                                        n += static_cast<std::size_t>(d2 < bound2 || all);
+                                        near2[count] = d2;
+                                        nearAt[count] = j;
+                                        count += static_cast<std::size_t>(d2 < bound2 || all);
                                     }
                                 }
-                            count = n;
                         };
                         if (guess2 < limit2) gather(guess2, false);
                         const bool narrowed = guess2 < limit2 && count >= K;

@@ -18,6 +18,7 @@
 #include "pnsplat/refine/node_tree.h"
 #include "pnsplat/refine/node_workers.h"
 #include "pnsplat/refine/shapes/shapes.h"
+#include "pnsplat/refine/worker_pool.h"
 #include "test_data.h"
 
 namespace pnsplat {
@@ -534,26 +535,34 @@ TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
 }
 
 // neighbourShapeOf on a pool (the whole levels' shapes, NodeTree::create) splits the grid's cells into
-// slab ranges that workers take in any order: every point's nearest are found exactly, so the
-// shape is the one thread's bit for bit, whatever the thread count (a range skipped or visited
-// twice by the wrong worker leaves a bend of zero or a radius not shrunk).
+// ranges of columns that workers take in any order: every point's nearest are found exactly, so the
+// shape is the one thread's bit for bit, whatever the thread count (a range skipped leaves bends of
+// zero and radii not shrunk; two workers on one range are TSan's to find).
 TEST(NodeDetail, ShapeOnWorkersIsTheSameAsOnOneThread) {
-    PointSet set = sampleSphereRandom(20000, 1.0f, 3);
     std::mt19937 random(17);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
-    for (int k = 0; k < 2000; ++k) { // a dense cluster: slabs of unlike counts
-        set.position.push_back(glm::vec3(0.0f, 0.0f, 1.0f) +
-                               0.02f * glm::vec3(unit(random), unit(random), unit(random)));
-        set.normal.push_back(glm::normalize(glm::vec3(unit(random), unit(random), 1.0f)));
+    PointSet sphere = sampleSphereRandom(20000, 1.0f, 3);
+    for (int k = 0; k < 2000; ++k) { // a dense cluster: columns of unlike counts
+        sphere.position.push_back(glm::vec3(0.0f, 0.0f, 1.0f) +
+                                  0.02f * glm::vec3(unit(random), unit(random), unit(random)));
+        sphere.normal.push_back(glm::normalize(glm::vec3(unit(random), unit(random), 1.0f)));
     }
-    set.radius.assign(set.size(), 0.05f);
-    const NeighbourShape one = neighbourShapeOf(set);
-    ASSERT_GT(std::ranges::count_if(one.bend, [](float b) { return b > 0.0f; }), 20000);
-    for (const unsigned threads : {2u, 3u, 5u}) {
-        WorkerPool pool(threads);
-        const NeighbourShape many = neighbourShapeOf(set, &pool);
-        EXPECT_EQ(many.bend, one.bend) << threads << " threads";
-        EXPECT_EQ(many.splatRadius, one.splatRadius) << threads << " threads";
+    PointSet wall; // flat across x: one cell thick there, its work split along y
+    for (int k = 0; k < 20000; ++k) {
+        wall.position.push_back({0.0f, unit(random), unit(random)});
+        wall.normal.push_back(glm::normalize(glm::vec3(1.0f, 0.5f * unit(random), 0.5f * unit(random))));
+    }
+    for (PointSet* set : {&sphere, &wall}) {
+        set->radius.assign(set->size(), 0.05f);
+        const NeighbourShape one = neighbourShapeOf(*set);
+        ASSERT_GT(std::ranges::count_if(one.bend, [](float b) { return b > 0.0f; }), 19000);
+        for (const unsigned threads : {2u, 3u, 5u}) {
+            WorkerPool pool(threads);
+            const NeighbourShape many = neighbourShapeOf(*set, &pool);
+            EXPECT_EQ(many.bend, one.bend) << threads << " threads, " << set->size() << " points";
+            EXPECT_EQ(many.splatRadius, one.splatRadius)
+                << threads << " threads, " << set->size() << " points";
+        }
     }
 }
 

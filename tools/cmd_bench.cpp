@@ -392,6 +392,7 @@ std::vector<InputRates> timeInputs(const std::vector<BenchInput>& inputs,
     ProgressBar bar("bench refine: warm-up");
     const std::size_t runs = (std::size_t{args.repeat} + 1) * inputs.size() * threads.size();
     std::size_t done = 0;
+    bar.update(done, runs);
     for (const BenchInput& input : inputs)
         for (const unsigned t : threads) {
             options.threads = t;

@@ -16,6 +16,8 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "pnsplat/refine/worker_pool.h"
+
 namespace pnsplat {
 
 namespace {
@@ -209,81 +211,82 @@ class NearestGrid {
         }
     }
 
-    // Slabs of cells across x: forEachNearest visits the points of slabs [begin, end).
-    int slabs() const { return dims_.x; }
+    // Columns of cells along z, numbered x-major: forEachNearest visits the points of columns
+    // [begin, end).
+    std::size_t columns() const { return static_cast<std::size_t>(dims_.x) * dims_.y; }
 
-    // visit(i, nearest, found) for every point i of the cells of slabs [begin, end) with its
+    // visit(i, nearest, found) for every point i of the cells of columns [begin, end) with its
     // min(K, size) nearest as nearest() gives them, cell after cell: a point's candidates are the
     // points of the 3×3×3 cells around its own that lie nearer than every point outside them; where
-    // fewer than K do, nearest() widens the search. Calls over disjoint slabs may run concurrently.
+    // fewer than K do, nearest() widens the search. Calls over disjoint columns may run concurrently.
     template <std::size_t K, typename Visit>
-    void forEachNearest(int begin, int end, Visit&& visit) const {
+    void forEachNearest(std::size_t begin, std::size_t end, Visit&& visit) const {
         // A point's candidates nearer than the block's sides: their distances and positions in the
         // sorted order, appended without a branch.
         std::vector<float> near2;
         std::vector<std::uint32_t> nearAt;
         std::array<std::uint32_t, K> nearest{};
-        for (int cx = begin; cx < end; ++cx)
-            for (int cy = 0; cy < dims_.y; ++cy)
-                for (int cz = 0; cz < dims_.z; ++cz) {
-                    const glm::ivec3 home(cx, cy, cz);
-                    const std::size_t cell = cellIndex(home);
-                    if (start_[cell] == start_[cell + 1]) continue;
-                    const glm::ivec3 first = glm::max(home - 1, glm::ivec3(0));
-                    const glm::ivec3 last = glm::min(home + 1, dims_ - 1);
-                    std::size_t blockSize = 0;
-                    for (int ox = first.x; ox <= last.x; ++ox)
-                        for (int oy = first.y; oy <= last.y; ++oy) {
-                            const std::size_t row = cellIndex({ox, oy, 0});
-                            blockSize += start_[row + last.z + 1] - start_[row + first.z];
-                        }
-                    near2.resize(blockSize + 1);
-                    nearAt.resize(blockSize + 1);
-                    const bool whole = first == glm::ivec3(0) && last == dims_ - 1;
-                    // The previous point's K-th nearest distance, squared and doubled: a first,
-                    // narrower bound (the points of one cell lie at like spacings), which leaves fewer
-                    // candidates to sort; where fewer than K lie within it, the block's bound.
-                    float guess2 = std::numeric_limits<float>::infinity();
-                    for (std::uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
-                        const float px = x_[k], py = y_[k], pz = z_[k];
-                        // Every point outside the block is farther than `clear`: the K nearest are
-                        // among those nearer than it, if K of them are.
-                        const double clear = clearance(first, last, 1, {px, py, pz}, home);
-                        const auto limit2 = whole ? std::numeric_limits<float>::infinity()
-                                                  : static_cast<float>(clear * clear);
-                        std::size_t count = 0;
-                        const auto gather = [&](float bound2, bool all) {
-                            count = 0;
-                            for (int ox = first.x; ox <= last.x; ++ox)
-                                for (int oy = first.y; oy <= last.y; ++oy) {
-                                    const std::size_t row = cellIndex({ox, oy, 0});
-                                    for (std::uint32_t j = start_[row + first.z];
-                                         j < start_[row + last.z + 1]; ++j) {
-                                        const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
-                                        const float d2 = dx * dx + dy * dy + dz * dz;
-                                        near2[count] = d2;
-                                        nearAt[count] = j;
-                                        count += static_cast<std::size_t>(d2 < bound2 || all);
-                                    }
-                                }
-                        };
-                        if (guess2 < limit2) gather(guess2, false);
-                        const bool narrowed = guess2 < limit2 && count >= K;
-                        if (!narrowed) gather(limit2, whole);
-                        std::size_t found = 0;
-                        guess2 = std::numeric_limits<float>::infinity(); // unless the block gives one
-                        if (narrowed || count >= K || whole) {
-                            std::array<float, K> kept{};
-                            for (std::size_t m = 0; m < count; ++m)
-                                if (found < K || near2[m] <= kept[K - 1])
-                                    keep(near2[m], sorted_[nearAt[m]], kept, nearest, found);
-                            if (found == K) guess2 = 2.0f * kept[K - 1];
-                        } else {
-                            found = this->nearest(sorted_[k], nearest);
-                        }
-                        visit(sorted_[k], nearest, found);
+        for (std::size_t column = begin; column < end; ++column)
+            for (int cz = 0; cz < dims_.z; ++cz) {
+                const glm::ivec3 home(static_cast<int>(column / dims_.y), static_cast<int>(column % dims_.y),
+                                      cz);
+                const std::size_t cell = cellIndex(home);
+                if (start_[cell] == start_[cell + 1]) continue;
+                const glm::ivec3 first = glm::max(home - 1, glm::ivec3(0));
+                const glm::ivec3 last = glm::min(home + 1, dims_ - 1);
+                std::size_t blockSize = 0;
+                for (int ox = first.x; ox <= last.x; ++ox)
+                    for (int oy = first.y; oy <= last.y; ++oy) {
+                        const std::size_t row = cellIndex({ox, oy, 0});
+                        blockSize += start_[row + last.z + 1] - start_[row + first.z];
                     }
+                near2.resize(blockSize + 1);
+                nearAt.resize(blockSize + 1);
+                const bool whole = first == glm::ivec3(0) && last == dims_ - 1;
+                // The previous point's K-th nearest distance, squared and doubled: a first,
+                // narrower bound (the points of one cell lie at like spacings), which leaves fewer
+                // candidates to sort; where fewer than K lie within it, the block's bound.
+                float guess2 = std::numeric_limits<float>::infinity();
+                for (std::uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
+                    const float px = x_[k], py = y_[k], pz = z_[k];
+                    // Every point outside the block is farther than `clear`: the K nearest are
+                    // among those nearer than it, if K of them are.
+                    const double clear = clearance(first, last, 1, {px, py, pz}, home);
+                    const auto limit2 =
+                        whole ? std::numeric_limits<float>::infinity() : static_cast<float>(clear * clear);
+                    std::size_t count = 0;
+                    const auto gather = [&](float bound2, bool all) {
+                        count = 0;
+                        for (int ox = first.x; ox <= last.x; ++ox)
+                            for (int oy = first.y; oy <= last.y; ++oy) {
+                                const std::size_t row = cellIndex({ox, oy, 0});
+                                for (std::uint32_t j = start_[row + first.z]; j < start_[row + last.z + 1];
+                                     ++j) {
+                                    const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
+                                    const float d2 = dx * dx + dy * dy + dz * dz;
+                                    near2[count] = d2;
+                                    nearAt[count] = j;
+                                    count += static_cast<std::size_t>(d2 < bound2 || all);
+                                }
+                            }
+                    };
+                    if (guess2 < limit2) gather(guess2, false);
+                    const bool narrowed = guess2 < limit2 && count >= K;
+                    if (!narrowed) gather(limit2, whole);
+                    std::size_t found = 0;
+                    guess2 = std::numeric_limits<float>::infinity(); // unless the block gives one
+                    if (narrowed || count >= K || whole) {
+                        std::array<float, K> kept{};
+                        for (std::size_t m = 0; m < count; ++m)
+                            if (found < K || near2[m] <= kept[K - 1])
+                                keep(near2[m], sorted_[nearAt[m]], kept, nearest, found);
+                        if (found == K) guess2 = 2.0f * kept[K - 1];
+                    } else {
+                        found = this->nearest(sorted_[k], nearest);
+                    }
+                    visit(sorted_[k], nearest, found);
                 }
+            }
     }
 
     // The min(K, size) nearest points to point i (itself among them), by distance, then index.
@@ -424,17 +427,17 @@ NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool) {
         const float farthest = glm::length(points.position[nearest[found - 1]] - points.position[i]);
         if (farthest > 0.0f) shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
     };
-    const auto slabs = static_cast<std::size_t>(grid.slabs());
-    if (pool == nullptr || pool->size() < 2 || slabs < 2) {
-        grid.forEachNearest<kBendNeighbours + 1>(0, grid.slabs(), visit);
+    const std::size_t columns = grid.columns();
+    if (pool == nullptr || pool->size() < 2 || columns < 2) {
+        grid.forEachNearest<kBendNeighbours + 1>(0, columns, visit);
         return shape;
     }
-    // Each point's nearest are found exactly, whichever slab range holds it: the same bits for any
-    // thread count. Ranges of a few slabs each, handed out as workers free up (slabs hold unlike
-    // counts of points).
-    const std::size_t chunk = std::max<std::size_t>(1, slabs / (8 * std::size_t{pool->size()}));
-    parallelForRanges(*pool, slabs, chunk, [&](std::size_t begin, std::size_t end, unsigned) {
-        grid.forEachNearest<kBendNeighbours + 1>(static_cast<int>(begin), static_cast<int>(end), visit);
+    // Each point's nearest are found exactly, whichever column range holds it: the same bits for
+    // any thread count. Ranges of many columns each, handed out as workers free up (columns hold
+    // unlike counts of points).
+    const std::size_t chunk = std::max<std::size_t>(1, columns / (8 * std::size_t{pool->size()}));
+    parallelForRanges(*pool, columns, chunk, [&](std::size_t begin, std::size_t end, unsigned) {
+        grid.forEachNearest<kBendNeighbours + 1>(begin, end, visit);
     });
     return shape;
 }

@@ -33,9 +33,10 @@
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/result.h"
-#include "pnsplat/refine/worker_pool.h"
 
 namespace pnsplat {
+
+class WorkerPool;
 
 using NodeId = std::uint32_t;
 inline constexpr NodeId kNoNode = UINT32_MAX;

@@ -392,12 +392,11 @@ std::vector<InputRates> timeInputs(const std::vector<BenchInput>& inputs,
     ProgressBar bar("bench refine: warm-up");
     const std::size_t runs = (std::size_t{args.repeat} + 1) * inputs.size() * threads.size();
     std::size_t done = 0;
-    bar.update(done, runs);
     for (const BenchInput& input : inputs)
         for (const unsigned t : threads) {
+            bar.update(done++, runs);
             options.threads = t;
             runLevels(input.points, options, levels, args.targetPoints);
-            bar.update(++done, runs);
         }
     std::vector<InputRates> rates(inputs.size());
     for (InputRates& r : rates) r.total.resize(threads.size());

@@ -278,7 +278,7 @@ void runBenchSettle(const SettleArgs& args) {
             std::uint32_t deepest = 0;
             for (const NodeId id : engine.drawn()) deepest = std::max(deepest, engine.tree().node(id).level);
             const std::size_t made = engine.tree().pointCount();
-            const double creationSeconds = engine.tree().creationSeconds();
+            const double refineMs = engine.refinementMs(settled);
             engine.finish();
 
             const OfflineReferences references =
@@ -339,9 +339,8 @@ void runBenchSettle(const SettleArgs& args) {
                 settled.settled ? "true" : "false", std::min(difference.psnr, kIdenticalPsnr),
                 difference.ssim, std::min(deeper.psnr, kIdenticalPsnr), deeper.ssim, holes.size(), holeArea,
                 covered, settled.splatsDrawn, drawnPerPixel, made, madePerPixel, settled.medianSplatPx,
-                deepest, settled.refineWaitMs + 1000.0 * creationSeconds, first.levels, first.points.size(),
-                first.capped ? "true" : "false", second.levels, second.points.size(),
-                second.capped ? "true" : "false",
+                deepest, refineMs, first.levels, first.points.size(), first.capped ? "true" : "false",
+                second.levels, second.points.size(), second.capped ? "true" : "false",
                 second.regionFrom ? std::to_string(*second.regionFrom) : std::string("null"),
                 args.engine.hardEdges ? "false" : "true", args.engine.keepPinholes ? "false" : "true");
             std::fflush(stdout);

@@ -239,10 +239,8 @@ void runRender(const RenderArgs& args) {
     const std::size_t covered =
         engine::coveredPixels(image.pixels, engine::backgroundPixel(settings.render.background));
     const double perCovered = covered > 0 ? double(drawn.splatsDrawn) / double(covered) : 0.0;
-    // The refinement's time with --adaptive: the tree's creation (its whole levels refined, split and
-    // measured) and the jobs waited for; a tree only drawn refines nothing.
-    const double refineMs =
-        args.adaptive ? drawn.refineWaitMs + 1000.0 * engine.tree().creationSeconds() : 0.0;
+    // A tree only drawn refines nothing.
+    const double refineMs = args.adaptive ? engine.refinementMs(drawn) : 0.0;
     if (args.json) {
         fmt::print(
             summary,

@@ -13,6 +13,8 @@
 #include <glm/vec2.hpp>
 #include <glm/vec4.hpp>
 
+#include "pnsplat/refine/quantile.h"
+
 namespace pnsplat::engine {
 
 namespace {
@@ -219,9 +221,7 @@ float splatDiameterQuantile(std::span<const glm::vec3> positions, std::span<cons
         sizes.push_back(2.0f * radii[i] * focal / depth);
     }
     if (sizes.empty()) return 0.0f;
-    const auto at =
-        sizes.begin() +
-        static_cast<std::ptrdiff_t>(std::min(sizes.size() - 1, std::size_t(quantile * float(sizes.size()))));
+    const auto at = sizes.begin() + static_cast<std::ptrdiff_t>(quantileIndex(sizes.size(), quantile));
     std::nth_element(sizes.begin(), at, sizes.end());
     return *at;
 }

@@ -663,6 +663,9 @@ const EngineSettings& Engine::settings() const {
 const NodeTree& Engine::tree() const {
     return impl_->tree;
 }
+double Engine::refinementMs(const FrameReport& report) const {
+    return report.refineWaitMs + 1000.0 * impl_->tree.creationSeconds();
+}
 std::span<const NodeId> Engine::drawn() const {
     return impl_->drawnNodes;
 }

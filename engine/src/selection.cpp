@@ -9,6 +9,8 @@
 #include <glm/geometric.hpp>
 #include <glm/vec4.hpp>
 
+#include "pnsplat/refine/quantile.h"
+
 namespace pnsplat::engine {
 
 namespace {
@@ -329,9 +331,7 @@ SplatSizes measureSplats(const NodeTree& tree, std::span<const NodeId> drawn, co
     const auto middle = sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2);
     std::nth_element(sizes.begin(), middle, sizes.end());
     out.medianPx = *middle;
-    const auto p99 =
-        sizes.begin() +
-        static_cast<std::ptrdiff_t>(std::min(sizes.size() - 1, std::size_t(0.99f * float(sizes.size()))));
+    const auto p99 = sizes.begin() + static_cast<std::ptrdiff_t>(quantileIndex(sizes.size(), 0.99f));
     std::nth_element(middle, p99, sizes.end()); // past the median: the larger half
     out.p99Px = *p99;
     out.maxPx = *std::max_element(p99, sizes.end());

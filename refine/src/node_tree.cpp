@@ -16,6 +16,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "pnsplat/refine/quantile.h"
 #include "pnsplat/refine/worker_pool.h"
 
 namespace pnsplat {
@@ -396,8 +397,7 @@ float drawnRadiusOf(std::span<const float> radii) {
     if (radii.empty()) return 0.0f;
     std::vector<float> sorted(radii.begin(), radii.end());
     const auto at =
-        sorted.begin() + static_cast<std::ptrdiff_t>(std::min(
-                             sorted.size() - 1, std::size_t(kDrawnRadiusQuantile * float(sorted.size()))));
+        sorted.begin() + static_cast<std::ptrdiff_t>(quantileIndex(sorted.size(), kDrawnRadiusQuantile));
     std::nth_element(sorted.begin(), at, sorted.end());
     return *at;
 }

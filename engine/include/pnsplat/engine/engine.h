@@ -179,6 +179,9 @@ class Engine {
     Sphere bounds() const;
     const EngineSettings& settings() const;
     const NodeTree& tree() const;
+    // The refinement's time up to `report`, a frame in lockstep (render --adaptive, bench settle):
+    // the tree's creation (its whole levels refined, split and measured) and the workers waited for.
+    double refinementMs(const FrameReport& report) const;
     // The nodes drawn by the last frame.
     std::span<const NodeId> drawn() const;
     // Test access. Waits for the GPU, reads the cache buffer back and compares every resident

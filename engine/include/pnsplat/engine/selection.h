@@ -94,9 +94,9 @@ Selection selectNodes(const NodeTree& tree, const FrameView& view, const Selecti
                       std::uint64_t stamp, const std::function<NodeSelection&(NodeId)>& stateOf);
 
 // The splats of `drawn` in view and facing the eye (as the passes draw them), measured as the level
-// of detail measures them (Node::shape.splatRadius): their median, 99th-percentile (the one at
-// min(n - 1, 0.99 n) in size order, as splatDiameterQuantile takes it) and largest diameters on screen
-// and the share of them wider than `threshold` pixels (zeros when none).
+// of detail measures them (Node::shape.splatRadius): their median, 99th-percentile (by
+// quantileIndex, as splatDiameterQuantile takes it) and largest diameters on screen and the share of
+// them wider than `threshold` pixels (zeros when none).
 struct SplatSizes {
     float medianPx = 0.0f, p99Px = 0.0f, maxPx = 0.0f;
     double overThreshold = 0.0;

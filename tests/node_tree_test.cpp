@@ -4,9 +4,12 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
+#include <numbers>
 #include <random>
 #include <set>
+#include <span>
 #include <thread>
 #include <vector>
 
@@ -444,9 +447,37 @@ TEST(NodeTree, LevelsStaySeparatedAcrossNodesOfDifferentLevels) {
     EXPECT_GT(checked, 10000u);
 }
 
+// The oracle of a splat's radius drawn (node_tree.h, splatRadius): the farthest point of the
+// point's Voronoi cell among `neighbours` in its tangent plane, found along 20,000 rays (the exit of
+// a ray in direction d is the nearest bisector ahead, |q|² / (2 q · d) for a neighbour q projected),
+// infinite where a ray leaves through no bisector; kCellMargin times that, at most the distance to
+// the farthest neighbour and the point's radius.
+float splatRadiusOracle(glm::vec3 point, glm::vec3 normal, float radius,
+                        std::span<const glm::vec3> neighbours) {
+    const glm::vec3 u = glm::normalize(
+        glm::cross(normal, std::abs(normal.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0)));
+    const glm::vec3 v = glm::cross(normal, u);
+    float farthest = 0.0f, cell = 0.0f;
+    std::vector<glm::vec2> projected;
+    for (const glm::vec3& q : neighbours) {
+        farthest = std::max(farthest, glm::distance(point, q));
+        projected.push_back({glm::dot(q - point, u), glm::dot(q - point, v)});
+    }
+    constexpr int kRays = 20000;
+    for (int k = 0; k < kRays; ++k) {
+        const float angle = 2.0f * std::numbers::pi_v<float> * float(k) / float(kRays);
+        const glm::vec2 d(std::cos(angle), std::sin(angle));
+        float exit = std::numeric_limits<float>::infinity();
+        for (const glm::vec2 q : projected)
+            if (glm::dot(q, d) > 0.0f) exit = std::min(exit, 0.5f * glm::dot(q, q) / glm::dot(q, d));
+        cell = std::max(cell, exit);
+    }
+    return std::min({radius, farthest, kCellMargin * cell});
+}
+
 // neighbourShapeOf (the engine's measure of the silhouette and its splats' radii, engine.cpp): per
 // point the largest angle between its normal and those of its kBendNeighbours nearest points, and
-// the distance to the farthest of them where its radius is larger, against a brute-force search on a
+// the radius that covers its cell among them (splatRadiusOracle), against a brute-force search on a
 // random sphere (whose bends are then about the angle the 6th neighbour subtends) and a plane.
 TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
     PointSet sphere = sampleSphereRandom(1500, 2.0f, 7);
@@ -470,8 +501,11 @@ TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
         // On a sphere of radius 2 the normals turn by the angle the farthest neighbour subtends.
         const float subtended = 2.0f * std::asin(byDistance[kBendNeighbours - 1].first / 4.0f);
         ASSERT_NEAR(bend[i], subtended, 2e-3f) << "point " << i;
-        const float farthest = byDistance[kBendNeighbours - 1].first;
-        ASSERT_NEAR(shape.splatRadius[i], std::min(sphere.radius[i], farthest), 1e-6f) << "point " << i;
+        std::array<glm::vec3, kBendNeighbours> nearest;
+        for (std::size_t k = 0; k < kBendNeighbours; ++k) nearest[k] = sphere.position[byDistance[k].second];
+        const float expected =
+            splatRadiusOracle(sphere.position[i], sphere.normal[i], sphere.radius[i], nearest);
+        ASSERT_NEAR(shape.splatRadius[i], expected, 1e-3f * expected) << "point " << i;
         smaller += shape.splatRadius[i] < sphere.radius[i];
     }
     EXPECT_EQ(smaller, sphere.size() - sphere.size() / 2); // the points of radius 1
@@ -483,6 +517,38 @@ TEST(NodeDetail, BendIsTheWidestNormalAngleToTheNearestPoints) {
         }
     for (const float b : neighbourShapeOf(plane).bend) EXPECT_EQ(b, 0.0f);
     EXPECT_TRUE(neighbourShapeOf(PointSet{}).bend.empty());
+}
+
+// The splats of an even sampling cover their cells and no more: on a hexagonal lattice of spacing
+// h a point's cell is a hexagon of circumradius h / √3, on a square lattice a square of h / √2, and
+// its splat kCellMargin times that; a point on the patch's border, whose cell is open, keeps the
+// distance to its 6th nearest point.
+TEST(NodeDetail, SplatsOfALatticeCoverTheirCells) {
+    constexpr float h = 0.1f;
+    constexpr int n = 16;
+    for (const bool hexagonal : {true, false}) {
+        PointSet plane;
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+                const float shift = hexagonal && y % 2 == 1 ? 0.5f * h : 0.0f;
+                const float row = hexagonal ? 0.5f * std::numbers::sqrt3_v<float> * h : h;
+                plane.position.push_back({shift + h * float(x), row * float(y), 0.0f});
+                plane.normal.push_back({0.0f, 0.0f, 1.0f});
+            }
+        plane.radius.assign(plane.size(), 1.0f); // beyond every neighbour
+        const NeighbourShape shape = neighbourShapeOf(plane);
+        const float cell = hexagonal ? h / std::numbers::sqrt3_v<float> : h / std::numbers::sqrt2_v<float>;
+        for (int y = 2; y < n - 2; ++y)
+            for (int x = 2; x < n - 2; ++x)
+                ASSERT_NEAR(shape.splatRadius[std::size_t(y * n + x)], kCellMargin * cell, 1e-4f * h)
+                    << (hexagonal ? "hexagonal" : "square") << " lattice, point " << x << ", " << y;
+        // A corner: its 6 nearest lie on one side, and its cell is open.
+        std::vector<float> distances;
+        for (std::size_t j = 1; j < plane.size(); ++j)
+            distances.push_back(glm::distance(plane.position[0], plane.position[j]));
+        std::nth_element(distances.begin(), distances.begin() + kBendNeighbours - 1, distances.end());
+        EXPECT_FLOAT_EQ(shape.splatRadius[0], distances[kBendNeighbours - 1]);
+    }
 }
 
 // neighbourShapeOf's nearest points (a grid searched cell block by cell block, node_tree.cpp) are exactly a

@@ -391,6 +391,60 @@ class NearestGrid {
     std::vector<float> x_, y_, z_;              // their positions, in the same order
 };
 
+// The distance from a point to the farthest corner of its Voronoi cell among `offsets` (its
+// neighbours' positions less its own; zeros, the point itself, are skipped), in the plane normal to
+// `normal` (unit), the cell cut to the square of half-side `limit` about the point: a disk of that
+// radius covers every point of that plane nearer to it than to those neighbours. A cell that reaches
+// the square's side (a point at an open boundary, or with its neighbours on one side) gives at least
+// `limit`. The cell of a few neighbours holds the cell of all the points, so the radius is at least
+// the true one. The cell starts as the square and is cut by the bisector of each neighbour
+// (Sutherland-Hodgman on a convex polygon: each cut adds at most one corner; rounding that would
+// add more gives `limit`).
+float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float limit) {
+    // An orthonormal basis of the tangent plane (Duff et al. 2017, "Building an orthonormal basis,
+    // revisited").
+    const float sign = std::copysign(1.0f, normal.z);
+    const float a = -1.0f / (sign + normal.z);
+    const float b = normal.x * normal.y * a;
+    const glm::vec3 u(1.0f + sign * normal.x * normal.x * a, sign * b, -sign * normal.x);
+    const glm::vec3 v(b, sign + normal.y * normal.y * a, -normal.y);
+    constexpr std::size_t kCorners = 4 + kBendNeighbours + 2;
+    std::array<std::array<glm::vec2, kCorners>, 2> buffers;
+    glm::vec2* corners = buffers[0].data();
+    glm::vec2* cut = buffers[1].data();
+    corners[0] = {-limit, -limit};
+    corners[1] = {limit, -limit};
+    corners[2] = {limit, limit};
+    corners[3] = {-limit, limit};
+    std::size_t count = 4;
+    for (const glm::vec3& offset : offsets) {
+        const glm::vec2 q(glm::dot(offset, u), glm::dot(offset, v));
+        const float half = 0.5f * glm::dot(q, q); // the bisector: x · q = |q|² / 2
+        if (!(half > 0.0f)) continue;
+        float reach = glm::dot(corners[0], q);
+        for (std::size_t c = 1; c < count; ++c) reach = std::max(reach, glm::dot(corners[c], q));
+        if (reach <= half) continue; // the bisector misses the cell (most of the farther neighbours)
+        std::size_t kept = 0;
+        glm::vec2 from = corners[count - 1];
+        float fromSide = glm::dot(from, q) - half;
+        for (std::size_t c = 0; c < count; ++c) {
+            const glm::vec2 to = corners[c];
+            const float toSide = glm::dot(to, q) - half;
+            if (kept + 2 > kCorners) return limit; // only where rounding breaks convexity
+            if ((fromSide < 0.0f && toSide > 0.0f) || (fromSide > 0.0f && toSide < 0.0f))
+                cut[kept++] = from + (fromSide / (fromSide - toSide)) * (to - from);
+            if (toSide <= 0.0f) cut[kept++] = to;
+            from = to;
+            fromSide = toSide;
+        }
+        count = kept;
+        std::swap(corners, cut);
+    }
+    float farthest = 0.0f;
+    for (std::size_t c = 0; c < count; ++c) farthest = std::max(farthest, glm::dot(corners[c], corners[c]));
+    return std::sqrt(farthest);
+}
+
 } // namespace
 
 float drawnRadiusOf(std::span<const float> radii) {
@@ -424,8 +478,13 @@ NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool) {
             lowest = std::min(lowest, glm::dot(points.normal[i], points.normal[nearest[k]]));
         shape.bend[i] = std::acos(std::clamp(lowest, -1.0f, 1.0f));
         if (!points.hasRadius()) return; // no radii to draw with: the bend only
-        const float farthest = glm::length(points.position[nearest[found - 1]] - points.position[i]);
-        if (farthest > 0.0f) shape.splatRadius[i] = std::min(shape.splatRadius[i], farthest);
+        const glm::vec3 p = points.position[i];
+        const float farthest = glm::length(points.position[nearest[found - 1]] - p);
+        if (!(farthest > 0.0f)) return;
+        std::array<glm::vec3, kBendNeighbours + 1> offsets;
+        for (std::size_t k = 0; k < found; ++k) offsets[k] = points.position[nearest[k]] - p;
+        const float cell = cellRadius(points.normal[i], std::span(offsets).first(found), farthest);
+        shape.splatRadius[i] = std::min({shape.splatRadius[i], farthest, kCellMargin * cell});
     };
     const std::size_t columns = grid.columns();
     if (pool == nullptr || pool->size() < 2 || columns < 2) {

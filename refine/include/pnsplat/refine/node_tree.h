@@ -53,17 +53,25 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    (the sagitta of a circle turning by bend over r), which the next level's smaller splats halve;
 //    the engine refines the nodes whose silhouette splats stand out visibly (selection.cpp, the level
 //    of detail).
-//  - splatRadius: the radius its splat is measured and drawn with, the distance to the farthest
-//    of them, at most its own radius (the point's radius when it has no neighbour). Choice
-//    (docs/REALTIME.md, "Splats of the local spacing"): the refinement's radius reaches the
-//    farthest member of the point's next one-ring, about twice the spacing, so that its disk
-//    covers each pixel many times over; the sixth nearest point lies about 1.3 spacings away and
-//    still covers the surface. At an open boundary the sixth nearest lie on one side, about √3
-//    spacings away, and the splats reach that far past the last points; they are drawn so too
-//    (docs/REALTIME.md, "Smaller nodes, and no open boundaries": drawn with the fourth nearest, the
-//    splats along the borders of nodes, whose points find their nearest on one side only, and of
-//    strands left holes).
+//  - splatRadius: the radius its splat is measured and drawn with: kCellMargin times the distance
+//    to the farthest corner of its Voronoi cell among them in its tangent plane (a disk of that
+//    radius covers the part of the surface nearer to it than to them), at most the distance to the
+//    farthest of them and its own radius (the point's radius when it has no neighbour). Choice
+//    (docs/REALTIME.md, "Splats of the local spacing" and "Splats that cover their cell"): the
+//    refinement's radius reaches the farthest member of the point's next one-ring, about twice the
+//    spacing, so that its disk covers each pixel many times over; the sixth nearest point lies
+//    about 1.3 spacings away and still covers the surface, but on an even sampling the cell's
+//    corners lie at 0.58 (hexagonal) to 0.71 (square) spacings, so that distance drew each disk
+//    over about three times the area it must cover. A point whose cell is open (at an open
+//    boundary, the sixth nearest on one side) is drawn with the distance to the farthest of them,
+//    about √3 spacings, and its splat reaches that far past the last points (docs/REALTIME.md,
+//    "Smaller nodes, and no open boundaries": drawn with the fourth nearest, the splats along the
+//    borders of nodes, whose points find their nearest on one side only, and of strands left holes).
 inline constexpr std::size_t kBendNeighbours = 6;
+// See splatRadius above: the splats overlap their cells' corners by this much, for the turn of the
+// surface across a cell and the Gaussian's fall to the disk's rim (docs/REALTIME.md, "Splats that
+// cover their cell": 1.25 opened a two-pixel hole in the lion's tail, where the input is sparse).
+inline constexpr float kCellMargin = 1.5f;
 // Arrays apart (the selection's per-splat loop reads both in SIMD lanes).
 struct NeighbourShape {
     std::vector<float> bend, splatRadius;

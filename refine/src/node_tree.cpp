@@ -440,6 +440,7 @@ float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float lim
         count = kept;
         std::swap(corners, cut);
     }
+    if (count == 0) return limit; // no corner left: only a normal that is not finite
     float farthest = 0.0f;
     for (std::size_t c = 0; c < count; ++c) farthest = std::max(farthest, glm::dot(corners[c], corners[c]));
     return std::sqrt(farthest);

@@ -16,6 +16,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/quantile.h"
 #include "pnsplat/refine/worker_pool.h"
 
@@ -393,21 +394,17 @@ class NearestGrid {
 
 // The distance from a point to the farthest corner of its Voronoi cell among `offsets` (its
 // neighbours' positions less its own; zeros, the point itself, are skipped), in the plane normal to
-// `normal` (unit), the cell cut to the square of half-side `limit` about the point: a disk of that
-// radius covers every point of that plane nearer to it than to those neighbours. A cell that reaches
-// the square's side (a point at an open boundary, or with its neighbours on one side) gives at least
-// `limit`. The cell of a few neighbours holds the cell of all the points, so the radius is at least
-// the true one. The cell starts as the square and is cut by the bisector of each neighbour
-// (Sutherland-Hodgman on a convex polygon: each cut adds at most one corner; rounding that would
-// add more gives `limit`).
+// `normal` (unit: the basis is skewed otherwise), the cell cut to the square of half-side `limit` about the
+// point: a disk of that radius covers every point of that plane nearer to it than to those neighbours. A cell
+// that reaches the square's side (a point at an open boundary, or with its neighbours on one side) gives at
+// least `limit`. The cell of a few neighbours holds the cell of all the points, so the radius is at least the
+// true one. The cell starts as the square and is cut by the bisector of each neighbour (Sutherland-Hodgman on
+// a convex polygon). Where rounding would leave no corner (neighbours within about 1e-6 of `limit` of the
+// point) or more corners than a convex cut can, it gives `limit`.
 float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float limit) {
-    // An orthonormal basis of the tangent plane (Duff et al. 2017, "Building an orthonormal basis,
-    // revisited").
-    const float sign = std::copysign(1.0f, normal.z);
-    const float a = -1.0f / (sign + normal.z);
-    const float b = normal.x * normal.y * a;
-    const glm::vec3 u(1.0f + sign * normal.x * normal.x * a, sign * b, -sign * normal.x);
-    const glm::vec3 v(b, sign + normal.y * normal.y * a, -normal.y);
+    const TangentFrame frame(normal);
+    // Each of at most kBendNeighbours cuts adds at most one corner to the square's 4; one more for
+    // a corner that rounding puts on both sides of a bisector.
     constexpr std::size_t kCorners = 4 + kBendNeighbours + 2;
     std::array<std::array<glm::vec2, kCorners>, 2> buffers;
     glm::vec2* corners = buffers[0].data();
@@ -418,7 +415,7 @@ float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float lim
     corners[3] = {-limit, limit};
     std::size_t count = 4;
     for (const glm::vec3& offset : offsets) {
-        const glm::vec2 q(glm::dot(offset, u), glm::dot(offset, v));
+        const glm::vec2 q(glm::dot(offset, frame.u), glm::dot(offset, frame.v));
         const float half = 0.5f * glm::dot(q, q); // the bisector: x · q = |q|² / 2
         if (!(half > 0.0f)) continue;
         float reach = glm::dot(corners[0], q);
@@ -437,10 +434,10 @@ float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float lim
             from = to;
             fromSide = toSide;
         }
+        if (kept == 0) return limit; // the point lies inside its cell: only rounding empties it
         count = kept;
         std::swap(corners, cut);
     }
-    if (count == 0) return limit; // no corner left: only a normal that is not finite
     float farthest = 0.0f;
     for (std::size_t c = 0; c < count; ++c) farthest = std::max(farthest, glm::dot(corners[c], corners[c]));
     return std::sqrt(farthest);

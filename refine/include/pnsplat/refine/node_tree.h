@@ -47,7 +47,8 @@ float drawnRadiusOf(std::span<const float> radii);
 // The lower and upper medians of `radii`, the (n-1)/2-th and n/2-th smallest (equal for an odd
 // count): more than half of the radii are at least the first, at most half exceed the second.
 std::array<float, 2> medianRadiiOf(std::span<const float> radii);
-// Per point, from its kBendNeighbours nearest points in `points` (a level's points in a region):
+// Per point, from its kBendNeighbours nearest points in `points` (a level's points in a region, unit
+// normals):
 //  - bend: how far the surface turns within one spacing, the largest angle (radians) between its
 //    normal and theirs. A splat at the silhouette stands out of the surface by about r · bend / 2
 //    (the sagitta of a circle turning by bend over r), which the next level's smaller splats halve;
@@ -62,7 +63,7 @@ std::array<float, 2> medianRadiiOf(std::span<const float> radii);
 //    spacing, so that its disk covers each pixel many times over; the sixth nearest point lies
 //    about 1.3 spacings away and still covers the surface, but on an even sampling the cell's
 //    corners lie at 0.58 (hexagonal) to 0.71 (square) spacings, so that distance drew each disk
-//    over about three times the area it must cover. A point whose cell is open (at an open
+//    over three to four times the area it must cover. A point whose cell is open (at an open
 //    boundary, the sixth nearest on one side) is drawn with the distance to the farthest of them,
 //    about √3 spacings, and its splat reaches that far past the last points (docs/REALTIME.md,
 //    "Smaller nodes, and no open boundaries": drawn with the fourth nearest, the splats along the

@@ -595,10 +595,17 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         pending.push_back(std::move(halves[1]));
         pending.push_back(std::move(halves[0]));
     }
-    // A tree only drawn draws the radii it was given.
     WorkerPool pool(settings.refine.threads);
-    NeighbourShape shape = neighbourShapeOf(input, &pool);
-    if (!forRefinement) shape.splatRadius = {input.radius.begin(), input.radius.end()};
+    NeighbourShape shape;
+    if (forRefinement) {
+        shape = neighbourShapeOf(input, &pool);
+    } else {
+        // A tree only drawn draws the radii it was given, and no node of it is refined or drawn
+        // through children, the only decisions that read the bends: nothing to measure (its
+        // points' nearest and cells took about 1 us a point).
+        shape.bend.assign(input.size(), 0.0f);
+        shape.splatRadius.assign(input.radius.begin(), input.radius.end());
+    }
     std::vector<NodeId> level; // the nodes of the level being built, in tree order
     for (SplitPart& part : roots) {
         const NodeId id = tree.allocate();

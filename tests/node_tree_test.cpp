@@ -570,7 +570,7 @@ TEST(NodeDetail, SplatsOfALatticeCoverTheirCells) {
     }
 }
 
-// Neighbours within about 1e-7 of the 6th nearest's distance from a point can cut its cell to
+// Neighbours within about 2e-7 times the 6th nearest's distance of a point can cut its cell to
 // nothing in float (its true cell holds it strictly; these do, found by a random search): its splat
 // keeps the distance to the 6th nearest, and no later cut reads a corner of the empty cell (a read
 // before the corners' buffer, found by review, which the sanitizer suite would report).

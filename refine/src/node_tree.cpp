@@ -399,7 +399,7 @@ class NearestGrid {
 // that reaches the square's side (a point at an open boundary, or with its neighbours on one side) gives at
 // least `limit`. The cell of a few neighbours holds the cell of all the points, so the radius is at least the
 // true one. The cell starts as the square and is cut by the bisector of each neighbour (Sutherland-Hodgman on
-// a convex polygon). Where rounding would leave no corner (neighbours within about 1e-6 of `limit` of the
+// a convex polygon). Where rounding would leave no corner (neighbours within about 2e-7 times `limit` of the
 // point) or more corners than a convex cut can, it gives `limit`.
 float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float limit) {
     const TangentFrame frame(normal);

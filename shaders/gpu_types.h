@@ -64,6 +64,9 @@ PNSPLAT_CONST uint kBindingItems = 2;
 PNSPLAT_CONST uint kBindingDepth = 3;  // the nearest depth per pixel, as float bits
 PNSPLAT_CONST uint kBindingAccum = 4;  // the fixed-point sums per pixel (kAccumStride words, or one)
 PNSPLAT_CONST uint kBindingOutput = 5; // the picture, RGBA8 per pixel
+// The normalization reads the depth and the sums as texels (R32UI; RG32UI, a 64-bit word each).
+PNSPLAT_CONST uint kBindingDepthTexels = 6;
+PNSPLAT_CONST uint kBindingAccumTexels = 7;
 // Graphics path: the accumulation targets, sampled by the normalization pass.
 PNSPLAT_CONST uint kBindingAccumColour = 2; // w·rgb, w
 PNSPLAT_CONST uint kBindingAccumNormal = 3; // w·normal
@@ -90,7 +93,7 @@ struct FrameUniforms {
     vec4 splat;
     // x: 1 to normalize (0 shows the raw accumulated colour: a test switch), y: workgroups of the
     // compute path's splat passes, z: 1 to smooth the outer silhouette (kEdgeWeight), w: 1 to fill
-    // pinholes (splat_common.glsl, pinholeAt).
+    // pinholes (splat_common.glsl, pinholeIn).
     uvec4 flags;
     // The compute path's pipelines for splats of one colour: that colour, linear RGB (a unused).
     vec4 colour;

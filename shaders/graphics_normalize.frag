@@ -17,19 +17,19 @@ bool uncoveredAt(ivec2 p) {
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     vec2 centre = gl_FragCoord.xy;
+    // The pair (2x, y), (2x + 1, y) that the compute path draws in one invocation.
+    ivec2 first = ivec2(pixel.x & ~1, pixel.y);
+    int dx = pixel.x & 1;
+    uint near = uncoveredNear(first);
+    // A pinhole is drawn as the other pixel of its pair, as on the compute path.
+    if (pinholeIn(near, first, dx, 0)) {
+        dx ^= 1;
+        pixel.x ^= 1;
+        centre.x = float(pixel.x) + 0.5;
+    }
     vec4 cw = texelFetch(accumColour, pixel, 0);
     vec3 n = texelFetch(accumNormal, pixel, 0).xyz;
-    // A pinhole is drawn as the other pixel of its pair, (2x, y) and (2x + 1, y), as on the compute
-    // path; a pixel of zero weight beside one of none is background, with one read.
-    ivec2 other = ivec2(pixel.x ^ 1, pixel.y);
-    if (frame.flags.w != 0u && !(cw.a > 0.0) && other.x < int(frame.viewport.x) && !uncoveredAt(other) &&
-        pinholeAt(pixel)) {
-        pixel = other;
-        centre.x = float(other.x) + 0.5;
-        cw = texelFetch(accumColour, pixel, 0);
-        n = texelFetch(accumNormal, pixel, 0).xyz;
-    }
     vec3 rgb = shadePixel(cw.rgb, n, cw.a, pixelRay(centre));
-    if (cw.a > 0.0 && mayBlend(cw.a)) rgb = smoothEdge(rgb, cw.a, besideBackground(pixel));
+    if (mayBlend(cw.a)) rgb = smoothEdge(rgb, cw.a, besideBackgroundIn(near, first, dx));
     outColour = vec4(rgb, 1.0);
 }

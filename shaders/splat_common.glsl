@@ -118,42 +118,67 @@ vec3 smoothEdge(vec3 rgb, float sumWeight, bool besideBackground) {
 }
 
 // Whether a pixel's colour may blend toward the background (smoothEdge): the option is on and its
-// weight below kEdgeWeight; its neighbours are read only then.
+// weight above zero (a pixel of zero weight shows the background already) and below kEdgeWeight.
 bool mayBlend(float sumWeight) {
-    return frame.flags.z != 0u && sumWeight < kEdgeWeight;
+    return frame.flags.z != 0u && sumWeight > 0.0 && sumWeight < kEdgeWeight;
 }
 
 // Whether no splat reached pixel p, inside the picture: each path's normalization says how it knows.
 bool uncoveredAt(ivec2 p);
 
-// A pinhole: a pixel no splat reached whose four neighbours splats did reach, inside the picture
-// (RenderSettings::fillPinholes). It is drawn as the other pixel of its pair, (2x, y) and
-// (2x + 1, y), not as background. Choice, after the surfels of Pfister et al. (2000), which fill
-// the holes of their splatted image: two samplings of one surface leave different single uncovered
-// pixels where a strand is one or two pixels wide or where two nodes' splats only just meet
-// (docs/REALTIME.md, "Pinholes"); a hole of two pixels or more, or a gap open on one side, stays.
-bool pinholeAt(ivec2 p) {
-    if (frame.flags.w == 0u || any(lessThan(p, ivec2(1))) || any(greaterThanEqual(p, ivec2(frame.viewport.xy) - 1)) ||
-        !uncoveredAt(p))
-        return false;
-    return !uncoveredAt(p + ivec2(1, 0)) && !uncoveredAt(p - ivec2(1, 0)) && !uncoveredAt(p + ivec2(0, 1)) &&
-           !uncoveredAt(p - ivec2(0, 1));
-}
+// The pinhole and silhouette tests below read the pixels within two steps (left, right, up, down)
+// of either pixel of a pair (2x, y) and (2x + 1, y): 18 pixels, read once per pair into the bits of
+// a window of kNearWidth by 5 pixels from (2x - 2, y - 2), a bit set where the pixel lies in the
+// picture and no splat reached it. Read once, not where each test needs them: lavapipe runs every
+// branch of a shader on all of its lanes (a branch only masks lanes off), so the tests written per
+// pixel read the depth about 60 times a pair wherever no lane needed them, and the compute path's
+// normalization took 8 ms of a frame at 640x480 where nothing was drawn, against 2 ms without
+// the tests (docs/REALTIME.md, "What a frame costs on lavapipe").
+const int kNearWidth = 6;
 
-// Whether pixel p, inside the picture, shows the background: no splat reached it and it is no pinhole.
-bool backgroundAt(ivec2 p) {
-    return uncoveredAt(p) && !pinholeAt(p);
-}
-
-// Whether one of the pixel's four neighbours in the picture is background.
-bool besideBackground(ivec2 pixel) {
-    const ivec2 steps[4] = ivec2[4](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
-    for (int k = 0; k < 4; ++k) {
-        ivec2 p = pixel + steps[k];
-        if (all(greaterThanEqual(p, ivec2(0))) && all(lessThan(p, ivec2(frame.viewport.xy))) && backgroundAt(p))
-            return true;
+uint uncoveredNear(ivec2 first) {
+    uint bits = 0u;
+    for (int dy = -2; dy <= 2; ++dy) {
+        for (int dx = -2; dx <= 3; ++dx) {
+            if (abs(dy) + max(max(-dx, dx - 1), 0) > 2) continue; // more than two steps from the pair
+            ivec2 p = first + ivec2(dx, dy);
+            if (all(greaterThanEqual(p, ivec2(0))) && all(lessThan(p, ivec2(frame.viewport.xy))) && uncoveredAt(p))
+                bits |= 1u << uint((dy + 2) * kNearWidth + dx + 2);
+        }
     }
-    return false;
+    return bits;
+}
+
+// Pixel first + (dx, dy) of a pair's window (uncoveredNear): no splat reached it, inside the picture.
+bool uncoveredIn(uint near, int dx, int dy) {
+    return ((near >> uint((dy + 2) * kNearWidth + dx + 2)) & 1u) != 0u;
+}
+
+// A pinhole at first + (dx, dy), one step from the pair at most: a pixel no splat reached whose
+// four neighbours splats did reach, inside the picture (RenderSettings::fillPinholes). It is drawn
+// as the other pixel of its pair, not as background. Choice, after the surfels of Pfister et al.
+// (2000), which fill the holes of their splatted image: two samplings of one surface leave
+// different single uncovered pixels where a strand is one or two pixels wide or where two nodes'
+// splats only just meet (docs/REALTIME.md, "Pinholes"); a hole of two pixels or more, or a gap
+// open on one side, stays.
+bool pinholeIn(uint near, ivec2 first, int dx, int dy) {
+    ivec2 p = first + ivec2(dx, dy);
+    if (frame.flags.w == 0u || any(lessThan(p, ivec2(1))) || any(greaterThanEqual(p, ivec2(frame.viewport.xy) - 1)))
+        return false;
+    return uncoveredIn(near, dx, dy) && !uncoveredIn(near, dx + 1, dy) && !uncoveredIn(near, dx - 1, dy) &&
+           !uncoveredIn(near, dx, dy + 1) && !uncoveredIn(near, dx, dy - 1);
+}
+
+// Whether pixel first + (dx, dy), one step from the pair at most, shows the background: inside the
+// picture, no splat reached it and it is no pinhole.
+bool backgroundIn(uint near, ivec2 first, int dx, int dy) {
+    return uncoveredIn(near, dx, dy) && !pinholeIn(near, first, dx, dy);
+}
+
+// Whether one of the four neighbours of pixel first + (dx, 0) of the pair shows the background.
+bool besideBackgroundIn(uint near, ivec2 first, int dx) {
+    return backgroundIn(near, first, dx + 1, 0) || backgroundIn(near, first, dx - 1, 0) ||
+           backgroundIn(near, first, dx, 1) || backgroundIn(near, first, dx, -1);
 }
 
 // Deferred shading of one pixel from its accumulated sums (w·rgb, w·normal, w); ray as pixelRay.

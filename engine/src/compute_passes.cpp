@@ -1,6 +1,6 @@
 // The compute path's passes (render_passes.h; ALGORITHM.md §11.5): one invocation per splat walks
 // the pixels of its footprint, with atomics on storage buffers of one word (depth) and one or four
-// words (sums) a pixel.
+// words (sums) a pixel; the normalization reads both buffers as texels.
 #include <algorithm>
 #include <array>
 
@@ -25,13 +25,15 @@ class ComputePasses final : public RenderPasses {
         std::vector<VkDescriptorSetLayoutBinding> out;
         for (const std::uint32_t b : {gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput})
             out.push_back({b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
-        out.push_back(
-            {gpu::kBindingItems, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
+        for (const std::uint32_t b : {gpu::kBindingItems, gpu::kBindingDepthTexels, gpu::kBindingAccumTexels})
+            out.push_back({b, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
         return out;
     }
     void create(VkPipelineLayout layout) override;
     void write(DescriptorWrites& writes, const PathFrame& frame) const override {
         writes.texelBuffer(gpu::kBindingItems, frame.items);
+        writes.texelBuffer(gpu::kBindingDepthTexels, depthTexels_.get());
+        writes.texelBuffer(gpu::kBindingAccumTexels, accumTexels_.get());
         writes.buffer(gpu::kBindingDepth, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits_.buffer.get());
         writes.buffer(gpu::kBindingAccum, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum_.buffer.get());
         writes.buffer(gpu::kBindingOutput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output_.buffer.get());
@@ -46,7 +48,6 @@ class ComputePasses final : public RenderPasses {
         const VkBufferCopy region{0, 0, std::size_t{settings_.width} * settings_.height * 4};
         vkCmdCopyBuffer(cmd, output_.buffer.get(), readback, 1, &region);
     }
-    void submitted() override { cleared_ = true; }
 
   private:
     // `oneColour` sets the shader's specialization constant 0 (kOneColour of compute_accumulate.comp
@@ -57,13 +58,10 @@ class ComputePasses final : public RenderPasses {
     const RenderSettings& settings_;
     VkDevice device_;
     Buffer depthBits_, accum_, output_;
-    std::array<Unique<VkPipeline>, 3> pipelines_; // visibility, accumulation, normalization
+    Unique<VkBufferView> depthTexels_, accumTexels_; // R32UI and RG32UI (gpu::kBindingDepthTexels, ...)
+    std::array<Unique<VkPipeline>, 3> pipelines_;    // visibility, accumulation, normalization
     // Splats of one colour: accumulation and normalization.
     std::array<Unique<VkPipeline>, 2> oneColourPipelines_;
-    // The sum buffer is cleared (by the last frame's normalization pass, which runs before the next
-    // frame's passes on the one queue); false at first and after a frame that failed part-way. (The
-    // depth buffer is filled at every frame's start.)
-    bool cleared_ = false;
 };
 
 Unique<VkPipeline> ComputePasses::pipeline(VkShaderModule module, VkPipelineLayout layout,
@@ -84,13 +82,15 @@ Unique<VkPipeline> ComputePasses::pipeline(VkShaderModule module, VkPipelineLayo
 }
 
 void ComputePasses::create(VkPipelineLayout layout) {
-    constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    constexpr VkBufferUsageFlags kStorage =
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+        VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
     const std::size_t pixels = std::size_t{settings_.width} * settings_.height;
     depthBits_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
     accum_ = createBuffer(context_, pixels * gpu::kAccumStride * 8, kStorage, MemoryUse::Device);
     output_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
+    depthTexels_ = createTexelView(context_, depthBits_, VK_FORMAT_R32_UINT);
+    accumTexels_ = createTexelView(context_, accum_, VK_FORMAT_R32G32_UINT);
     const auto visibility = shaderModule(device_, k_compute_visibility_comp);
     const auto accumulate = shaderModule(device_, k_compute_accumulate_comp);
     const auto normalize = shaderModule(device_, k_compute_normalize_comp);
@@ -106,9 +106,11 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+        // Memsets on lavapipe: cheaper than a store per pixel in the normalization, which lavapipe
+        // makes one lane at a time (the normalization cleared the sums it read until the
+        // thirty-fourth session; docs/REALTIME.md, "What a frame costs on lavapipe").
         vkCmdFillBuffer(cmd, depthBits_.buffer.get(), 0, VK_WHOLE_SIZE, gpu::kDepthCleared);
-        if (!cleared_) vkCmdFillBuffer(cmd, accum_.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
-        cleared_ = false; // until the normalization pass has been submitted
+        vkCmdFillBuffer(cmd, accum_.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else if (pass == 2) {
         // The output buffer was last read by the previous frame's copies.

@@ -64,8 +64,6 @@ class RenderPasses {
     // reads; and its copy into `readback` (width × height × 4 bytes).
     virtual FrameOutput::Source output(VkCommandBuffer cmd) = 0;
     virtual void copyOutput(VkCommandBuffer cmd, VkBuffer readback) const = 0;
-    // Every pass of the frame was submitted.
-    virtual void submitted() {}
 };
 
 // `settings` outlives the passes (the renderer's own; its size and path never change).

@@ -282,7 +282,6 @@ void SplatRenderer::Impl::submit(FrameRing& frames, VkBufferView splats,
         frames.submit(cmd, last, last ? out.wait : VK_NULL_HANDLE, last ? out.waitStage : 0,
                       last ? out.signal : VK_NULL_HANDLE);
     }
-    passes->submitted();
 }
 
 Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
@@ -301,8 +300,9 @@ Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
         if (!context.hasInt64Atomics())
             return Error{"the compute path needs 64-bit storage buffer atomics, which " +
                          context.deviceName() + " lacks; use the graphics path"};
-        const std::size_t accumBytes = std::size_t{settings.width} * settings.height * gpu::kAccumStride * 8;
-        if (accumBytes > limits.maxStorageBufferRange)
+        // The sums as storage (one or kAccumStride words a pixel) and as RG32UI texels.
+        const std::size_t accumWords = std::size_t{settings.width} * settings.height * gpu::kAccumStride;
+        if (accumWords * 8 > limits.maxStorageBufferRange || accumWords > limits.maxTexelBufferElements)
             return Error{"image size " + std::to_string(settings.width) + "x" +
                          std::to_string(settings.height) +
                          " is too large for the compute path on this device; use the graphics path"};

@@ -52,7 +52,7 @@ struct RenderSettings {
     // by a fraction of a pixel changes pixels by a fraction. false: every covered pixel whole.
     bool smoothEdges = true;
     // A pixel no splat reached whose four neighbours splats reached (a pinhole) drawn as its
-    // horizontal neighbour (splat_common.glsl, pinholeAt). false: as background.
+    // horizontal neighbour (splat_common.glsl, pinholeIn). false: as background.
     bool fillPinholes = true;
     bool normalize = true; // false shows raw accumulated colour (a switch for tests)
     bool cullNodes = true; // false draws every node (a switch for tests of the culling)

@@ -54,8 +54,8 @@ Shaded shadeAt(uint near, ivec2 first, int dx, uint i) {
         if (w == 0.0) return s;
         vec2 across = 2.0 * vec2(float(uint((word >> kOneColourBits) & mask)),
                                  float(uint(word >> (2 * kOneColourBits)))) / w - 1.0;
-        s.rgb = frame.flags.x == 0u ? linearToSrgb(w / kOneColourScale * frame.colour.rgb)
-                                    : shade(frame.colour.rgb, sqrt(max(1.0 - dot(across, across), 0.0)));
+        s.rgb = linearToSrgb(frame.flags.x == 0u ? w / kOneColourScale * frame.colour.rgb
+                                                 : shade(frame.colour.rgb, sqrt(max(1.0 - dot(across, across), 0.0))));
         s.w = w / kOneColourScale;
     } else {
         uint base = i * kAccumStride;

@@ -101,12 +101,13 @@ float splatWeight(float rho2) {
 }
 
 // Headlight Blinn–Phong: the light sits at the eye, so the half vector is the view vector and the
-// shading needs only the cosine ndl of the interpolated normal to the eye. Returns the sRGB-encoded
-// colour written to the 8-bit output.
+// shading needs only the cosine ndl of the interpolated normal to the eye. Returns the linear
+// colour; the callers encode it to sRGB once, whether shaded or not (lavapipe would run an encoding
+// in each branch, as the note at uncoveredNear below says).
 vec3 shade(vec3 albedo, float ndl) {
     float ndl2 = ndl * ndl, ndl4 = ndl2 * ndl2, ndl16 = ndl4 * ndl4 * ndl4 * ndl4;
     float specular = 0.25 * ndl16 * ndl16 * ndl16; // 0.25 ndl^48
-    return linearToSrgb(albedo * (0.12 + 0.88 * ndl) + vec3(specular));
+    return albedo * (0.12 + 0.88 * ndl) + vec3(specular);
 }
 
 // A pixel of the outer silhouette blends toward the background by its accumulated weight: a pixel
@@ -184,8 +185,8 @@ bool besideBackgroundIn(uint near, ivec2 first, int dx) {
 // Deferred shading of one pixel from its accumulated sums (w·rgb, w·normal, w); ray as pixelRay.
 vec3 shadePixel(vec3 sumColour, vec3 sumNormal, float sumWeight, vec3 ray) {
     if (!(sumWeight > 0.0)) return frame.background.rgb;
-    if (frame.flags.x == 0u) return linearToSrgb(sumColour);
     float len = length(sumNormal);
     vec3 n = len > 0.0 ? sumNormal / len : vec3(0.0, 0.0, 1.0);
-    return shade(sumColour / sumWeight, max(dot(n, -normalize(ray)), 0.0));
+    return linearToSrgb(frame.flags.x == 0u ? sumColour
+                                            : shade(sumColour / sumWeight, max(dot(n, -normalize(ray)), 0.0)));
 }

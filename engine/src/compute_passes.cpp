@@ -110,7 +110,10 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         // makes one lane at a time (the normalization cleared the sums it read until the
         // thirty-fourth session; docs/REALTIME.md, "What a frame costs on lavapipe").
         vkCmdFillBuffer(cmd, depthBits_.buffer.get(), 0, VK_WHOLE_SIZE, gpu::kDepthCleared);
-        vkCmdFillBuffer(cmd, accum_.buffer.get(), 0, VK_WHOLE_SIZE, 0u);
+        // The words of the sums the frame uses: one a pixel for splats of one colour.
+        const std::size_t words =
+            std::size_t{settings_.width} * settings_.height * (frame.oneColour ? 1 : gpu::kAccumStride);
+        vkCmdFillBuffer(cmd, accum_.buffer.get(), 0, words * 8, 0u);
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else if (pass == 2) {
         // The output buffer was last read by the previous frame's copies.

@@ -5,12 +5,15 @@
 // Pass 2, compute path: every splat not behind the visible surface adds its Gaussian-weighted
 // colour, normal and weight to the pixel, in fixed point with four 64-bit atomicAdds (see
 // kAccumStride in gpu_types.h), or one when every splat has one colour (kOneColour: the renderer
-// makes a pipeline of each, and of the normalization, chosen per frame).
+// makes a pipeline of each, and of the normalization, chosen per frame). It reads the visibility
+// pass's depth as texels, which lavapipe fetches for all lanes at once (a storage buffer it reads
+// one lane at a time: docs/REALTIME.md, "What a frame costs on lavapipe").
 #include "splat_compute.glsl"
 
 layout(constant_id = 0) const bool kOneColour = false;
 
 layout(set = 0, binding = kBindingAccum, std430) buffer AccumBlock { uint64_t accum[]; };
+layout(set = 0, binding = kBindingDepthTexels) uniform usamplerBuffer depthTexels; // float bits
 
 // Two values in [0, 1] (times the weight) as one 64-bit word of two 32-bit fixed-point halves.
 uint64_t pack(float low, float high) {
@@ -51,7 +54,7 @@ void main() {
         for (int x = x0; x <= x1; ++x) {
             float t, rho2, rx, invRayLength;
             uint i = pixelIndex(ivec2(x, y));
-            if (!conicHit(k, row, x, t, rho2, rx, invRayLength) || t > uintBitsToFloat(depthBits[i]))
+            if (!conicHit(k, row, x, t, rho2, rx, invRayLength) || t > uintBitsToFloat(texelFetch(depthTexels, int(i)).x))
                 continue;
             float w = splatWeight(rho2);
             if (kOneColour) {

@@ -64,7 +64,8 @@ PNSPLAT_CONST uint kBindingItems = 2;
 PNSPLAT_CONST uint kBindingDepth = 3;  // the nearest depth per pixel, as float bits
 PNSPLAT_CONST uint kBindingAccum = 4;  // the fixed-point sums per pixel (kAccumStride words, or one)
 PNSPLAT_CONST uint kBindingOutput = 5; // the picture, RGBA8 per pixel
-// The normalization reads the depth and the sums as texels (R32UI; RG32UI, a 64-bit word each).
+// The accumulation and the normalization read the depth as R32UI texels, the normalization the
+// sums as RG32UI texels (a 64-bit word each).
 PNSPLAT_CONST uint kBindingDepthTexels = 6;
 PNSPLAT_CONST uint kBindingAccumTexels = 7;
 // Graphics path: the accumulation targets, sampled by the normalization pass.

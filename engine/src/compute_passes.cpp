@@ -1,6 +1,7 @@
 // The compute path's passes (render_passes.h; ALGORITHM.md §11.5): one invocation per splat walks
 // the pixels of its footprint, with atomics on storage buffers of one word (depth) and one or four
-// words (sums) a pixel; the normalization reads both buffers as texels.
+// words (sums) a pixel; the passes after the first read the depth, the normalization the sums, as
+// texels.
 #include <algorithm>
 #include <array>
 

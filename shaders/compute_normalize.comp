@@ -75,8 +75,8 @@ Shaded shadeAt(uint near, ivec2 first, int dx, uint i) {
 }
 
 // Each invocation draws a pair of pixels, (2x, y) and (2x + 1, y). A pinhole (pinholeIn) takes the
-// colour of the other pixel of its pair, so that no invocation reads what another writes; a pixel
-// of zero weight is one only where the other of its pair has weight. A pixel whose depth is set but
+// colour of the other pixel of its pair, which the invocation has shaded already; a pixel of zero
+// weight is one only where the other of its pair has weight. A pixel whose depth is set but
 // whose weight rounded to zero (a splat's rim with a sharp Gaussian) counts as covered in the test
 // and is drawn as background: the other of its pair is not filled from it.
 void main() {

@@ -6,6 +6,8 @@
 // read cost more than the atomics it saved (docs/REALTIME.md, "What a frame costs on lavapipe").
 #include "splat_compute.glsl"
 
+layout(set = 0, binding = kBindingDepth, std430) buffer DepthBlock { uint depthBits[]; }; // float bits
+
 void main() {
     uint index;
     if (!invocationSplat(index)) return;

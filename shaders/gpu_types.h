@@ -43,9 +43,8 @@ PNSPLAT_CONST uint kAccumStride = 4;
 PNSPLAT_CONST float kFixedScale = 65536.0f;
 PNSPLAT_CONST uint kOneColourBits = 21;
 PNSPLAT_CONST float kOneColourScale = 4096.0f;
-// The compute path's cleared depth: +infinity as float bits, filled at each frame's start. The
-// normalization pass leaves the sum buffer cleared for the next frame, touching it only where a
-// splat landed.
+// The compute path's cleared depth: +infinity as float bits, filled at each frame's start (the sums
+// are filled with zero then too).
 PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 // The outer silhouette, smoothed (RenderSettings::smoothEdges): a pixel beside the background (one
 // of its four neighbours covered by no splat, and no pinhole: splat_common.glsl) whose accumulated

@@ -12,7 +12,6 @@ layout(set = 0, binding = kBindingItems) uniform usamplerBuffer itemTexels;
 uvec2 item(uint k) {
     return texelFetch(itemTexels, int(k)).xy;
 }
-layout(set = 0, binding = kBindingDepth, std430) buffer DepthBlock { uint depthBits[]; };         // float bits
 
 // The index of this invocation's splat, or false when its workgroup has no splat for it. The loop
 // reads the same ranges in every invocation.

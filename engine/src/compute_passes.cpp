@@ -83,12 +83,13 @@ Unique<VkPipeline> ComputePasses::pipeline(VkShaderModule module, VkPipelineLayo
 }
 
 void ComputePasses::create(VkPipelineLayout layout) {
-    constexpr VkBufferUsageFlags kStorage =
-        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-        VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
+    constexpr VkBufferUsageFlags kStorage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    constexpr VkBufferUsageFlags kTexels = kStorage | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT; // read so too
     const std::size_t pixels = std::size_t{settings_.width} * settings_.height;
-    depthBits_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
-    accum_ = createBuffer(context_, pixels * gpu::kAccumStride * 8, kStorage, MemoryUse::Device);
+    depthBits_ = createBuffer(context_, pixels * 4, kTexels, MemoryUse::Device);
+    accum_ = createBuffer(context_, pixels * gpu::kAccumStride * 8, kTexels, MemoryUse::Device);
     output_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
     depthTexels_ = createTexelView(context_, depthBits_, VK_FORMAT_R32_UINT);
     accumTexels_ = createTexelView(context_, accum_, VK_FORMAT_R32G32_UINT);

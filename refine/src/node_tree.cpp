@@ -595,7 +595,8 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         pending.push_back(std::move(halves[1]));
         pending.push_back(std::move(halves[0]));
     }
-    WorkerPool pool(settings.refine.threads);
+    // A tree only drawn measures nothing and refines no whole level (below): a pool of one, no thread.
+    WorkerPool pool(forRefinement ? settings.refine.threads : 1u);
     NeighbourShape shape;
     if (forRefinement) {
         shape = neighbourShapeOf(input, &pool);

@@ -51,6 +51,11 @@ PNSPLAT_CONST uint kDepthCleared = 0x7F800000u;
 // weight w is below kEdgeWeight is drawn as mix(background, its colour, w / kEdgeWeight), so that a
 // contour moved by a fraction of a pixel changes pixels by a fraction, not whole (smoothEdge).
 PNSPLAT_CONST float kEdgeWeight = 1.0f;
+// Compute path: the normalization draws the picture a tile at a time, one workgroup of 32 × 32
+// invocations a tile, each a pair of pixels; tiles no splat reached are left as the background
+// that fills the picture at the frame's start (compute_normalize.comp).
+PNSPLAT_CONST uint kTileWidth = 64;
+PNSPLAT_CONST uint kTileHeight = 32;
 
 // The bindings of the one descriptor set (set 0) that all passes of a path share
 // (splat_renderer.cpp makes it): the frame's uniforms and the splats on every path, then the
@@ -67,6 +72,10 @@ PNSPLAT_CONST uint kBindingOutput = 5; // the picture, RGBA8 per pixel
 // sums as RG32UI texels (a 64-bit word each).
 PNSPLAT_CONST uint kBindingDepthTexels = 6;
 PNSPLAT_CONST uint kBindingAccumTexels = 7;
+// The normalization's tiles that splats reached (their indices, in any order) and their count, the
+// x of the normalization's indirect dispatch (VkDispatchIndirectCommand: x, y = 1, z = 1).
+PNSPLAT_CONST uint kBindingTiles = 8;
+PNSPLAT_CONST uint kBindingTileDispatch = 9;
 // Graphics path: the accumulation targets, sampled by the normalization pass.
 PNSPLAT_CONST uint kBindingAccumColour = 2; // w·rgb, w
 PNSPLAT_CONST uint kBindingAccumNormal = 3; // w·normal
@@ -97,6 +106,10 @@ struct FrameUniforms {
     uvec4 flags;
     // The compute path's pipelines for splats of one colour: that colour, linear RGB (a unused).
     vec4 colour;
+    // Compute path: x, the normalization's tiles across the picture (kTileWidth pixels each); y, the
+    // background as written, RGBA8 (backgroundWord in splat_renderer.cpp: every pixel of it, in
+    // tiles drawn or not, is this one word); z and w unused.
+    uvec4 picture;
 };
 
 #ifdef __cplusplus

@@ -1,7 +1,8 @@
 // The compute path's passes (render_passes.h; ALGORITHM.md §11.5): one invocation per splat walks
 // the pixels of its footprint, with atomics on storage buffers of one word (depth) and one or four
 // words (sums) a pixel; the passes after the first read the depth, the normalization the sums, as
-// texels.
+// texels. The normalization draws only the tiles that splats reached, listed by a first dispatch
+// of its shader; the picture is filled with the background before.
 #include <algorithm>
 #include <array>
 
@@ -24,7 +25,8 @@ class ComputePasses final : public RenderPasses {
     int count() const override { return 3; }
     std::vector<VkDescriptorSetLayoutBinding> bindings() const override {
         std::vector<VkDescriptorSetLayoutBinding> out;
-        for (const std::uint32_t b : {gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput})
+        for (const std::uint32_t b : {gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput,
+                                      gpu::kBindingTiles, gpu::kBindingTileDispatch})
             out.push_back({b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
         for (const std::uint32_t b : {gpu::kBindingItems, gpu::kBindingDepthTexels, gpu::kBindingAccumTexels})
             out.push_back({b, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
@@ -38,6 +40,9 @@ class ComputePasses final : public RenderPasses {
         writes.buffer(gpu::kBindingDepth, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, depthBits_.buffer.get());
         writes.buffer(gpu::kBindingAccum, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum_.buffer.get());
         writes.buffer(gpu::kBindingOutput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output_.buffer.get());
+        writes.buffer(gpu::kBindingTiles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, tiles_.buffer.get());
+        writes.buffer(gpu::kBindingTileDispatch, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                      tileDispatch_.buffer.get());
     }
     void record(VkCommandBuffer cmd, int pass, const PathFrame& frame) override;
     FrameOutput::Source output(VkCommandBuffer cmd) override {
@@ -52,30 +57,40 @@ class ComputePasses final : public RenderPasses {
 
   private:
     // `oneColour` sets the shader's specialization constant 0 (kOneColour of compute_accumulate.comp
-    // and compute_normalize.comp).
-    Unique<VkPipeline> pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour = false) const;
+    // and compute_normalize.comp), `tileScan` its constant 1 (kTileScan of compute_normalize.comp).
+    Unique<VkPipeline> pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour = false,
+                                bool tileScan = false) const;
+    std::uint32_t tilesAcross() const { return (settings_.width + gpu::kTileWidth - 1) / gpu::kTileWidth; }
+    std::uint32_t tilesDown() const { return (settings_.height + gpu::kTileHeight - 1) / gpu::kTileHeight; }
 
     Context& context_;
     const RenderSettings& settings_;
     VkDevice device_;
     Buffer depthBits_, accum_, output_;
+    // The normalization's tiles that splats reached, and its indirect dispatch (their count, 1, 1).
+    Buffer tiles_, tileDispatch_;
     Unique<VkBufferView> depthTexels_, accumTexels_; // R32UI and RG32UI (gpu::kBindingDepthTexels, ...)
     std::array<Unique<VkPipeline>, 3> pipelines_;    // visibility, accumulation, normalization
     // Splats of one colour: accumulation and normalization.
     std::array<Unique<VkPipeline>, 2> oneColourPipelines_;
+    Unique<VkPipeline> tileScan_; // the normalization's first dispatch
 };
 
-Unique<VkPipeline> ComputePasses::pipeline(VkShaderModule module, VkPipelineLayout layout,
-                                           bool oneColour) const {
-    const VkBool32 value = oneColour ? VK_TRUE : VK_FALSE;
-    const VkSpecializationMapEntry entry{0, 0, sizeof(value)};
-    const VkSpecializationInfo specialization{1, &entry, sizeof(value), &value};
+Unique<VkPipeline> ComputePasses::pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour,
+                                           bool tileScan) const {
+    // kOneColour, kTileScan, and the normalization's rows of invocations (the scan's one; the splat
+    // passes have no constant 2).
+    const std::array<std::uint32_t, 3> values{oneColour ? VK_TRUE : VK_FALSE, tileScan ? VK_TRUE : VK_FALSE,
+                                              tileScan ? 1u : gpu::kTileHeight};
+    std::array<VkSpecializationMapEntry, 3> entries{};
+    for (std::uint32_t k = 0; k < entries.size(); ++k) entries[k] = {k, 4 * k, 4};
+    const VkSpecializationInfo specialization{3, entries.data(), sizeof(values), values.data()};
     VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
     info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     info.stage.module = module;
     info.stage.pName = "main";
-    info.stage.pSpecializationInfo = oneColour ? &specialization : nullptr;
+    info.stage.pSpecializationInfo = &specialization;
     info.layout = layout;
     VkPipeline made = VK_NULL_HANDLE;
     PNSPLAT_VK_CHECK(vkCreateComputePipelines(device_, VK_NULL_HANDLE, 1, &info, nullptr, &made));
@@ -91,6 +106,10 @@ void ComputePasses::create(VkPipelineLayout layout) {
     depthBits_ = createBuffer(context_, pixels * 4, kTexels, MemoryUse::Device);
     accum_ = createBuffer(context_, pixels * gpu::kAccumStride * 8, kTexels, MemoryUse::Device);
     output_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
+    const std::size_t tiles = std::size_t{tilesAcross()} * tilesDown();
+    tiles_ = createBuffer(context_, tiles * 4, kStorage, MemoryUse::Device);
+    tileDispatch_ = createBuffer(context_, sizeof(VkDispatchIndirectCommand) + tiles * 4,
+                                 kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUse::Device);
     depthTexels_ = createTexelView(context_, depthBits_, VK_FORMAT_R32_UINT);
     accumTexels_ = createTexelView(context_, accum_, VK_FORMAT_R32G32_UINT);
     const auto visibility = shaderModule(device_, k_compute_visibility_comp);
@@ -99,13 +118,15 @@ void ComputePasses::create(VkPipelineLayout layout) {
     pipelines_ = {pipeline(visibility.get(), layout), pipeline(accumulate.get(), layout),
                   pipeline(normalize.get(), layout)};
     oneColourPipelines_ = {pipeline(accumulate.get(), layout, true), pipeline(normalize.get(), layout, true)};
+    tileScan_ = pipeline(normalize.get(), layout, false, true);
 }
 
 void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame) {
     constexpr VkPipelineStageFlags kCompute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     constexpr VkAccessFlags kRW = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
     if (pass == 0) {
-        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT,
+        // After the previous frame's passes, its indirect dispatch and its copies of the picture.
+        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
         // Memsets on lavapipe: cheaper than a store per pixel in the normalization, which lavapipe
@@ -116,11 +137,22 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         const std::size_t words =
             std::size_t{settings_.width} * settings_.height * (frame.oneColour ? 1 : gpu::kAccumStride);
         vkCmdFillBuffer(cmd, accum_.buffer.get(), 0, words * 8, 0u);
+        // The picture is the background where the normalization draws no tile; no tile listed yet.
+        vkCmdFillBuffer(cmd, output_.buffer.get(), 0, VK_WHOLE_SIZE, backgroundWord(settings_.background));
+        vkCmdFillBuffer(cmd, tileDispatch_.buffer.get(), 0, 4, 0u);
+        vkCmdFillBuffer(cmd, tileDispatch_.buffer.get(), 4, 8, 1u);
+        vkCmdFillBuffer(cmd, tileDispatch_.buffer.get(), sizeof(VkDispatchIndirectCommand), VK_WHOLE_SIZE,
+                        0u);
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else if (pass == 2) {
-        // The output buffer was last read by the previous frame's copies.
-        bufferBarrier(cmd, kCompute | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_SHADER_WRITE_BIT, kCompute,
-                      kRW);
+        bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tileScan_.get());
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, frame.layout, 0, 1, &frame.set, 0,
+                                nullptr);
+        vkCmdDispatch(cmd, tilesAcross(), tilesDown(), 1);
+        bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT,
+                      kCompute | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+                      kRW | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
     } else {
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
     }
@@ -134,7 +166,7 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
             std::min(frame.workgroups, context_.properties().limits.maxComputeWorkGroupCount[0]);
         if (frame.workgroups > 0) vkCmdDispatch(cmd, row, (frame.workgroups + row - 1) / row, 1);
     } else {
-        vkCmdDispatch(cmd, (settings_.width + 63) / 64, (settings_.height + 31) / 32, 1); // pairs of pixels
+        vkCmdDispatchIndirect(cmd, tileDispatch_.buffer.get(), 0); // the tiles listed, pairs of pixels
     }
 }
 

@@ -10,10 +10,11 @@ static_assert(sizeof(Splat) == 32);
 static_assert(offsetof(Splat, position) == 0 && offsetof(Splat, radius) == 12);
 static_assert(offsetof(Splat, normal) == 16 && offsetof(Splat, colour) == 28);
 
-static_assert(sizeof(FrameUniforms) == 2 * 64 + 6 * 16);
+static_assert(sizeof(FrameUniforms) == 2 * 64 + 7 * 16);
 static_assert(offsetof(FrameUniforms, view) == 0 && offsetof(FrameUniforms, projection) == 64);
 static_assert(offsetof(FrameUniforms, background) == 128 && offsetof(FrameUniforms, viewport) == 144);
 static_assert(offsetof(FrameUniforms, rayScale) == 160 && offsetof(FrameUniforms, splat) == 176);
 static_assert(offsetof(FrameUniforms, flags) == 192 && offsetof(FrameUniforms, colour) == 208);
+static_assert(offsetof(FrameUniforms, picture) == 224);
 
 } // namespace pnsplat::gpu

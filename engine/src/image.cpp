@@ -149,7 +149,9 @@ Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, in
 
 glm::u8vec3 backgroundPixel(glm::vec3 background) {
     const auto channel = [](float c) {
-        return static_cast<std::uint8_t>(std::lround(std::clamp(c, 0.0f, 1.0f) * 255.0f));
+        // Halves to even (the default rounding mode), as Mesa's packUnorm4x8 and its conversion
+        // of a float to an 8-bit unorm target: 0.3 · 255 is 76.5 in single precision, 76.
+        return static_cast<std::uint8_t>(std::nearbyint(std::clamp(c, 0.0f, 1.0f) * 255.0f));
     };
     return {channel(background.x), channel(background.y), channel(background.z)};
 }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "pnsplat/engine/context.h"
+#include "pnsplat/engine/image.h"
 #include "pnsplat/engine/splat_renderer.h"
 #include "pnsplat/engine/vulkan.h"
 
@@ -70,6 +71,13 @@ class RenderPasses {
 std::unique_ptr<RenderPasses> makeComputePasses(Context& context, const RenderSettings& settings);
 std::unique_ptr<RenderPasses> makeGraphicsPasses(Context& context, const RenderSettings& settings);
 std::unique_ptr<RenderPasses> makePlainPointPasses(Context& context, const RenderSettings& settings);
+
+// The background pixel as one RGBA8 word (red in the low byte, alpha 255): the compute path fills
+// the picture with it at a frame's start and its normalization writes it (gpu::FrameUniforms::picture).
+inline std::uint32_t backgroundWord(glm::vec3 background) {
+    const glm::u8vec3 c = backgroundPixel(background);
+    return std::uint32_t{c.x} | std::uint32_t{c.y} << 8 | std::uint32_t{c.z} << 16 | 0xFF000000u;
+}
 
 void bufferBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,
                    VkPipelineStageFlags dstStage, VkAccessFlags dstAccess);

@@ -234,6 +234,8 @@ void SplatRenderer::Impl::submit(FrameRing& frames, VkBufferView splats,
     frame.flags = {settings.normalize ? 1u : 0u, slot.workgroups, settings.smoothEdges ? 1u : 0u,
                    settings.fillPinholes ? 1u : 0u};
     if (slot.oneColour) frame.colour = glm::vec4(linearColour(*oneColour), 1.0f);
+    frame.picture = {(settings.width + gpu::kTileWidth - 1) / gpu::kTileWidth,
+                     backgroundWord(settings.background), 0u, 0u};
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
     const PathFrame pathFrame{pipelineLayout.get(), slot.set,       slot.rangeTexels.get(),
                               slot.workgroups,      slot.oneColour, draws};
@@ -302,7 +304,11 @@ Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
                          context.deviceName() + " lacks; use the graphics path"};
         // The sums as storage (one or kAccumStride words a pixel) and as RG32UI texels.
         const std::size_t accumWords = std::size_t{settings.width} * settings.height * gpu::kAccumStride;
-        if (accumWords * 8 > limits.maxStorageBufferRange || accumWords > limits.maxTexelBufferElements)
+        // The normalization's tiles: a workgroup each, in one row of its indirect dispatch.
+        const std::size_t tiles = std::size_t{(settings.width + gpu::kTileWidth - 1) / gpu::kTileWidth} *
+                                  ((settings.height + gpu::kTileHeight - 1) / gpu::kTileHeight);
+        if (accumWords * 8 > limits.maxStorageBufferRange || accumWords > limits.maxTexelBufferElements ||
+            tiles > limits.maxComputeWorkGroupCount[0])
             return Error{"image size " + std::to_string(settings.width) + "x" +
                          std::to_string(settings.height) +
                          " is too large for the compute path on this device; use the graphics path"};

@@ -261,9 +261,10 @@ TEST_F(PlyTest, AsciiWithShuffledPropertiesExtrasListsAndFaces) {
                              "end_header\r\n"
                              "3 0 1 2 7\r\n"
                              "4 0 1 2 0 9\r\n"
+                             "\r\n" // blank lines and blanks around a row's values are allowed
                              // nz x confidence [samples] ny y blue z green nx red radius
                              "0 1.5 0.25 2 1.0 -2.5 2 -2.5 20 3 0 0 10 0.5\r\n"
-                             "0 -4 nan 0 -7 0 50 4 40 0 30 0\r\n"
+                             "  0 -4 nan 0 -7 0 50 4 40 0 30 0 \t\r\n"
                              "-1 1e3 1 1 0 1 1e-2 1 255 255\t1 255 +2.5\r\n"
                              "0 2 11 12\r\n";
     const fs::path path = writeFile("shuffled.ply", text);
@@ -619,6 +620,11 @@ std::vector<BadFile> badFiles() {
         {"TruncatedBinaryEmptyBody", binary, "truncated binary data (vertex 0 of 2)"},
         {"TruncatedAscii", ascii + "1 2 3 0 0 1\n1 2 3 0 0\n", "truncated ascii data (vertex 1 of 2)"},
         {"NonNumericAscii", ascii + "1 2 3 0 0 1\n1 two 3 0 0 1\n", "bad number 'two'"},
+        // A row's values lie on its line: one too few or too many is an error there, not a shift.
+        {"AsciiShortRow", ascii + "1 2 3 0 0\n1 2 3 0 0 1\n",
+         "line 11: fewer values than vertex 0 has properties (6)"},
+        {"AsciiLongRow", ascii + "1 2 3 0 0 1\n1 2 3 0 0 1 7\n",
+         "line 12: more values than vertex 1 has properties (6)"},
         {"AsciiTrailingJunk", ascii + "1 2 3 0 0 1\n1 2x 3 0 0 1\n", "bad number"},
         {"AsciiIntegerOutOfRange",
          "ply\nformat ascii 1.0\nelement vertex 1\n" + vertexProps +

@@ -48,6 +48,7 @@ struct BenchArgs {
     std::vector<unsigned> threads; // with inputs; empty: 1 and 2
     std::size_t maxPoints = 0;     // with inputs: RefineJob::maxPoints
     std::string pclMlsOutput;      // with inputs and PCL: a folder for PCL's output, NAME-pcl-mls.ply
+    bool force = false;            // write the JSON over an input (refuseToOverwriteInput)
 };
 
 inline constexpr std::size_t kSweepTargetPoints = 150000;
@@ -198,6 +199,7 @@ std::string ratesByProcessor(const PointSet& input, RefineOptions options, const
 void runBenchInputs(const BenchArgs& args);
 
 void runBenchRefine(const BenchArgs& given) {
+    refuseToOverwriteInput(given.output, given.inputs, given.force);
     if (!given.inputs.empty() || !given.models.empty()) return runBenchInputs(given);
     if (given.levels != 0 || !given.threads.empty() || given.maxPoints != 0 || !given.pclMlsOutput.empty())
         throw CommandError("bench refine: --levels, --threads, --max-points and --pcl-mls-output apply to "
@@ -624,6 +626,7 @@ void addBenchCommand(CLI::App& app) {
         "per level of given inputs (--input, --models)",
         runBenchRefine);
     refine->add_option("--sphere-points", args->spherePoints, "input: uniform points on the unit sphere")
+        ->check(CLI::Range(std::size_t{3}, std::size_t{100'000'000}))
         ->capture_default_str();
     refine
         ->add_option("--target-points", args->targetPoints,
@@ -660,6 +663,7 @@ void addBenchCommand(CLI::App& app) {
         ->type_name("DIR");
 #endif
     refine->add_option("-o,--output", args->output, "write the JSON here instead of standard output");
+    addForceFlag(*refine, args->force);
     addBenchViewCommand(*bench);
     addBenchSettleCommand(*bench);
 

@@ -6,6 +6,7 @@
 #include <exception>
 #include <initializer_list>
 #include <memory>
+#include <span>
 #include <string>
 #include <utility>
 
@@ -62,12 +63,17 @@ std::pair<CLI::App*, Args*> addSubcommand(CLI::App& parent, std::string name, st
 
 // Refuses (CommandError) to write `output` over one of `inputs`, the same file by device and inode
 // (links, other spellings and hard links included: sameFile), unless `force`. Empty names are none.
-inline void refuseToOverwriteInput(const std::string& output, std::initializer_list<std::string> inputs,
+inline void refuseToOverwriteInput(const std::string& output, std::span<const std::string> inputs,
                                    bool force) {
     if (force || output.empty()) return;
     for (const std::string& input : inputs)
         if (!input.empty() && sameFile(input, output))
             throw CommandError(output + ": is the input " + input + "; not overwriting it without --force");
+}
+
+inline void refuseToOverwriteInput(const std::string& output, std::initializer_list<std::string> inputs,
+                                   bool force) {
+    refuseToOverwriteInput(output, std::span(inputs.begin(), inputs.size()), force);
 }
 
 // `--force` on `cmd`, into `force` (refuseToOverwriteInput).

@@ -198,12 +198,14 @@ void addKeepNormalsOption(CLI::App& cmd, bool& keep) {
 }
 
 void addColumnsOption(CLI::App& cmd, std::vector<std::string>& columns) {
-    cmd.add_option("--columns", columns,
-                   "text input (.xyz .txt .pts .csv): the names of its columns, left to right, e.g. "
-                   "x,y,z,nx,ny,nz,r,g,b (names: x y z nx ny nz r g b rf gf bf radius; other names are "
-                   "carried through as attributes); default: the file's header line, else by their "
-                   "number (README, Use)")
-        ->delimiter(',')
+    // One argument, split at its commas here: a list option of CLI11 would take the input file's
+    // name after it for one more column.
+    cmd.add_option_function<std::string>(
+           "--columns", [&columns](const std::string& names) { columns = CLI::detail::split(names, ','); },
+           "text input (.xyz .txt .pts .csv): the names of its columns, left to right, e.g. "
+           "x,y,z,nx,ny,nz,r,g,b (names: x y z nx ny nz r g b rf gf bf radius; other names are "
+           "carried through as attributes); default: the file's header line, else by their "
+           "number (README, Use)")
         ->type_name("NAME,...");
 }
 

@@ -646,9 +646,22 @@ class AsciiReader {
                                        element.count));
     }
 
+    // A row's values lie on one line (rowLine_, the line of its first value), so that a line with
+    // a value too few or too many is an error there, not a shift of every value after it.
+    Error shortRow(const Element& element, std::uint64_t row) const {
+        return fail(file_, fmt::format("line {}: fewer values than {} {} has properties ({})", rowLine_,
+                                       printable(element.name), row, element.properties.size()));
+    }
+
     Result<void> readValue(const Element& element, std::size_t row, ScalarType type, double& value) {
         const std::string_view token = nextToken();
         if (token.empty()) return truncated(element, row);
+        if (firstOfRow_) {
+            rowLine_ = line_;
+            firstOfRow_ = false;
+        } else if (line_ != rowLine_) {
+            return shortRow(element, row);
+        }
         if (!parseValue(token, type, value))
             return fail(file_, fmt::format("bad number '{}' at line {} ({} {})", printable(token), line_,
                                            printable(element.name), row));
@@ -668,6 +681,7 @@ class AsciiReader {
         RowValues values = rowValues(layout);
         double scratch = 0.0;
         for (std::size_t i = 0; i < count; ++i) {
+            firstOfRow_ = true;
             for (std::size_t p = 0; p < element.properties.size(); ++p) {
                 const Property& property = element.properties[p];
                 if (!property.isList) {
@@ -694,6 +708,10 @@ class AsciiReader {
                     if (const char* problem = addPolygon(out.triangles, indices_.data(), length))
                         return fail(file_, fmt::format("{} in face {} (line {})", problem, i, line_));
             }
+            if (!atEndOfLine())
+                return fail(file_,
+                            fmt::format("line {}: more values than {} {} has properties ({})", rowLine_,
+                                        printable(element.name), i, element.properties.size()));
             if (isVertex)
                 if (const char* problem = storeVertex(out.points, layout, i, values))
                     return fail(file_, fmt::format("{} at vertex {} (line {})", problem, i, line_));
@@ -701,11 +719,19 @@ class AsciiReader {
         return {};
     }
 
+    // Whether only blanks follow on the current line (or the body ends).
+    bool atEndOfLine() {
+        while (p_ < end_ && isSpace(*p_) && *p_ != '\n') ++p_;
+        return p_ == end_ || *p_ == '\n';
+    }
+
     const char* p_;
     const char* end_;
     std::string_view file_;
     const PlyReadOptions& options_;
     std::uint64_t line_;
+    std::uint64_t rowLine_ = 0;
+    bool firstOfRow_ = true;
     std::vector<double> indices_;
 };
 

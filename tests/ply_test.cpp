@@ -232,6 +232,25 @@ TEST_F(PlyTest, WrittenBinaryHeaderIsAsSpecified) {
     EXPECT_EQ(text.size(), end + 11 + 3 * (7 * 4 + 3));
 }
 
+// A file whose every normal is 0 0 0 (a Gaussian-splatting scene; exporters that write no normal
+// so) has none: its normals are estimated where they may be, and it fails where they are required.
+// One zero normal among others stays an error (ZeroNormal, TinyNormal among the bad files).
+TEST_F(PlyTest, AFileOfZeroNormalsHasNone) {
+    const fs::path path = writeFile("zeros.ply", asciiHeader(3) + "0 0 0 0 0 0\n1 0 0 0 0 0\n0 1 0 0 0 0\n");
+    const Result<PlyData> optional = readPly(path, {.requireNormals = false});
+    ASSERT_TRUE(optional.ok()) << optional.error().message;
+    EXPECT_EQ(optional->points.size(), 3u);
+    EXPECT_TRUE(optional->points.normal.empty());
+    EXPECT_TRUE(optional->zeroNormals);
+    const Result<PlyData> required = readPly(path);
+    ASSERT_FALSE(required.ok());
+    EXPECT_NE(required.error().message.find("every normal is zero"), std::string::npos);
+    const Result<PlyData> given =
+        readPly(writeFile("given.ply", asciiHeader(2) + "0 0 0 0 0 1\n1 0 0 0 1 0\n"));
+    ASSERT_TRUE(given.ok()) << given.error().message;
+    EXPECT_FALSE(given->zeroNormals);
+}
+
 // --- Layouts and types -----------------------------------------------------------------------
 
 TEST_F(PlyTest, AsciiWithShuffledPropertiesExtrasListsAndFaces) {
@@ -648,7 +667,8 @@ std::vector<BadFile> badFiles() {
         {"BinaryNanNormal", binary + binaryBody({{1, 2, 3, 0, nan, 1}}) + goodRow,
          "non-finite normal at vertex 0"},
         {"ZeroNormal", ascii + "1 2 3 0 0 1\n1 2 3 0 0 0\n", "zero-length normal at vertex 1"},
-        {"TinyNormal", ascii + "1 2 3 1e-13 0 0\n1 2 3 0 0 1\n", "zero-length normal at vertex 0"},
+        {"TinyNormal", ascii + "1 2 3 1e-13 0 0\n1 2 3 0 0 1\n",
+         "a normal after rows whose normals are zero at vertex 1"},
         {"NegativeRadius", radiusHeader + "0 0 0 0 0 1 -0.5\n", "radius"},
         {"InfiniteRadius", radiusHeader + "0 0 0 0 0 1 inf\n", "radius"},
         {"NanRadius", radiusHeader + "0 0 0 0 0 1 nan\n", "radius"},

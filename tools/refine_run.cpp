@@ -239,6 +239,8 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments,
     if (!unused.empty())
         fmt::print(stderr, "pnsplat: warning: {}: not used, dropped: {}\n", inputName(path),
                    fmt::join(unused, "; "));
+    if (data.zeroNormals)
+        fmt::print(stderr, "pnsplat: {}: every normal is 0 0 0: taken as none\n", inputName(path));
     if (file.skippedPoints > 0)
         fmt::print(stderr,
                    "pnsplat: {}: {} point(s) with a NaN position (holes of an organised cloud) left out\n",

@@ -410,6 +410,8 @@ class PcdReader {
         if (!read) return read.error();
         if (n_ == 0) return fail(file_, fmt::format("no points ({} with a NaN position left out)", skipped_));
         out.points.resize(n_);
+        if (Result<void> normals = detail::settleZeroNormals(out, options_.requireNormals, file_); !normals)
+            return normals.error();
         skipped = skipped_;
         return out;
     }

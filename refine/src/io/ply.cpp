@@ -778,6 +778,10 @@ Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options
     }
     }
     if (!read) return read.error();
+    if (Result<void> normals =
+            detail::settleZeroNormals(out, options.requireNormals && !options.readFaces, file);
+        !normals)
+        return normals.error();
 
     const std::size_t n = out.points.size();
     for (std::size_t t = 0; t < out.triangles.size(); ++t)

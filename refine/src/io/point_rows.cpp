@@ -244,6 +244,16 @@ void sizePoints(PointSet& points, const RowLayout& layout, bool colour, std::siz
     if (layout.crease) points.crease.resize(n);
 }
 
+Result<void> settleZeroNormals(PlyData& data, bool required, std::string_view file) {
+    PointSet& points = data.points;
+    if (points.normal.empty() || points.normal[0] != glm::vec3(0.0f)) return {};
+    if (required) return fail(file, "every normal is zero (0 0 0)");
+    points.normal.clear();
+    points.crease.clear(); // second normals without a first
+    data.zeroNormals = true;
+    return {};
+}
+
 const char* storeRow(PointSet& points, const RowLayout& layout, std::size_t i,
                      const std::array<double, kRowSlots>& v) {
     const auto x = static_cast<float>(v[kX]);
@@ -254,8 +264,11 @@ const char* storeRow(PointSet& points, const RowLayout& layout, std::size_t i,
     if (layout.normal) {
         if (!finiteFloats(v[kNx], v[kNy], v[kNz])) return "non-finite normal";
         const auto n = unitDirection(v[kNx], v[kNy], v[kNz]);
-        if (!n) return "zero-length normal";
-        points.normal[i] = *n;
+        // Zero normals are kept while every row before has one too (settleZeroNormals).
+        const bool noneBefore = i == 0 || points.normal[i - 1] == glm::vec3(0.0f);
+        if (!n && !noneBefore) return "zero-length normal";
+        if (n && i > 0 && noneBefore) return "a normal after rows whose normals are zero";
+        points.normal[i] = n ? *n : glm::vec3(0.0f);
     }
     if (layout.crease) {
         if (!finiteFloats(v[kNx2], v[kNy2], v[kNz2])) return "non-finite crease normal";

@@ -19,6 +19,7 @@
 #include <glm/vec3.hpp>
 
 #include "pnsplat/refine/io/output_file.h"
+#include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
 
@@ -69,11 +70,17 @@ struct RowLayout {
 void sizePoints(PointSet& points, const RowLayout& layout, bool colour, std::size_t n);
 
 // Checks row `i` (values by slot; colour apart) and stores it into `points`; returns the problem
-// ("non-finite coordinate", "zero-length normal", ...), or nullptr when the row is valid. The
+// ("non-finite coordinate", "zero-length normal", ...), or nullptr when the row is valid. Zero
+// normals are stored while every row before has one (settleZeroNormals decides after the last). The
 // crease convention is ply.h's: with the flag, 0 is an ordinary point; without it, a point is
 // ordinary when n2 is zero or equal to n.
 const char* storeRow(PointSet& points, const RowLayout& layout, std::size_t i,
                      const std::array<double, kRowSlots>& v);
+
+// After the last row: a file whose every normal is zero (an exporter that writes 0 0 0 for no
+// normal, a Gaussian-splatting scene) has none, as if it had no normal columns (data.zeroNormals
+// says so), or fails where normals are `required`.
+Result<void> settleZeroNormals(PlyData& data, bool required, std::string_view file);
 
 // The floats a written row carries, in order: x y z nx ny nz, the radius where the set has radii,
 // nx2 ny2 nz2 where it has creases (an ordinary point's second normal repeats its normal, ply.h's

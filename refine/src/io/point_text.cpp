@@ -256,6 +256,8 @@ class TextReader {
         if (n == 0) return fail(file_, "no points");
         out.points.resize(n);
         if (columns_.colour) storeColours(out.points);
+        if (Result<void> normals = detail::settleZeroNormals(out, options_.requireNormals, file_); !normals)
+            return normals.error();
         return out;
     }
 

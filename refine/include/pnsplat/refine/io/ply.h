@@ -34,6 +34,7 @@ struct PlyReadOptions {
     bool readFaces = false;
     // When cleared, nx ny nz may be absent as a whole (a scan of positions only): PointSet::normal
     // is then left empty, for estimateNormals (normal_estimation.h). Some of them alone stay an error.
+    // A file whose every normal is zero (0 0 0) has none then too (PlyData::zeroNormals); set, it fails.
     bool requireNormals = true;
 };
 
@@ -49,6 +50,8 @@ struct PlyData {
         std::uint64_t count = 0;
     };
     std::vector<Element> unusedElements;
+    // Every normal of the file was zero (0 0 0): read as none (`points` has no normals).
+    bool zeroNormals = false;
     // The header's `comment` and `obj_info` lines as they stand, from the keyword on (writePly
     // can carry them on).
     std::vector<std::string> comments;

@@ -55,6 +55,15 @@ TEST(HoleDetection, ACutOutCapIsFoundWithItsSize) {
     EXPECT_FLOAT_EQ(relative.maxSize, 2.0f);
     EXPECT_EQ(relative.holes[0].ball.centre, hole.ball.centre);
     EXPECT_NEAR(search.spacing, 0.056f, 0.01f);
+    // A size past the model's diagonal is the diagonal: the same hole (sizes of 1e6 and more
+    // found none or others, the empty balls' far centres rounded past the spacing).
+    for (const float huge : {1e6f, 1e30f}) {
+        const HoleSearch past = findHoles(sphere, huge, false, 2);
+        EXPECT_GT(past.maxSize, 3.4f);
+        EXPECT_LT(past.maxSize, 3.5f); // the bounding box's diagonal, about 2 sqrt(3)
+        ASSERT_EQ(past.holes.size(), 1u) << huge;
+        EXPECT_EQ(past.holes[0].ball.centre, hole.ball.centre);
+    }
 }
 
 TEST(HoleDetection, AHoleWiderThanTheSizeIsLeftOpen) {

@@ -312,6 +312,10 @@ void addFoundHoles(const PointSet& points, RefineJob& job, RefineRun& run, const
         detail += fmt::format("{}{:.4g} across at {:.4g},{:.4g},{:.4g}", detail.empty() ? ": " : "; ",
                               hole.size, hole.ball.centre.x, hole.ball.centre.y, hole.ball.centre.z);
     const std::size_t alsoGiven = found.holes.size() - run.holesFound;
+    if (found.maxSize == 0.0f) {
+        fmt::print(stderr, "pnsplat: {}: too few points to look for holes (--fill-holes)\n", inputName);
+        return;
+    }
     fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}{}\n", inputName,
                found.holes.size(), found.maxSize, detail,
                alsoGiven == 0 ? "" : fmt::format("; {} of them given by --fill-hole too", alsoGiven),

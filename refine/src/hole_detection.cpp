@@ -193,7 +193,14 @@ HoleSearch findHoles(const PointSet& points, float maxSize, bool relative, unsig
 
     const Nearest nearest = findNearest(points, tree, pool);
     search.spacing = median(nearest.spacing);
-    const float size = relative ? maxSize * search.spacing : maxSize;
+    // No hole is wider than the model: a larger size asks for the same holes (and an empty ball of
+    // radius far past the model's would be searched around a centre rounded past the spacing).
+    glm::vec3 lo = points.position[0], hi = lo;
+    for (const glm::vec3& p : points.position) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    const float size = std::min(relative ? maxSize * search.spacing : maxSize, glm::distance(lo, hi));
     if (!(size > 0.0f) || !std::isfinite(size)) return search;
     search.maxSize = size;
 

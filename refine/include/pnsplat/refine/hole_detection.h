@@ -57,11 +57,13 @@ struct HoleSearch {
     std::vector<FoundHole> holes;    // of size at most maxSize, in order of their first rim point
     std::vector<FoundHole> tooLarge; // closed rims wider than maxSize (left open)
     float spacing = 0.0f;            // the median nearest-point distance of the input
-    float maxSize = 0.0f;            // the size asked for, in model units (0: nothing searched)
+    float maxSize =
+        0.0f; // the size asked for, in model units, at most the model's diagonal (0: nothing searched)
 };
 
 // The holes of `points` (unit normals needed; distinct positions) up to `maxSize` wide, in model
-// units, or, with `relative`, in multiples of the median nearest-point distance. Fewer than
+// units, or, with `relative`, in multiples of the median nearest-point distance; a size past the
+// diagonal of the points' bounding box is that diagonal. Fewer than
 // kHoleNearest + 1 points or a maxSize that is not positive and finite: nothing found.
 HoleSearch findHoles(const PointSet& points, float maxSize, bool relative = false, unsigned threads = 0);
 

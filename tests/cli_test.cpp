@@ -194,6 +194,47 @@ TEST(CliRefine, OversizedRadiiRefineWithAWarning) {
     EXPECT_EQ(estimated.err, "");
 }
 
+// A scan in georeferenced coordinates, far from the origin: single precision rounds its positions
+// by more than its spacing, which a warning says (the same sphere at the origin gets none).
+TEST(CliRefine, CoordinatesTooLargeForTheSpacingGetAWarning) {
+    const TempDir dir;
+    PointSet sphere = sampleSphereUniform(400, 1.0f);
+    const fs::path near = dir / "near.ply", far = dir / "far.ply", out = dir / "out.ply";
+    ASSERT_TRUE(writePly(near, sphere).ok());
+    for (glm::vec3& p : sphere.position) p += glm::vec3(5e5f, -2e6f, 0.0f);
+    ASSERT_TRUE(writePly(far, sphere).ok());
+    const RunResult atOrigin = run("refine " + quote(near) + " -l 1 -o " + quote(out));
+    ASSERT_TRUE(atOrigin.exited && atOrigin.exitCode == 0) << atOrigin.err;
+    EXPECT_EQ(atOrigin.err.find("coordinates as large as"), std::string::npos) << atOrigin.err;
+    const RunResult away = run("refine " + quote(far) + " -l 1 -o " + quote(out));
+    std::cout << "[refine, far from the origin] exit " << away.exitCode << ": " << away.err;
+    EXPECT_NE(away.err.find("warning: " + far.string() + ": coordinates as large as 2e+06"),
+              std::string::npos)
+        << away.err;
+}
+
+// What a new user tried (thirty-fifth session): --columns takes one argument (its names split at
+// commas), so a file after it is not taken for a column; bench refine refuses a sphere of fewer
+// than 3 points and to write its JSON over its input.
+TEST(CliRefine, ListsAndOutputsOfANewUsersPass) {
+    const TempDir dir;
+    const fs::path in = dir / "scan.xyz", out = dir / "out.ply";
+    writeText(in, "0 0 0\n1 0 0\n0 1 0\n1 1 0.1\n0.5 0.5 0.2\n");
+    EXPECT_TRUE(
+        failsCleanly(run("refine --columns x y z " + quote(in) + " -l 1 -o " + quote(out)), Exit::Usage));
+    EXPECT_FALSE(fs::exists(out));
+    const RunResult named = run("refine --columns x,y,z " + quote(in) + " -l 1 -o " + quote(out));
+    EXPECT_TRUE(named.exited && named.exitCode == 0) << named.err;
+    EXPECT_NE(named.out.find("5 points in"), std::string::npos) << named.out;
+    EXPECT_TRUE(failsCleanly(run("bench refine --sphere-points 2 --repeat 1"), Exit::Usage));
+    const std::string before = "0 0 0\n";
+    const fs::path victim = dir / "victim.xyz";
+    writeText(victim, before);
+    EXPECT_TRUE(
+        failsCleanly(run("bench refine --input " + quote(victim) + " -o " + quote(victim)), Exit::Failure));
+    EXPECT_EQ(readText(victim), before);
+}
+
 // Estimated radii that still reach more than kMaxNeighbours points (a sparse grid of spacing 1
 // around a dense 40 x 40 patch of spacing 0.01): the warning names the uneven sampling and does
 // not advise --estimate-radii, which would change nothing. (--keep-outliers: the grid's 169 points,

@@ -127,6 +127,13 @@ TEST(CliRefine, CountsOutOfRangeGetAShortLine) {
         EXPECT_NE(r.err.find("must be a whole number of at least 1"), std::string::npos) << r.err;
         EXPECT_LT(r.err.size(), 160u) << r.err;
     }
+    // NaN and infinity too, which CLI11's ranges let through (`--orbit nan` reached the camera).
+    for (const std::string bad : {"render --orbit nan", "render --background nan,0,0", "render --fov inf",
+                                  "bench view --target-fps nan", "refine --theta-f nan"}) {
+        const RunResult r = run(bad + " -o " + quote(out));
+        EXPECT_TRUE(failsCleanly(r, Exit::Usage)) << bad;
+        EXPECT_NE(r.err.find("must be a number from"), std::string::npos) << r.err;
+    }
     const RunResult diff = run("diff a.png b.png --max-rmse -1");
     EXPECT_TRUE(failsCleanly(diff, Exit::Usage));
     EXPECT_NE(diff.err.find("--max-rmse: must be a number of at least 0 (got -1)"), std::string::npos)

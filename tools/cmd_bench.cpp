@@ -675,7 +675,7 @@ void addBenchCommand(CLI::App& app) {
     render->add_option("--sizes", renderArgs->sizes, "splat counts")->delimiter(',')->capture_default_str();
     render->add_option("--splat-pixels", renderArgs->splatPixels, "splat diameters in pixels")
         ->delimiter(',')
-        ->check(CLI::Range(0.1, 256.0))
+        ->check(finiteRange(0.1, 256.0))
         ->capture_default_str();
     render->add_option("--width", renderArgs->width, "image width")
         ->check(CLI::Range(1u, 16384u))

@@ -190,8 +190,12 @@ void addBenchViewCommand(CLI::App& bench) {
         ->capture_default_str();
     view->add_option("--frames", args->frames, "frames to draw (default: 240, or the file's)")
         ->check(CLI::Range(std::size_t{1}, std::size_t{10000000}));
-    view->add_option("--width", args->engine.width, "image width in pixels")->capture_default_str();
-    view->add_option("--height", args->engine.height, "image height in pixels")->capture_default_str();
+    view->add_option("--width", args->engine.width, "image width in pixels")
+        ->check(CLI::Range(1u, 16384u))
+        ->capture_default_str();
+    view->add_option("--height", args->engine.height, "image height in pixels")
+        ->check(CLI::Range(1u, 16384u))
+        ->capture_default_str();
     view->add_option("--capture", args->capture, "write every frame as DIR/frame-NNNNN.png");
     view->add_flag("--lockstep", args->lockstep,
                    "each frame refines and uploads until settled before drawing (reproducible frames)");

@@ -212,10 +212,10 @@ void addRefineCommand(CLI::App& app) {
     cmd->add_flag("--no-smoothing", args->noSmoothing,
                   "baseline: insert plain centroids (no PN displacement)");
     cmd->add_option("--theta-f", args->thetaFDegrees, "fuzzy-plane tolerance in degrees")
-        ->check(CLI::Range(1.0, 89.0))
+        ->check(finiteRange(1.0, 89.0))
         ->capture_default_str();
     cmd->add_option("--theta-b", args->thetaBDegrees, "boundary gap threshold in degrees, (120, 180]")
-        ->check(CLI::Range(120.001, 180.0))
+        ->check(finiteRange(120.001, 180.0))
         ->capture_default_str();
     cmd->add_option(
            "--even-out", args->evenOut,

@@ -16,6 +16,7 @@
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 #pragma GCC diagnostic pop
 
 #include "command_error.h"
@@ -48,6 +49,22 @@ inline const CLI::Validator kNonNegative(
         return "must be a number of at least 0 (got " + value + ")";
     },
     "NUMBER>=0");
+
+// CLI::Range for floating-point options, refusing NaN too (CLI11's lets it through: every
+// comparison with NaN is false, and `--orbit nan` reached the camera as one).
+inline CLI::Validator finiteRange(double lo, double hi) {
+    return CLI::Validator(
+        [lo, hi](std::string& value) -> std::string {
+            std::size_t used = 0;
+            try {
+                if (const double x = std::stod(value, &used); used == value.size() && x >= lo && x <= hi)
+                    return {};
+            } catch (const std::exception&) {
+            }
+            return fmt::format("must be a number from {:g} to {:g} (got {})", lo, hi, value);
+        },
+        fmt::format("NUMBER in [{:g}, {:g}]", lo, hi));
+}
 
 // Adds the subcommand `name` to `parent`: its options fill the returned Args (which the subcommand
 // owns), and `run` runs with them once the command line is parsed. Returns the subcommand, for the

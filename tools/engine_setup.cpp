@@ -49,7 +49,7 @@ void addBackgroundOption(CLI::App& cmd, std::vector<float>& background) {
     cmd.add_option("--background", background, "background colour r,g,b in [0, 1]")
         ->delimiter(',')
         ->expected(3)
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(finiteRange(0.0, 1.0));
 }
 
 void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requiresFlag) {
@@ -62,7 +62,7 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     cmd.add_flag("--validation", args.validation,
                  "load the Vulkan validation layer; any message fails the command");
     cmd.add_option("--radius-scale", args.radiusScale, "splat radius as a multiple of the point radius")
-        ->check(CLI::Range(0.01, 100.0))
+        ->check(finiteRange(0.01, 100.0))
         ->capture_default_str();
     cmd.add_flag("--hard-edges", args.hardEdges,
                  "cover each pixel of the outer silhouette whole (default: blended toward the background by "
@@ -75,10 +75,10 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     cmd.add_option("--threshold", args.threshold,
                    with + "splat diameter wanted on screen, pixels: the median splat drawn (silhouettes are "
                           "refined finer)")
-        ->check(CLI::Range(0.01, 1000.0))
+        ->check(finiteRange(0.01, 1000.0))
         ->capture_default_str();
     cmd.add_option("--cache-mb", args.cacheMb, with + "the GPU cache of points, MiB (32 bytes a point)")
-        ->check(CLI::Range(0.001, 1048576.0))
+        ->check(finiteRange(0.001, 1048576.0))
         ->capture_default_str();
     // bench view and view also take --threads, the name (render's --threads would be
     // ambiguous beside --refine-levels, whose refinement uses every core).
@@ -100,7 +100,7 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
     cmd.add_option("--target-fps", args.targetFps,
                    with + "keep this frame rate: where frames are slower, splats larger than --threshold are "
                           "drawn (the threshold in force is reported); 0: never")
-        ->check(CLI::Range(0.0, 1000.0))
+        ->check(finiteRange(0.0, 1000.0))
         ->capture_default_str();
 }
 
@@ -109,22 +109,24 @@ CLI::Option* addCameraOptions(CLI::App& cmd, CameraArgs& args) {
         cmd.add_option("--camera", args.camera,
                        "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz (as render prints it)")
             ->delimiter(',')
-            ->expected(9);
+            ->expected(9)
+            ->check(finiteRange(-1e30, 1e30));
     cmd.add_option("--up", args.up,
                    "the model's up axis; auto: the axis of its broadest base, else y (see README, Use)")
         ->check(CLI::IsMember({"auto", "x", "y", "z"}))
         ->excludes(camera)
         ->capture_default_str();
     cmd.add_option("--orbit", args.orbitDegrees, "turn the framing camera about the up axis, degrees")
+        ->check(finiteRange(-1e6, 1e6))
         ->excludes(camera)
         ->capture_default_str();
     cmd.add_option("--elevation", args.elevationDegrees,
                    "raise the framing camera towards the up axis, degrees")
-        ->check(CLI::Range(-89.0, 89.0))
+        ->check(finiteRange(-89.0, 89.0))
         ->excludes(camera)
         ->capture_default_str();
     cmd.add_option("--fov", args.fovDegrees, "vertical field of view, degrees")
-        ->check(CLI::Range(1.0, 179.0))
+        ->check(finiteRange(1.0, 179.0))
         ->capture_default_str();
     return camera;
 }

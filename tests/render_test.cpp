@@ -984,7 +984,9 @@ TEST(ImageTest, KnownDifferenceGivesExactFigures) {
 
 TEST(ImageTest, SizeMismatchAndMissingFilesAreErrors) {
     EXPECT_FALSE(engine::compareImages(RgbaImage(4, 4), RgbaImage(4, 5)).ok());
-    EXPECT_FALSE(engine::readPng("/nonexistent/image.png").ok());
+    const auto missing = engine::readPng("/nonexistent/image.png");
+    ASSERT_FALSE(missing.ok());
+    EXPECT_EQ(missing.error().message, "/nonexistent/image.png: no such file"); // not stb's "can't fopen"
     EXPECT_FALSE(engine::writePng("/nonexistent/dir/image.png", RgbaImage(2, 2)).ok());
 }
 

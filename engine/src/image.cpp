@@ -37,6 +37,8 @@ Result<void> writePng(const std::filesystem::path& path, const RgbaImage& image)
 }
 
 Result<RgbaImage> readPng(const std::filesystem::path& path) {
+    std::error_code error;
+    if (!std::filesystem::exists(path, error) && !error) return Error{path.string() + ": no such file"};
     int width = 0, height = 0, channels = 0;
     stbi_uc* data = stbi_load(path.c_str(), &width, &height, &channels, 4);
     if (data == nullptr) {

@@ -54,7 +54,10 @@ void main() {
         for (int x = x0; x <= x1; ++x) {
             float t, rho2, rx, invRayLength;
             uint i = pixelIndex(ivec2(x, y));
-            if (!conicHit(k, row, x, t, rho2, rx, invRayLength) || t > uintBitsToFloat(texelFetch(depthTexels, int(i)).x))
+            // Not where the visibility pass left the depth cleared (its pushed depth overflowed): the
+            // normalization draws no tile without a depth (compute_normalize.comp, scanTile).
+            uint depth = texelFetch(depthTexels, int(i)).x;
+            if (!conicHit(k, row, x, t, rho2, rx, invRayLength) || depth == kDepthCleared || t > uintBitsToFloat(depth))
                 continue;
             float w = splatWeight(rho2);
             if (kOneColour) {

@@ -14,7 +14,8 @@
 // memset on lavapipe.
 #include "splat_common.glsl"
 
-// 32 × 32 invocations, a pair of pixels each, draw a tile; the scan's 32 × 1 read its 32 rows each.
+// 32 × 32 invocations, a pair of pixels each, draw a tile (kTileWidth = 2 × 32, kTileHeight = 32);
+// the scan's 32 × 1 read its 32 rows each.
 layout(local_size_x = 32, local_size_y = 32, local_size_y_id = 2) in;
 
 // Every splat has the colour frame.colour (compute_accumulate.comp).
@@ -25,12 +26,12 @@ layout(constant_id = 1) const bool kTileScan = false;
 layout(set = 0, binding = kBindingDepthTexels) uniform usamplerBuffer depthTexels; // float bits
 layout(set = 0, binding = kBindingAccumTexels) uniform usamplerBuffer accumTexels;  // low, high words
 layout(set = 0, binding = kBindingOutput, std430) writeonly buffer OutputBlock { uint pixels[]; }; // RGBA8
-layout(set = 0, binding = kBindingTiles, std430) buffer TileBlock { uint tiles[]; };
-// The indirect dispatch's x (its y and z are 1), then a flag per tile: reached by a splat.
-layout(set = 0, binding = kBindingTileDispatch, std430) buffer TileDispatchBlock {
+// The indirect dispatch's x (its y and z are 1), then a flag per tile (reached by a splat) and the
+// list of the tiles reached: tileWords[tile] and tileWords[frame.picture.z + k].
+layout(set = 0, binding = kBindingTiles, std430) buffer TileBlock {
     uint tileCount;
     uint dispatchY, dispatchZ;
-    uint tileReached[];
+    uint tileWords[];
 };
 
 // No splat reached it: the visibility pass left its depth cleared (the accumulation pass adds at
@@ -111,7 +112,7 @@ void scanTile() {
         reached = reached || (p.x < size.x && p.y < size.y &&
                               (!uncoveredAt(p) || (p.x + 1 < size.x && !uncoveredAt(p + ivec2(1, 0)))));
     }
-    if (reached && atomicOr(tileReached[tile], 1u) == 0u) tiles[atomicAdd(tileCount, 1u)] = tile;
+    if (reached && atomicOr(tileWords[tile], 1u) == 0u) tileWords[frame.picture.z + atomicAdd(tileCount, 1u)] = tile;
 }
 
 // Each invocation draws a pair of pixels, (2x, y) and (2x + 1, y), of the tile its workgroup draws
@@ -121,7 +122,7 @@ void scanTile() {
 // Gaussian) counts as covered in the test and is drawn as background: the other of its pair is not
 // filled from it. Background is the one word frame.picture.y, as in the tiles not drawn.
 void drawPair() {
-    ivec2 first = pairIn(tiles[gl_WorkGroupID.x]);
+    ivec2 first = pairIn(tileWords[frame.picture.z + gl_WorkGroupID.x]);
     if (first.x >= int(frame.viewport.x) || first.y >= int(frame.viewport.y)) return;
     ivec2 second = first + ivec2(1, 0);
     bool pair = second.x < int(frame.viewport.x);

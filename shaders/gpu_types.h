@@ -72,10 +72,11 @@ PNSPLAT_CONST uint kBindingOutput = 5; // the picture, RGBA8 per pixel
 // sums as RG32UI texels (a 64-bit word each).
 PNSPLAT_CONST uint kBindingDepthTexels = 6;
 PNSPLAT_CONST uint kBindingAccumTexels = 7;
-// The normalization's tiles that splats reached (their indices, in any order) and their count, the
-// x of the normalization's indirect dispatch (VkDispatchIndirectCommand: x, y = 1, z = 1).
+// The normalization's tiles: the count of those that splats reached, the x of its indirect
+// dispatch (VkDispatchIndirectCommand: x, y = 1, z = 1), then a flag per tile (reached) and the
+// list of those reached (their indices, in any order). One buffer: with the depth, the sums and
+// the picture, four storage buffers, Vulkan's least maxPerStageDescriptorStorageBuffers.
 PNSPLAT_CONST uint kBindingTiles = 8;
-PNSPLAT_CONST uint kBindingTileDispatch = 9;
 // Graphics path: the accumulation targets, sampled by the normalization pass.
 PNSPLAT_CONST uint kBindingAccumColour = 2; // w·rgb, w
 PNSPLAT_CONST uint kBindingAccumNormal = 3; // w·normal
@@ -106,9 +107,9 @@ struct FrameUniforms {
     uvec4 flags;
     // The compute path's pipelines for splats of one colour: that colour, linear RGB (a unused).
     vec4 colour;
-    // Compute path: x, the normalization's tiles across the picture (kTileWidth pixels each); y, the
-    // background as written, RGBA8 (backgroundWord in splat_renderer.cpp: every pixel of it, in
-    // tiles drawn or not, is this one word); z and w unused.
+    // x, the compute path's normalization tiles across the picture (kTileWidth pixels each); y, the
+    // background as written, RGBA8 (backgroundWord in render_passes.h: every background pixel of
+    // either path is this one word); z, the tiles in all (the compute path); w unused.
     uvec4 picture;
 };
 

@@ -31,5 +31,7 @@ void main() {
     vec3 n = texelFetch(accumNormal, pixel, 0).xyz;
     vec3 rgb = shadePixel(cw.rgb, n, cw.a, pixelRay(centre));
     if (mayBlend(cw.a)) rgb = smoothEdge(rgb, cw.a, besideBackgroundIn(near, first, dx));
-    outColour = vec4(rgb, 1.0);
+    // Background is the compute path's word (backgroundWord): k / 255 converts back to k under
+    // any rounding, where the background itself may round either way on a half.
+    outColour = cw.a > 0.0 ? vec4(rgb, 1.0) : unpackUnorm4x8(frame.picture.y);
 }

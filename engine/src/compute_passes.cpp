@@ -25,8 +25,8 @@ class ComputePasses final : public RenderPasses {
     int count() const override { return 3; }
     std::vector<VkDescriptorSetLayoutBinding> bindings() const override {
         std::vector<VkDescriptorSetLayoutBinding> out;
-        for (const std::uint32_t b : {gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput,
-                                      gpu::kBindingTiles, gpu::kBindingTileDispatch})
+        for (const std::uint32_t b :
+             {gpu::kBindingDepth, gpu::kBindingAccum, gpu::kBindingOutput, gpu::kBindingTiles})
             out.push_back({b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
         for (const std::uint32_t b : {gpu::kBindingItems, gpu::kBindingDepthTexels, gpu::kBindingAccumTexels})
             out.push_back({b, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, VK_SHADER_STAGE_ALL, nullptr});
@@ -41,8 +41,6 @@ class ComputePasses final : public RenderPasses {
         writes.buffer(gpu::kBindingAccum, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accum_.buffer.get());
         writes.buffer(gpu::kBindingOutput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, output_.buffer.get());
         writes.buffer(gpu::kBindingTiles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, tiles_.buffer.get());
-        writes.buffer(gpu::kBindingTileDispatch, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                      tileDispatch_.buffer.get());
     }
     void record(VkCommandBuffer cmd, int pass, const PathFrame& frame) override;
     FrameOutput::Source output(VkCommandBuffer cmd) override {
@@ -67,8 +65,9 @@ class ComputePasses final : public RenderPasses {
     const RenderSettings& settings_;
     VkDevice device_;
     Buffer depthBits_, accum_, output_;
-    // The normalization's tiles that splats reached, and its indirect dispatch (their count, 1, 1).
-    Buffer tiles_, tileDispatch_;
+    // The normalization's indirect dispatch (the count of tiles reached, 1, 1), a flag per tile and
+    // the list of those reached (gpu::kBindingTiles).
+    Buffer tiles_;
     Unique<VkBufferView> depthTexels_, accumTexels_; // R32UI and RG32UI (gpu::kBindingDepthTexels, ...)
     std::array<Unique<VkPipeline>, 3> pipelines_;    // visibility, accumulation, normalization
     // Splats of one colour: accumulation and normalization.
@@ -106,10 +105,9 @@ void ComputePasses::create(VkPipelineLayout layout) {
     depthBits_ = createBuffer(context_, pixels * 4, kTexels, MemoryUse::Device);
     accum_ = createBuffer(context_, pixels * gpu::kAccumStride * 8, kTexels, MemoryUse::Device);
     output_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
-    const std::size_t tiles = std::size_t{tilesAcross()} * tilesDown();
-    tiles_ = createBuffer(context_, tiles * 4, kStorage, MemoryUse::Device);
-    tileDispatch_ = createBuffer(context_, sizeof(VkDispatchIndirectCommand) + tiles * 4,
-                                 kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUse::Device);
+    tiles_ = createBuffer(context_,
+                          sizeof(VkDispatchIndirectCommand) + std::size_t{tilesAcross()} * tilesDown() * 8,
+                          kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUse::Device);
     depthTexels_ = createTexelView(context_, depthBits_, VK_FORMAT_R32_UINT);
     accumTexels_ = createTexelView(context_, accum_, VK_FORMAT_R32G32_UINT);
     const auto visibility = shaderModule(device_, k_compute_visibility_comp);
@@ -139,10 +137,11 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         vkCmdFillBuffer(cmd, accum_.buffer.get(), 0, words * 8, 0u);
         // The picture is the background where the normalization draws no tile; no tile listed yet.
         vkCmdFillBuffer(cmd, output_.buffer.get(), 0, VK_WHOLE_SIZE, backgroundWord(settings_.background));
-        vkCmdFillBuffer(cmd, tileDispatch_.buffer.get(), 0, 4, 0u);
-        vkCmdFillBuffer(cmd, tileDispatch_.buffer.get(), 4, 8, 1u);
-        vkCmdFillBuffer(cmd, tileDispatch_.buffer.get(), sizeof(VkDispatchIndirectCommand), VK_WHOLE_SIZE,
-                        0u);
+        // No tile listed, no tile flagged (the list after the flags is written before it is read).
+        const std::size_t flags = std::size_t{tilesAcross()} * tilesDown() * 4;
+        vkCmdFillBuffer(cmd, tiles_.buffer.get(), 0, 4, 0u);
+        vkCmdFillBuffer(cmd, tiles_.buffer.get(), 4, 8, 1u);
+        vkCmdFillBuffer(cmd, tiles_.buffer.get(), sizeof(VkDispatchIndirectCommand), flags, 0u);
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else if (pass == 2) {
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
@@ -166,7 +165,7 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
             std::min(frame.workgroups, context_.properties().limits.maxComputeWorkGroupCount[0]);
         if (frame.workgroups > 0) vkCmdDispatch(cmd, row, (frame.workgroups + row - 1) / row, 1);
     } else {
-        vkCmdDispatchIndirect(cmd, tileDispatch_.buffer.get(), 0); // the tiles listed, pairs of pixels
+        vkCmdDispatchIndirect(cmd, tiles_.buffer.get(), 0); // the tiles listed, pairs of pixels
     }
 }
 

@@ -234,8 +234,9 @@ void SplatRenderer::Impl::submit(FrameRing& frames, VkBufferView splats,
     frame.flags = {settings.normalize ? 1u : 0u, slot.workgroups, settings.smoothEdges ? 1u : 0u,
                    settings.fillPinholes ? 1u : 0u};
     if (slot.oneColour) frame.colour = glm::vec4(linearColour(*oneColour), 1.0f);
-    frame.picture = {(settings.width + gpu::kTileWidth - 1) / gpu::kTileWidth,
-                     backgroundWord(settings.background), 0u, 0u};
+    const std::uint32_t tilesAcross = (settings.width + gpu::kTileWidth - 1) / gpu::kTileWidth;
+    frame.picture = {tilesAcross, backgroundWord(settings.background),
+                     tilesAcross * ((settings.height + gpu::kTileHeight - 1) / gpu::kTileHeight), 0u};
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
     const PathFrame pathFrame{pipelineLayout.get(), slot.set,       slot.rangeTexels.get(),
                               slot.workgroups,      slot.oneColour, draws};

@@ -97,8 +97,8 @@ ivec2 pairIn(uint tile) {
 }
 
 // The first dispatch, a workgroup of 32 invocations per tile, each reading the pairs of one column
-// of it: appends the tile to `tiles` when a splat reached a pixel of it (the first invocation to
-// flag it does). A tile no splat reached is all background: each of its pixels has zero weight
+// of it: appends the tile to the list in tileWords when a splat reached a pixel of it (the first
+// invocation to flag it does). A tile no splat reached is all background: each of its pixels has zero weight
 // (the accumulation adds only where the visibility pass wrote a depth), and none is a pinhole (one
 // of its four neighbours lies in the tile). No barrier: lavapipe runs a workgroup with barriers as
 // coroutines, and a scan of 32 × 32 invocations with two barriers cost about 1 ms at 640 × 480.

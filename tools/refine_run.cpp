@@ -227,15 +227,11 @@ namespace {
 // georeferenced coordinates: a bunny moved 1e6 away kept 24 distinct positions of its 3,500).
 void warnOfCoarseCoordinates(const PointSet& points, const std::string& name) {
     if (points.size() < 2) return;
-    glm::vec3 lo = points.position[0], hi = lo;
-    for (const glm::vec3& p : points.position) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    const glm::vec3 far = glm::max(glm::abs(lo), glm::abs(hi));
+    const Bounds bounds = boundsOf(points.position);
+    const glm::vec3 far = glm::max(glm::abs(bounds.lo), glm::abs(bounds.hi));
     const float largest = std::max({far.x, far.y, far.z});
     const float step = std::nextafter(largest, std::numeric_limits<float>::infinity()) - largest;
-    const float extent = glm::distance(lo, hi);
+    const float extent = bounds.diagonal();
     const float spacing = extent / std::sqrt(static_cast<float>(points.size())); // about, for a surface
     if (!(extent > 0.0f) || !(step > 0.01f * spacing)) return; // a model of no extent fails elsewhere
     fmt::print(stderr,
@@ -337,15 +333,15 @@ void addFoundHoles(const PointSet& points, RefineJob& job, RefineRun& run, const
         if (!meetsGiven(hole.ball)) job.holes.push_back(hole.ball);
     run.holesFound = job.holes.size() - given;
     run.holesLeftOpen = found.tooLarge.size();
+    if (found.maxSize == 0.0f) {
+        fmt::print(stderr, "pnsplat: {}: too few points to look for holes (--fill-holes)\n", inputName);
+        return;
+    }
     std::string detail;
     for (const FoundHole& hole : found.holes)
         detail += fmt::format("{}{:.4g} across at {:.4g},{:.4g},{:.4g}", detail.empty() ? ": " : "; ",
                               hole.size, hole.ball.centre.x, hole.ball.centre.y, hole.ball.centre.z);
     const std::size_t alsoGiven = found.holes.size() - run.holesFound;
-    if (found.maxSize == 0.0f) {
-        fmt::print(stderr, "pnsplat: {}: too few points to look for holes (--fill-holes)\n", inputName);
-        return;
-    }
     fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}{}\n", inputName,
                found.holes.size(), found.maxSize, detail,
                alsoGiven == 0 ? "" : fmt::format("; {} of them given by --fill-hole too", alsoGiven),

@@ -58,8 +58,7 @@ class ComputePasses final : public RenderPasses {
     // and compute_normalize.comp), `tileScan` its constant 1 (kTileScan of compute_normalize.comp).
     Unique<VkPipeline> pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour = false,
                                 bool tileScan = false) const;
-    std::uint32_t tilesAcross() const { return (settings_.width + gpu::kTileWidth - 1) / gpu::kTileWidth; }
-    std::uint32_t tilesDown() const { return (settings_.height + gpu::kTileHeight - 1) / gpu::kTileHeight; }
+    glm::uvec2 tiles() const { return normalizationTiles(settings_.width, settings_.height); }
 
     Context& context_;
     const RenderSettings& settings_;
@@ -105,9 +104,9 @@ void ComputePasses::create(VkPipelineLayout layout) {
     depthBits_ = createBuffer(context_, pixels * 4, kTexels, MemoryUse::Device);
     accum_ = createBuffer(context_, pixels * gpu::kAccumStride * 8, kTexels, MemoryUse::Device);
     output_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
-    tiles_ = createBuffer(context_,
-                          sizeof(VkDispatchIndirectCommand) + std::size_t{tilesAcross()} * tilesDown() * 8,
-                          kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUse::Device);
+    tiles_ =
+        createBuffer(context_, sizeof(VkDispatchIndirectCommand) + std::size_t{tiles().x} * tiles().y * 8,
+                     kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUse::Device);
     depthTexels_ = createTexelView(context_, depthBits_, VK_FORMAT_R32_UINT);
     accumTexels_ = createTexelView(context_, accum_, VK_FORMAT_R32G32_UINT);
     const auto visibility = shaderModule(device_, k_compute_visibility_comp);
@@ -138,7 +137,7 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         // The picture is the background where the normalization draws no tile; no tile listed yet.
         vkCmdFillBuffer(cmd, output_.buffer.get(), 0, VK_WHOLE_SIZE, backgroundWord(settings_.background));
         // No tile listed, no tile flagged (the list after the flags is written before it is read).
-        const std::size_t flags = std::size_t{tilesAcross()} * tilesDown() * 4;
+        const std::size_t flags = std::size_t{tiles().x} * tiles().y * 4;
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), 0, 4, 0u);
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), 4, 8, 1u);
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), sizeof(VkDispatchIndirectCommand), flags, 0u);
@@ -148,7 +147,7 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tileScan_.get());
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, frame.layout, 0, 1, &frame.set, 0,
                                 nullptr);
-        vkCmdDispatch(cmd, tilesAcross(), tilesDown(), 1);
+        vkCmdDispatch(cmd, tiles().x, tiles().y, 1);
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT,
                       kCompute | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
                       kRW | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);

@@ -13,6 +13,9 @@
 #include <span>
 #include <vector>
 
+#include <glm/vec2.hpp>
+
+#include "gpu_types.h"
 #include "pnsplat/engine/context.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/engine/splat_renderer.h"
@@ -73,10 +76,18 @@ std::unique_ptr<RenderPasses> makeGraphicsPasses(Context& context, const RenderS
 std::unique_ptr<RenderPasses> makePlainPointPasses(Context& context, const RenderSettings& settings);
 
 // The background pixel as one RGBA8 word (red in the low byte, alpha 255): the compute path fills
-// the picture with it at a frame's start and its normalization writes it (gpu::FrameUniforms::picture).
+// the picture with it at a frame's start, and both paths' normalizations write it for their
+// background pixels (gpu::FrameUniforms::picture).
 inline std::uint32_t backgroundWord(glm::vec3 background) {
     const glm::u8vec3 c = backgroundPixel(background);
     return std::uint32_t{c.x} | std::uint32_t{c.y} << 8 | std::uint32_t{c.z} << 16 | 0xFF000000u;
+}
+
+// The compute path's normalization tiles (gpu::kTileWidth × kTileHeight pixels) across and down a
+// picture of `width` × `height`.
+inline glm::uvec2 normalizationTiles(std::uint32_t width, std::uint32_t height) {
+    return {(width + gpu::kTileWidth - 1) / gpu::kTileWidth,
+            (height + gpu::kTileHeight - 1) / gpu::kTileHeight};
 }
 
 void bufferBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,

@@ -234,9 +234,8 @@ void SplatRenderer::Impl::submit(FrameRing& frames, VkBufferView splats,
     frame.flags = {settings.normalize ? 1u : 0u, slot.workgroups, settings.smoothEdges ? 1u : 0u,
                    settings.fillPinholes ? 1u : 0u};
     if (slot.oneColour) frame.colour = glm::vec4(linearColour(*oneColour), 1.0f);
-    const std::uint32_t tilesAcross = (settings.width + gpu::kTileWidth - 1) / gpu::kTileWidth;
-    frame.picture = {tilesAcross, backgroundWord(settings.background),
-                     tilesAcross * ((settings.height + gpu::kTileHeight - 1) / gpu::kTileHeight), 0u};
+    const glm::uvec2 tiles = normalizationTiles(settings.width, settings.height);
+    frame.picture = {tiles.x, backgroundWord(settings.background), tiles.x * tiles.y, 0u};
     std::memcpy(slot.uniforms.mapped, &frame, sizeof(frame));
     const PathFrame pathFrame{pipelineLayout.get(), slot.set,       slot.rangeTexels.get(),
                               slot.workgroups,      slot.oneColour, draws};
@@ -306,8 +305,8 @@ Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
         // The sums as storage (one or kAccumStride words a pixel) and as RG32UI texels.
         const std::size_t accumWords = std::size_t{settings.width} * settings.height * gpu::kAccumStride;
         // The normalization's tiles: a workgroup each, in one row of its indirect dispatch.
-        const std::size_t tiles = std::size_t{(settings.width + gpu::kTileWidth - 1) / gpu::kTileWidth} *
-                                  ((settings.height + gpu::kTileHeight - 1) / gpu::kTileHeight);
+        const glm::uvec2 grid = normalizationTiles(settings.width, settings.height);
+        const std::size_t tiles = std::size_t{grid.x} * grid.y;
         if (accumWords * 8 > limits.maxStorageBufferRange || accumWords > limits.maxTexelBufferElements ||
             tiles > limits.maxComputeWorkGroupCount[0])
             return Error{"image size " + std::to_string(settings.width) + "x" +

@@ -195,12 +195,8 @@ HoleSearch findHoles(const PointSet& points, float maxSize, bool relative, unsig
     search.spacing = median(nearest.spacing);
     // No hole is wider than the model: a larger size asks for the same holes (and an empty ball of
     // radius far past the model's would be searched around a centre rounded past the spacing).
-    glm::vec3 lo = points.position[0], hi = lo;
-    for (const glm::vec3& p : points.position) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    const float size = std::min(relative ? maxSize * search.spacing : maxSize, glm::distance(lo, hi));
+    const float size =
+        std::min(relative ? maxSize * search.spacing : maxSize, boundsOf(points.position).diagonal());
     if (!(size > 0.0f) || !std::isfinite(size)) return search;
     search.maxSize = size;
 

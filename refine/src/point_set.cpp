@@ -33,6 +33,15 @@ double representable(ScalarType type, double value) {
     }
 }
 
+Bounds boundsOf(std::span<const glm::vec3> positions) {
+    Bounds b;
+    for (const glm::vec3& x : positions) {
+        b.lo = glm::min(b.lo, x);
+        b.hi = glm::max(b.hi, x);
+    }
+    return b;
+}
+
 bool sameAttributes(const PointSet& a, const PointSet& b) {
     return std::equal(
         a.attributes.begin(), a.attributes.end(), b.attributes.begin(), b.attributes.end(),

@@ -79,20 +79,6 @@ inline double sourcedValue(const Attribute& attribute, const PointSource& source
     return representable(attribute.type, value);
 }
 
-// The axis-aligned bounding box of `positions`, and its longest side.
-struct Bounds {
-    glm::vec3 lo{std::numeric_limits<float>::max()}, hi{std::numeric_limits<float>::lowest()};
-    float extent() const { return std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}); }
-};
-Bounds boundsOf(std::span<const glm::vec3> positions) {
-    Bounds b;
-    for (const glm::vec3& x : positions) {
-        b.lo = glm::min(b.lo, x);
-        b.hi = glm::max(b.hi, x);
-    }
-    return b;
-}
-
 // P0 sorted along a Morton curve. Children are stored grouped by parent in parent order, so every
 // level inherits the order: points close in space are close in memory, and the hierarchy walks
 // and neighbourhood gathers touch few cache lines. Ties keep the input order.

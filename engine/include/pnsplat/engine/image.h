@@ -43,9 +43,8 @@ struct ImageDifference {
 Result<ImageDifference> compareImages(const RgbaImage& a, const RgbaImage& b, int pixelThreshold = 2);
 
 // The pixel the renderer writes where no splat is (RenderSettings::background, sRGB in [0, 1]):
-// each channel c · 255 rounded to the nearest integer, halves to even, in single precision. The
-// compute path writes this very word (gpu::FrameUniforms::picture); the graphics path's
-// conversion to its 8-bit target rounds so on lavapipe.
+// each channel c · 255 rounded to the nearest integer, halves to even, in single precision. Both
+// paths write this very pixel (gpu::FrameUniforms::picture), whatever the device's own rounding.
 glm::u8vec3 backgroundPixel(glm::vec3 background);
 
 // The pixels of an RGBA8 picture (4 bytes a pixel: RgbaImage::pixels, or a read-back buffer) whose

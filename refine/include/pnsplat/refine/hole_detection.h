@@ -57,8 +57,8 @@ struct HoleSearch {
     std::vector<FoundHole> holes;    // of size at most maxSize, in order of their first rim point
     std::vector<FoundHole> tooLarge; // closed rims wider than maxSize (left open)
     float spacing = 0.0f;            // the median nearest-point distance of the input
-    float maxSize =
-        0.0f; // the size asked for, in model units, at most the model's diagonal (0: nothing searched)
+    // The size asked for, in model units, at most the model's diagonal (0: nothing searched).
+    float maxSize = 0.0f;
 };
 
 // The holes of `points` (unit normals needed; distinct positions) up to `maxSize` wide, in model

@@ -17,13 +17,16 @@
 // attributes pays nothing for them: every per-point loop tests `attributes.empty()` once.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include <glm/geometric.hpp>
 #include <glm/gtc/type_precision.hpp>
 #include <glm/vec3.hpp>
 
@@ -80,6 +83,15 @@ struct PointSet {
     void appendCoreFrom(const PointSet& other, std::size_t i);
     void appendAttributesFrom(const PointSet& other, std::size_t i);
 };
+
+// The axis-aligned bounding box of `positions` (empty: lo above hi), its longest side and its
+// diagonal.
+struct Bounds {
+    glm::vec3 lo{std::numeric_limits<float>::max()}, hi{std::numeric_limits<float>::lowest()};
+    float extent() const { return std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}); }
+    float diagonal() const { return glm::distance(lo, hi); }
+};
+Bounds boundsOf(std::span<const glm::vec3> positions);
 
 // Whether two sets carry the same attributes: names and types, in the same order.
 bool sameAttributes(const PointSet& a, const PointSet& b);

@@ -369,6 +369,27 @@ engine::ImageDifference difference(const RgbaImage& a, const RgbaImage& b) {
     return d ? *d : engine::ImageDifference{};
 }
 
+// The compute path runs where the device allows its workgroups (1,024 invocations; Vulkan
+// guarantees 128) and has 64-bit atomics: lavapipe does; a device that does not is told to use the
+// graphics path, and `auto` chooses it (tools/engine_setup.cpp).
+TEST_F(RenderTest, TheComputePathNeedsWorkgroupsOf1024AndInt64Atomics) {
+    EXPECT_EQ(engine::computePathProblem(context()), std::nullopt);
+    const VkPhysicalDeviceLimits lavapipe = context().properties().limits;
+    EXPECT_EQ(engine::computePathProblem(lavapipe, true, "a device"), std::nullopt);
+    VkPhysicalDeviceLimits least = lavapipe; // Vulkan's guaranteed minimum
+    least.maxComputeWorkGroupInvocations = 128;
+    least.maxComputeWorkGroupSize[0] = least.maxComputeWorkGroupSize[1] = 128;
+    EXPECT_EQ(engine::computePathProblem(least, true, "a small GPU"),
+              "the compute path needs workgroups of 1024 invocations, 1024 in x, which a small GPU does not "
+              "allow (at most 128); use the graphics path");
+    VkPhysicalDeviceLimits narrow = lavapipe; // 1,024 invocations, but not in one row
+    narrow.maxComputeWorkGroupSize[0] = 512;
+    EXPECT_NE(engine::computePathProblem(narrow, true, "a device"), std::nullopt);
+    EXPECT_EQ(engine::computePathProblem(lavapipe, false, "a device"),
+              "the compute path needs 64-bit storage buffer atomics, which a device lacks; use the graphics "
+              "path");
+}
+
 TEST_F(RenderTest, ComputeAndGraphicsPathsAgree) {
     const PointSet model = withRadii(makeBumpySphere());
     const engine::Sphere bounds{{0, 0, 0}, 1.3f};

@@ -167,7 +167,7 @@ std::unique_ptr<engine::Context> createContext(const EngineArgs& args, engine::C
 
 engine::RenderPath choosePath(const std::string& path, const engine::Context& context) {
     if (path == "graphics") return engine::RenderPath::Graphics;
-    if (path == "compute" || context.hasInt64Atomics()) return engine::RenderPath::Compute;
+    if (path == "compute" || !engine::computePathProblem(context)) return engine::RenderPath::Compute;
     return engine::RenderPath::Graphics;
 }
 

@@ -286,6 +286,27 @@ void SplatRenderer::Impl::submit(FrameRing& frames, VkBufferView splats,
     }
 }
 
+std::optional<std::string> computePathProblem(const VkPhysicalDeviceLimits& limits, bool int64Atomics,
+                                              const std::string& device) {
+    if (!int64Atomics)
+        return "the compute path needs 64-bit storage buffer atomics, which " + device +
+               " lacks; use the graphics path";
+    // The splat passes' workgroups (splat_compute.glsl) and the normalization's (compute_normalize.comp).
+    constexpr std::uint32_t kNormalizeSide = 32;
+    const std::uint32_t invocations = std::max(gpu::kLocalSize, kNormalizeSide * kNormalizeSide);
+    if (limits.maxComputeWorkGroupInvocations < invocations ||
+        limits.maxComputeWorkGroupSize[0] < gpu::kLocalSize ||
+        limits.maxComputeWorkGroupSize[1] < kNormalizeSide)
+        return "the compute path needs workgroups of " + std::to_string(invocations) + " invocations, " +
+               std::to_string(gpu::kLocalSize) + " in x, which " + device + " does not allow (at most " +
+               std::to_string(limits.maxComputeWorkGroupInvocations) + "); use the graphics path";
+    return std::nullopt;
+}
+
+std::optional<std::string> computePathProblem(const Context& context) {
+    return computePathProblem(context.properties().limits, context.hasInt64Atomics(), context.deviceName());
+}
+
 Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
                                                              const RenderSettings& settings) {
     const auto& limits = context.properties().limits;
@@ -299,9 +320,7 @@ Result<std::unique_ptr<SplatRenderer>> SplatRenderer::create(Context& context,
         return Error{"render settings: radius scale must be positive, depth offset, sharpness and heat map "
                      "diameter non-negative"};
     if (settings.path == RenderPath::Compute) {
-        if (!context.hasInt64Atomics())
-            return Error{"the compute path needs 64-bit storage buffer atomics, which " +
-                         context.deviceName() + " lacks; use the graphics path"};
+        if (const auto problem = computePathProblem(context)) return Error{*problem};
         // The sums as storage (one or kAccumStride words a pixel) and as RG32UI texels.
         const std::size_t accumWords = std::size_t{settings.width} * settings.height * gpu::kAccumStride;
         // The normalization's tiles: a workgroup each, in one row of its indirect dispatch.

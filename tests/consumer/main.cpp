@@ -40,7 +40,7 @@ int main() {
     engine::EngineSettings settings;
     settings.render.width = settings.render.height = 64;
     settings.render.path =
-        (*context)->hasInt64Atomics() ? engine::RenderPath::Compute : engine::RenderPath::Graphics;
+        !engine::computePathProblem(**context) ? engine::RenderPath::Compute : engine::RenderPath::Graphics;
     auto created = engine::Engine::create(**context, refiner.points(), settings);
     if (!created) return fail("engine", created.error().message);
     engine::Engine& view = **created;

@@ -16,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <string>
 
 #include <glm/vec3.hpp>
 
@@ -34,6 +35,14 @@ enum class RenderPath {
     // a depth test. The benchmark's baseline (on lavapipe, raster cost is per primitive).
     PlainPoints,
 };
+
+// Why a device cannot run the compute path, or nothing: it needs 64-bit storage buffer atomics,
+// and workgroups of gpu::kLocalSize (1,024) invocations in one row for the splat passes and of
+// 32 × 32 for the normalization, where Vulkan guarantees only 128 invocations (lavapipe and most
+// GPUs allow 1,024). `device` names it in the message.
+std::optional<std::string> computePathProblem(const VkPhysicalDeviceLimits& limits, bool int64Atomics,
+                                              const std::string& device);
+std::optional<std::string> computePathProblem(const Context& context);
 
 struct RenderSettings {
     std::uint32_t width = 1280, height = 720;

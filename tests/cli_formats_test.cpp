@@ -80,6 +80,14 @@ TEST(CliFormats, ColumnsOptionNamesATextFilesColumns) {
         std::count(out->points.attributes[0].values.begin(), out->points.attributes[0].values.end(), 7.0),
         static_cast<std::ptrdiff_t>(out->points.size()));
     EXPECT_NE(r.err.find("has no normals"), std::string::npos) << r.err;
+
+    // A PLY file names its own properties: the option is not used, and the user is told.
+    ASSERT_TRUE(writePointFile(dir / "scan.ply", sphere).ok());
+    const RunResult ply = run("refine " + quote(dir / "scan.ply") + " --columns intensity,x,y,z,r -l 1 -o " +
+                              quote(dir / "out2.ply"));
+    ASSERT_TRUE(ply.exited && ply.exitCode == 0) << ply.err;
+    EXPECT_NE(ply.err.find("a PLY file names its own properties: --columns not used"), std::string::npos)
+        << ply.err;
 }
 
 TEST(CliFormats, RenderReadsPcd) {

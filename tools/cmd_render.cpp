@@ -155,10 +155,14 @@ void runCompare(const RenderArgs& args) {
     if (c.splats)
         fmt::print(
             summary,
-            "against {} ({} points, the same camera): PSNR input as splats {}, refined {} ({:+.2f} dB); "
-            "SSIM {:.4f}, {:.4f}\n",
+            "against {} ({} points, the same camera): PSNR input as splats {}, refined {}{}; SSIM {:.4f}, "
+            "{:.4f}\n",
             referenceName, referencePoints, decibels(c.splats->psnr), decibels(c.refined->psnr),
-            c.refined->psnr - c.splats->psnr, c.splats->ssim, c.refined->ssim);
+            // Only where both are finite: a picture identical to the reference has no decibels.
+            std::isfinite(c.splats->psnr) && std::isfinite(c.refined->psnr)
+                ? fmt::format(" ({:+.2f} dB)", c.refined->psnr - c.splats->psnr)
+                : "",
+            c.splats->ssim, c.refined->ssim);
     if (view)
         fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
                    viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);

@@ -266,6 +266,10 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments,
                    fmt::join(unused, "; "));
     if (data.zeroNormals)
         fmt::print(stderr, "pnsplat: {}: every normal is 0 0 0: taken as none\n", inputName(path));
+    if (!columns.empty() && file.kind != PointFileKind::Text)
+        fmt::print(stderr, "pnsplat: {}: a {} file names its own {}: --columns not used\n", inputName(path),
+                   file.kind == PointFileKind::Ply ? "PLY" : "PCD",
+                   file.kind == PointFileKind::Ply ? "properties" : "fields");
     if (file.skippedPoints > 0)
         fmt::print(stderr,
                    "pnsplat: {}: {} point(s) with a NaN position (holes of an organised cloud) left out\n",

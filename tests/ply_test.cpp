@@ -645,6 +645,9 @@ std::vector<BadFile> badFiles() {
         {"AsciiLongRow", ascii + "1 2 3 0 0 1\n1 2 3 0 0 1 7\n",
          "line 12: more values than vertex 1 has properties (6)"},
         {"AsciiTrailingJunk", ascii + "1 2 3 0 0 1\n1 2x 3 0 0 1\n", "bad number"},
+        // Rows beyond the header's count would be lost unseen (blank lines after the last are fine).
+        {"AsciiMoreRowsThanDeclared", ascii + "1 2 3 0 0 1\n1 2 3 0 0 1\n\n4 5 6 0 0 1\n",
+         "line 14: '4' after the last row the header declares (vertex 2)"},
         {"AsciiIntegerOutOfRange",
          "ply\nformat ascii 1.0\nelement vertex 1\n" + vertexProps +
              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n0 0 0 0 0 1 300 0 "

@@ -350,6 +350,8 @@ TEST(Pcd, ErrorsNameTheFileAndTheLine) {
         {xyz + "1 2 3\n4 5\n", "cloud.pcd: line 13: 2 values, expected 3"},
         {xyz + "1 2 3\n4 five 6\n", "cloud.pcd: line 13: 'five' is not a number (field y)"},
         {xyz + "1 2 3\n4 inf 6\n", "cloud.pcd: line 13: non-finite coordinate"},
+        {xyz + "1 2 3\n4 5 6\n \n7 8 9\n",
+         "cloud.pcd: line 15: a row after the 2 points the header declares"},
         {binary, "truncated binary data (room for 0 of 2 points)"},
         {pcdHeader("x y z", "4 4 4", "F F F", 0, "ascii"), "no points"},
     };

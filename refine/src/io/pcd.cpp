@@ -509,6 +509,15 @@ class PcdReader {
             if (const char* problem = store(values, rgb, out)) return lineError(problem);
             ++point;
         }
+        // Lines beyond POINTS (a count not updated by hand) would be lost unseen.
+        while (pos < body.size()) {
+            const std::size_t newline = std::min(body.find('\n', pos), body.size());
+            ++lineNumber;
+            if (body.substr(pos, newline - pos).find_first_not_of(" \t\r") != std::string_view::npos)
+                return fail(file_, fmt::format("line {}: a row after the {} points the header declares",
+                                               lineNumber, header_.points));
+            pos = newline + 1;
+        }
         return {};
     }
 

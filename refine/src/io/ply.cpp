@@ -589,10 +589,22 @@ class AsciiReader {
             Result<void> result = readElement(element, layout, out);
             if (!result) return result;
         }
+        // Rows beyond the header's counts (a count not updated by hand) would be lost unseen.
+        if (const std::string_view token = nextToken(); !token.empty())
+            return fail(file_, fmt::format("line {}: '{}' after the last row the header declares ({})", line_,
+                                           printable(token), declaredRows(header)));
         return {};
     }
 
   private:
+    // "vertex 3, face 1": each element and its count.
+    static std::string declaredRows(const Header& header) {
+        std::string rows;
+        for (const Element& element : header.elements)
+            rows += fmt::format("{}{} {}", rows.empty() ? "" : ", ", printable(element.name), element.count);
+        return rows;
+    }
+
     static bool isSpace(char c) {
         return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
     }

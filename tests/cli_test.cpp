@@ -34,9 +34,11 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "oracles.h"
 #include "pnsplat/engine/image.h"
 #include "pnsplat/refine/angles.h"
 #include "pnsplat/refine/io/ply.h"
+#include "pnsplat/refine/io/point_file.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/shapes/shapes.h"
 #include "program.h"
@@ -201,23 +203,81 @@ TEST(CliRefine, OversizedRadiiRefineWithAWarning) {
     EXPECT_EQ(estimated.err, "");
 }
 
-// A scan in georeferenced coordinates, far from the origin: single precision rounds its positions
-// by more than its spacing, which a warning says (the same sphere at the origin gets none).
-TEST(CliRefine, CoordinatesTooLargeForTheSpacingGetAWarning) {
+// A scan in georeferenced coordinates, far from 0 (PlyData::origin): held less an origin near it,
+// refined in single precision as the same scan near 0 is, bit for bit, and written back in double,
+// in every kind; a hole given in the file's coordinates is filled where it is. Held in single
+// precision in the file itself, its positions are rounded already: a warning says so.
+TEST(CliRefine, GeoreferencedCoordinatesAreRefinedLessAnOrigin) {
     const TempDir dir;
     PointSet sphere = sampleSphereUniform(400, 1.0f);
-    const fs::path near = dir / "near.ply", far = dir / "far.ply", out = dir / "out.ply";
-    ASSERT_TRUE(writePly(near, sphere).ok());
-    for (glm::vec3& p : sphere.position) p += glm::vec3(5e5f, -2e6f, 0.0f);
-    ASSERT_TRUE(writePly(far, sphere).ok());
-    const RunResult atOrigin = run("refine " + quote(near) + " -l 1 -o " + quote(out));
-    ASSERT_TRUE(atOrigin.exited && atOrigin.exitCode == 0) << atOrigin.err;
-    EXPECT_EQ(atOrigin.err.find("coordinates as large as"), std::string::npos) << atOrigin.err;
-    const RunResult away = run("refine " + quote(far) + " -l 1 -o " + quote(out));
-    std::cout << "[refine, far from the origin] exit " << away.exitCode << ": " << away.err;
-    EXPECT_NE(away.err.find("warning: " + far.string() + ": coordinates as large as 2e+06"),
+    for (glm::vec3& p : sphere.position) p += glm::vec3(1.5f); // in [0.5, 2.5]: exact beside the origin
+    const glm::vec3 pole(1.5f, 1.5f, 2.5f);
+    std::vector<std::uint32_t> cut; // a hole about the north pole
+    for (std::uint32_t i = 0; i < sphere.size(); ++i)
+        if (glm::distance(sphere.position[i], pole) < 0.35f) cut.push_back(i);
+    ASSERT_GT(cut.size(), 2u);
+    removePoints(sphere, cut);
+    const glm::dvec3 origin(500004.0, -2e6, 0.0);
+    const std::string hole = " --fill-hole 1.5,1.5,2.5,0.3";
+    ASSERT_TRUE(writePly(dir / "near.ply", sphere).ok());
+    const RunResult near =
+        run("refine " + quote(dir / "near.ply") + hole + " -l 1 -o " + quote(dir / "near-out.ply"));
+    ASSERT_TRUE(near.exited && near.exitCode == 0) << near.err;
+    EXPECT_EQ(near.err.find("origin"), std::string::npos) << near.err;
+    const Result<PlyData> nearOut = readPly(dir / "near-out.ply");
+    ASSERT_TRUE(nearOut.ok());
+    for (const char* kind : {".ply", ".xyz", ".pcd"}) {
+        const fs::path far = dir / (std::string("far") + kind), out = dir / (std::string("far-out") + kind);
+        ASSERT_TRUE(writePointFile(far, sphere, false, {}, origin).ok());
+        const RunResult r =
+            run("refine " + quote(far) + " --fill-hole 500005.5,-1999998.5,2.5,0.3 -l 1 -o " + quote(out));
+        ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
+        EXPECT_NE(r.err.find("coordinates near 500004, -2000000, 0: held less that origin, in single "
+                             "precision, and written back in double"),
+                  std::string::npos)
+            << r.err;
+        EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+        const Result<PointFileData> back = readPointFile(out);
+        ASSERT_TRUE(back.ok()) << back.error().message;
+        EXPECT_EQ(back->data.origin, origin) << kind;
+        EXPECT_GT(back->data.points.size(), 2 * sphere.size()) << kind;
+        EXPECT_TRUE(sameBits(back->data.points.position, nearOut->points.position)) << kind;
+        EXPECT_TRUE(sameBits(back->data.points.normal, nearOut->points.normal)) << kind;
+    }
+    EXPECT_NE(readText(dir / "far-out.ply").find("property double x\n"), std::string::npos);
+    // eval puts the files it reads on one origin: a reference of points with one more, 12 away,
+    // has another (500000: the multiple of 16 nearest its centre) and is moved to the refined
+    // points'; the same report as near 0 but for roundings.
+    PointSet reference = sphere;
+    reference.appendFrom(sphere, 0);
+    reference.position.back() = glm::vec3(1.5f, 1.5f, 12.5f);
+    ASSERT_TRUE(writePly(dir / "near-ref.ply", reference).ok());
+    ASSERT_TRUE(writePly(dir / "far-ref.ply", reference, PlyFormat::BinaryLittleEndian, {}, origin).ok());
+    const Result<PlyData> farReference = readPly(dir / "far-ref.ply");
+    ASSERT_TRUE(farReference.ok());
+    EXPECT_EQ(farReference->origin, glm::dvec3(500000.0, -2e6, 0.0));
+    const auto meanDistance = [&](const std::string& refined, const std::string& ref,
+                                  const std::string& input) {
+        const RunResult r = run("eval " + quote(dir / refined) + " --reference " + quote(dir / ref) +
+                                " --input " + quote(dir / input));
+        EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
+        EXPECT_NE(r.out.find("\"input_preserved\": true"), std::string::npos) << r.out;
+        const std::size_t at = r.out.find("\"mean\": ");
+        return at == std::string::npos ? -1.0 : std::stod(r.out.substr(at + 8));
+    };
+    const double nearMean = meanDistance("near-out.ply", "near-ref.ply", "near.ply");
+    EXPECT_GT(nearMean, 0.0);
+    EXPECT_NEAR(meanDistance("far-out.ply", "far-ref.ply", "far.ply"), nearMean, 1e-6);
+
+    for (glm::vec3& p : sphere.position) p += glm::vec3(5e5f, -2e6f, 0.0f); // single precision, far
+    ASSERT_TRUE(writePly(dir / "single.ply", sphere).ok());
+    const RunResult single =
+        run("refine " + quote(dir / "single.ply") + " -l 1 -o " + quote(dir / "out.ply"));
+    ASSERT_TRUE(single.exited && single.exitCode == 0) << single.err;
+    EXPECT_NE(single.err.find("warning: " + (dir / "single.ply").string() +
+                              ": coordinates far from 0 in single precision are rounded by about"),
               std::string::npos)
-        << away.err;
+        << single.err;
 }
 
 // What a new user tried (thirty-fifth session): --columns takes one argument (its names split at

@@ -75,6 +75,48 @@ TEST(PointFile, RoundTripsBitForBitThroughEveryKind) {
     }
 }
 
+// Coordinates far from 0 for their spacing (PlyData::origin): read in the precision the file holds,
+// held less an origin near them, written back as doubles, in every kind; near 0 nothing changes.
+// Where the file holds them as floats far from 0, they are rounded already, and roundedBy says by how
+// much.
+TEST(PointFile, FarCoordinatesAreHeldLessAnOrigin) {
+    const TempDir dir;
+    PointSet points = sampleSphereUniform(200, 1.0f);
+    for (glm::vec3& p : points.position) p += glm::vec3(1.5f); // in [0.5, 2.5]: exact beside the origin
+    const glm::dvec3 origin(5e5, -2e6, 0.0);
+    for (const char* name : {"a.xyz", "a.csv", "a.pcd", "a.ply"}) {
+        for (const bool ascii : {false, true}) {
+            const fs::path path = dir / name;
+            ASSERT_TRUE(writePointFile(path, points, ascii, {}, origin).ok()) << name;
+            const Result<PointFileData> read = readPointFile(path);
+            ASSERT_TRUE(read.ok()) << name << ": " << read.error().message;
+            EXPECT_EQ(read->data.origin, origin) << name;
+            EXPECT_EQ(read->data.roundedBy, 0.0) << name;
+            EXPECT_TRUE(read->data.farPositions.empty()) << name;
+            expectSameBits(read->data.points, points, std::string(name) + (ascii ? " ascii" : " binary"));
+            // Written without it, the same points near 0 read as written.
+            ASSERT_TRUE(writePointFile(path, points, ascii).ok()) << name;
+            const Result<PointFileData> near = readPointFile(path);
+            ASSERT_TRUE(near.ok()) << name;
+            EXPECT_EQ(near->data.origin, glm::dvec3(0.0)) << name;
+            expectSameBits(near->data.points, points, name);
+        }
+    }
+    // Floats far from 0 (a step of 0.125 at 2e6, half the mean spacing): held less the origin too,
+    // and a warning's measure says they are rounded.
+    PointSet far = points;
+    for (glm::vec3& p : far.position) p += glm::vec3(5e5f, -2e6f, 0.0f);
+    ASSERT_TRUE(writePointFile(dir / "far.ply", far).ok());
+    const Result<PointFileData> read = readPointFile(dir / "far.ply");
+    ASSERT_TRUE(read.ok());
+    EXPECT_GT(read->data.roundedBy, 0.25);
+    EXPECT_EQ(read->data.origin, origin);
+    // Another file's points restated less this origin, in double: exact here.
+    std::vector<glm::vec3> positions = {glm::vec3(1.5f, -0.25f, 3.0f)};
+    moveToOrigin(positions, glm::dvec3(5e5, -2e6, 0.0), glm::dvec3(5e5 + 4.0, -2e6, -8.0));
+    EXPECT_EQ(positions[0], glm::vec3(-2.5f, -0.25f, 11.0f));
+}
+
 TEST(PointFile, TextWritesAHeaderLineNamingTheColumns) {
     const TempDir dir;
     const PointSet points = everyAttribute();

@@ -54,19 +54,31 @@ void runEval(const EvalArgs& args) {
         throw CommandError(parsed.error().message, spec ? kExitUsage : kExitFailure);
     }
     Reference reference = std::move(parsed).value();
-    PointSet refined = unwrap(readPointFile(args.refined)).data.points; // any point file, with normals
+    PlyData read = unwrap(readPointFile(args.refined)).data; // any point file, with normals
+    PointSet refined = std::move(read.points);
     if (refined.size() < 2)
         throw CommandError(fmt::format("{}: needs at least 2 points to measure spacing", args.refined));
+    // One origin for the files (PlyData::origin): the refined points', or 0 for an analytic surface.
+    glm::dvec3 origin = read.origin;
+    if (reference.isAnalytic()) {
+        moveToOrigin(refined.position, origin, glm::dvec3(0.0));
+        origin = glm::dvec3(0.0);
+    }
+    moveToOrigin(reference.points.position, reference.origin, origin);
 
     PointSet input;
-    if (!args.input.empty()) input = readInput(args.input); // positions only: compared by position
+    glm::dvec3 inputOrigin(0.0);
+    if (!args.input.empty()) input = readInput(args.input, nullptr, {}, &inputOrigin); // compared by position
+    moveToOrigin(input.position, inputOrigin, origin);
 
     EvalOptions options;
     options.threads = args.threads;
     options.flatNormals = args.flatNormals;
     const QualityReport report =
         evaluateQuality(refined, reference, args.input.empty() ? nullptr : &input, options);
-    if (!args.holeMap.empty()) unwrap(writePly(args.holeMap, holeMap(std::move(refined), report)));
+    if (!args.holeMap.empty())
+        unwrap(writePly(args.holeMap, holeMap(std::move(refined), report), PlyFormat::BinaryLittleEndian, {},
+                        origin));
     const std::string json = toJson(report) + "\n";
     if (args.output.empty())
         fmt::print("{}", json);

@@ -68,12 +68,13 @@ void runRefine(const RefineArgs& args) {
 
     PointSet points;
     std::vector<std::string> comments; // the input's header comments, carried on to the output
+    glm::dvec3 origin(0.0);            // the input's (PlyData::origin), added back to the output
     std::string inputName = pnsplat::inputName(args.input);
     if (args.input.empty()) {
         points = makeDefaultModel();
         inputName = "the default model";
     } else {
-        points = readInput(args.input, &comments, args.columns);
+        points = readInput(args.input, &comments, args.columns, &origin);
     }
 
     RefineJob job;
@@ -104,7 +105,8 @@ void runRefine(const RefineArgs& args) {
     job.estimateRadii = args.estimateRadii;
     job.keepNormals = args.keepNormals;
     job.keepOutliers = args.keepOutliers;
-    job.holes = parseHoles(args.holes);
+    job.holes = parseHoles(args.holes, origin);
+    job.origin = origin;
     job.fillHolesUpTo = parseHoleSize(args.fillHoles);
     job.maxPoints = args.maxPoints;
     const RefineRun run = refineWithProgress(std::move(points), job, inputName);
@@ -112,7 +114,7 @@ void runRefine(const RefineArgs& args) {
     const unsigned done = run.levels;
     const std::size_t outputCount = run.points.size();
 
-    unwrap(writePointFile(output, run.points, args.ascii, comments));
+    unwrap(writePointFile(output, run.points, args.ascii, comments, origin));
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate =
         refineSeconds > 0 ? static_cast<double>(outputCount - run.inputPoints) / refineSeconds : 0.0;

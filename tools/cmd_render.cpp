@@ -80,15 +80,16 @@ void runCompare(const RenderArgs& args) {
     CompareJob job;
     std::string name;
     InputCompletion completion;
-    job.input = loadForRendering(args.input, args.inputOptions(), name, args.columns, &completion);
+    glm::dvec3 origin(0.0); // the input's (PlyData::origin): the other files are drawn less it too
+    job.input = loadForRendering(args.input, args.inputOptions(), name, args.columns, &completion, &origin);
     std::string frameName;
     const PointSet frame =
-        args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.inputOptions(), frameName);
+        args.frame.empty() ? PointSet() : loadBeside(args.frame, args.inputOptions(), frameName, origin);
     std::string referenceName;
     if (!args.reference.empty()) {
         // A reference is the true surface densely sampled (a mesh's vertices, say): kept whole.
-        job.reference = loadForRendering(
-            args.reference, {.keepNormals = args.keepNormals, .keepOutliers = true}, referenceName);
+        job.reference = loadBeside(args.reference, {.keepNormals = args.keepNormals, .keepOutliers = true},
+                                   referenceName, origin);
     } else if (args.input.empty()) {
         // The default model is analytic: its dense version is the same surface sampled densely.
         referenceName = "the default model's dense version";
@@ -176,10 +177,12 @@ void runRender(const RenderArgs& args) {
     std::FILE* summary = isStandardOutput(args.output) ? stderr : stdout;
     std::string name;
     InputCompletion completion;
-    PointSet points = loadForRendering(args.input, args.inputOptions(), name, args.columns, &completion);
+    glm::dvec3 origin(0.0); // the input's (PlyData::origin): the framing file is drawn less it too
+    PointSet points =
+        loadForRendering(args.input, args.inputOptions(), name, args.columns, &completion, &origin);
     std::string frameName;
     const PointSet frame =
-        args.frame.empty() ? PointSet() : loadForRendering(args.frame, args.inputOptions(), frameName);
+        args.frame.empty() ? PointSet() : loadBeside(args.frame, args.inputOptions(), frameName, origin);
     std::optional<Viewpoint> view;
     const Camera camera = chooseCamera(args.view, args.frame.empty() ? points : frame,
                                        float(args.engine.width) / float(args.engine.height), view);
@@ -189,7 +192,8 @@ void runRender(const RenderArgs& args) {
     if (args.refineLevels > 0 || !args.holes.empty() || !args.fillHoles.empty()) {
         RefineJob job;
         job.levels = args.refineLevels;
-        job.holes = parseHoles(args.holes);
+        job.holes = parseHoles(args.holes, origin);
+        job.origin = origin;
         job.fillHolesUpTo = parseHoleSize(args.fillHoles);
         job.keepNormals = args.keepNormals;
         job.keepOutliers = true; // loadForRendering has left them out (or was asked to keep them)

@@ -11,7 +11,8 @@
 namespace pnsplat::tools {
 
 PointSet loadForRendering(const std::string& input, const InputOptions& options, std::string& name,
-                          const std::vector<std::string>& columns, InputCompletion* completion) {
+                          const std::vector<std::string>& columns, InputCompletion* completion,
+                          glm::dvec3* origin) {
     PointSet points;
     std::vector<std::string> comments;
     if (input.empty()) {
@@ -19,7 +20,7 @@ PointSet loadForRendering(const std::string& input, const InputOptions& options,
         points = makeDefaultModel();
     } else {
         name = inputName(input);
-        points = readInput(input, &comments, columns);
+        points = readInput(input, &comments, columns, origin);
     }
     // The engine draws no attributes (PointSet::attributes): its node tree need not copy them.
     points.attributes.clear();
@@ -34,6 +35,14 @@ PointSet loadForRendering(const std::string& input, const InputOptions& options,
     }
     const InputCompletion done = completeInput(points, 0, name, completing);
     if (completion) *completion = done;
+    return points;
+}
+
+PointSet loadBeside(const std::string& path, const InputOptions& options, std::string& name,
+                    glm::dvec3 origin) {
+    glm::dvec3 own(0.0);
+    PointSet points = loadForRendering(path, options, name, {}, nullptr, &own);
+    moveToOrigin(points.position, own, origin);
     return points;
 }
 

@@ -26,10 +26,15 @@ namespace pnsplat::tools {
 // back unless options.keepNormals; a file pnsplat wrote with normals and radii (a refinement) is
 // taken as written (InputOptions::asWritten). `columns` names a text file's columns (--columns). `name`
 // receives a name for messages; `completion`, when given, what was done. The real-time engine's
-// loader: `render`, `bench view` and `view` (a dropped file too).
+// loader: `render`, `bench view` and `view` (a dropped file too). `origin`, when given, receives
+// the points' origin (PlyData::origin), for files drawn together; the engine draws them less it.
 PointSet loadForRendering(const std::string& input, const InputOptions& options, std::string& name,
-                          const std::vector<std::string>& columns = {},
-                          InputCompletion* completion = nullptr);
+                          const std::vector<std::string>& columns = {}, InputCompletion* completion = nullptr,
+                          glm::dvec3* origin = nullptr);
+
+// `path` (render's --frame or --reference) for drawing beside points stored less `origin`.
+PointSet loadBeside(const std::string& path, const InputOptions& options, std::string& name,
+                    glm::dvec3 origin);
 
 // The engine's options that the commands share.
 struct EngineArgs {

@@ -28,14 +28,14 @@ namespace {
 
 // "X,Y,Z,R": four finite numbers (a leading '+' allowed), R > 0; a usage error naming the option
 // and the text.
-Hole parseHole(std::string_view text) {
-    float values[4];
+Hole parseHole(std::string_view text, glm::dvec3 origin) {
+    double values[4];
     std::size_t count = 0;
     for (std::size_t begin = 0; begin <= text.size() && count <= 4;) {
         const std::size_t end = std::min(text.find(',', begin), text.size());
         std::string_view part = text.substr(begin, end - begin);
         if (part.starts_with('+')) part.remove_prefix(1);
-        const std::optional<float> value = parseFloat(part);
+        const std::optional<double> value = parseDouble(part);
         if (!value || count == 4)
             count = 5; // not a number, or a fifth one
         else
@@ -45,9 +45,11 @@ Hole parseHole(std::string_view text) {
     if (count != 4)
         throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text),
                            kExitUsage);
-    if (!(values[3] > 0.0f))
+    if (!(values[3] > 0.0) || !std::isfinite(static_cast<float>(values[3])))
         throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text), kExitUsage);
-    return Hole{glm::vec3(values[0], values[1], values[2]), values[3]};
+    // In the file's coordinates: the points' are stored less their origin.
+    return Hole{glm::vec3(glm::dvec3(values[0], values[1], values[2]) - origin),
+                static_cast<float>(values[3])};
 }
 
 // "about 35.4 million", "2.1e+33": a count for messages.
@@ -155,9 +157,9 @@ HoleSize parseHoleSize(std::string_view text) {
     return size;
 }
 
-std::vector<Hole> parseHoles(const std::vector<std::string>& texts) {
+std::vector<Hole> parseHoles(const std::vector<std::string>& texts, glm::dvec3 origin) {
     std::vector<Hole> holes;
-    for (const std::string& text : texts) holes.push_back(parseHole(text));
+    for (const std::string& text : texts) holes.push_back(parseHole(text, origin));
     return holes;
 }
 
@@ -220,31 +222,10 @@ void addKeepOutliersOption(CLI::App& cmd, bool& keep) {
                     kOutlierNearest));
 }
 
-namespace {
-
-// Warns where the coordinates are so large against the model that single precision, in which
-// pnsplat reads and refines, rounds them by more than a hundredth of the mean spacing (a scan in
-// georeferenced coordinates: a bunny moved 1e6 away kept 24 distinct positions of its 3,500).
-void warnOfCoarseCoordinates(const PointSet& points, const std::string& name) {
-    if (points.size() < 2) return;
-    const Bounds bounds = boundsOf(points.position);
-    const glm::vec3 far = glm::max(glm::abs(bounds.lo), glm::abs(bounds.hi));
-    const float largest = std::max({far.x, far.y, far.z});
-    const float step = std::nextafter(largest, std::numeric_limits<float>::infinity()) - largest;
-    const float extent = bounds.diagonal();
-    const float spacing = extent / std::sqrt(static_cast<float>(points.size())); // about, for a surface
-    if (!(extent > 0.0f) || !(step > 0.01f * spacing)) return; // a model of no extent fails elsewhere
-    fmt::print(stderr,
-               "pnsplat: warning: {}: coordinates as large as {:.4g} for a model {:.4g} across: single "
-               "precision steps by {:.3g} there, about {:.2g} times its mean spacing (repeated "
-               "positions, rough surfaces); move the points near the origin first\n",
-               name, largest, extent, step, step / spacing);
-}
-
-} // namespace
+namespace {} // namespace
 
 PointSet readInput(const std::string& path, std::vector<std::string>* comments,
-                   const std::vector<std::string>& columns) {
+                   const std::vector<std::string>& columns, glm::dvec3* origin) {
     PointFileOptions options;
     options.requireNormals = false;
     options.columns = columns;
@@ -274,7 +255,21 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments,
         fmt::print(stderr,
                    "pnsplat: {}: {} point(s) with a NaN position (holes of an organised cloud) left out\n",
                    inputName(path), file.skippedPoints);
-    warnOfCoarseCoordinates(data.points, inputName(path));
+    if (data.origin != glm::dvec3(0.0))
+        fmt::print(
+            stderr,
+            "pnsplat: {}: coordinates near {:.17g}, {:.17g}, {:.17g}: held less that origin, in single "
+            "precision{}\n",
+            inputName(path), data.origin.x, data.origin.y, data.origin.z,
+            origin ? ", and written back in double" : "");
+    if (data.roundedBy > 0.0)
+        fmt::print(
+            stderr,
+            "pnsplat: warning: {}: coordinates far from 0 in single precision are rounded by about {:.2g} "
+            "times the mean spacing (repeated positions, rough surfaces); write them in double, or move "
+            "the points near 0\n",
+            inputName(path), data.roundedBy);
+    if (origin) *origin = data.origin;
     if (comments) *comments = std::move(data.comments);
     return std::move(data.points);
 }
@@ -320,6 +315,12 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
 
 namespace {
 
+// Significant digits that show `value` to about a thousandth of `size` (4 near 0, more far from it).
+int digits(double value, double size) {
+    const double magnitude = std::max(std::abs(value), size);
+    return 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
+}
+
 // The holes findHoles finds in `points` up to job.fillHolesUpTo, appended to job.holes but for those
 // also given (their balls meet one of job.holes: filled once, from the ball given), counted in
 // `run` and said on standard error.
@@ -342,9 +343,12 @@ void addFoundHoles(const PointSet& points, RefineJob& job, RefineRun& run, const
         return;
     }
     std::string detail;
-    for (const FoundHole& hole : found.holes)
-        detail += fmt::format("{}{:.4g} across at {:.4g},{:.4g},{:.4g}", detail.empty() ? ": " : "; ",
-                              hole.size, hole.ball.centre.x, hole.ball.centre.y, hole.ball.centre.z);
+    for (const FoundHole& hole : found.holes) {
+        const glm::dvec3 centre = glm::dvec3(hole.ball.centre) + job.origin; // in the file's coordinates
+        detail += fmt::format("{}{:.4g} across at {:.{}g},{:.{}g},{:.{}g}", detail.empty() ? ": " : "; ",
+                              hole.size, centre.x, digits(centre.x, hole.size), centre.y,
+                              digits(centre.y, hole.size), centre.z, digits(centre.z, hole.size));
+    }
     const std::size_t alsoGiven = found.holes.size() - run.holesFound;
     fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}{}\n", inputName,
                found.holes.size(), found.maxSize, detail,

@@ -59,6 +59,7 @@ struct RefineJob {
     bool keepNormals = false;   // refuse flipped input normals instead of turning them back
     bool keepOutliers = false;  // refine isolated input points too instead of leaving them out
     std::size_t maxPoints = 0;
+    glm::dvec3 origin{0.0}; // the points are stored less it (PlyData::origin): messages add it back
 };
 
 // `--fill-hole X,Y,Z,R` on `cmd` (repeatable, one ball per occurrence), collected into `holes`,
@@ -75,9 +76,10 @@ PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::strin
 HoleSize parseHoleSize(std::string_view text);
 // `--max-points N` on `cmd`, into `maxPoints` (RefineJob::maxPoints).
 void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints);
-// The holes of the option's texts; a text that is not four finite numbers with R > 0 is a
+// The holes of the option's texts, in the file's coordinates: their centres are stored less the
+// points' `origin` (PlyData::origin). A text that is not four finite numbers with R > 0 is a
 // CommandError (a usage error) naming the option and the text.
-std::vector<Hole> parseHoles(const std::vector<std::string>& texts);
+std::vector<Hole> parseHoles(const std::vector<std::string>& texts, glm::dvec3 origin = glm::dvec3(0.0));
 
 // `--keep-normals` on `cmd`, into `keep`.
 void addKeepNormalsOption(CLI::App& cmd, bool& keep);
@@ -92,9 +94,10 @@ void addColumnsOption(CLI::App& cmd, std::vector<std::string>& columns);
 // file's columns (empty: its header line or their number). A bad file is a CommandError. What the
 // file holds beyond the points (other properties, fields, columns and elements) is named in a
 // warning on stderr, PCD points left out for a NaN position in a note; a PLY file's header
-// comments are returned in `comments` when given, for the output to carry on.
+// comments are returned in `comments` when given, for the output to carry on, and the points'
+// origin (PlyData::origin: coordinates far from 0, with a note) in `origin`.
 PointSet readInput(const std::string& path, std::vector<std::string>* comments = nullptr,
-                   const std::vector<std::string>& columns = {});
+                   const std::vector<std::string>& columns = {}, glm::dvec3* origin = nullptr);
 
 // Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
 // positions dropped, for outliers left out, for normals estimated and for flipped normals turned

@@ -380,7 +380,9 @@ Result<Reference> parseReference(const std::string& spec) {
 
     auto data = readPly(spec, {.readFaces = true});
     if (!data) return data.error();
-    return meshReference(std::move(data->points), std::move(data->triangles), spec);
+    Result<Reference> ref = meshReference(std::move(data->points), std::move(data->triangles), spec);
+    if (ref) ref->origin = data->origin;
+    return ref;
 }
 
 // ---- Evaluation ----

@@ -410,6 +410,7 @@ class PcdReader {
         if (!read) return read.error();
         if (n_ == 0) return fail(file_, fmt::format("no points ({} with a NaN position left out)", skipped_));
         out.points.resize(n_);
+        detail::settleOrigin(out);
         if (Result<void> normals = detail::settleZeroNormals(out, options_.requireNormals, file_); !normals)
             return normals.error();
         skipped = skipped_;
@@ -424,7 +425,7 @@ class PcdReader {
             ++skipped_;
             return nullptr;
         }
-        if (const char* problem = detail::storeRow(out.points, layout_, n_, values)) return problem;
+        if (const char* problem = detail::storeRow(out, layout_, n_, values)) return problem;
         if (colour_) out.points.colour[n_] = unpackRgb(rgb);
         ++n_;
         return nullptr;
@@ -500,11 +501,15 @@ class PcdReader {
                                                      printable(field->name)));
                     continue;
                 }
-                float value = 0.0f;
-                if (!detail::parseFloatField(word, value))
+                // A position of 8 bytes in the precision it is written with (PlyData::origin).
+                double& value = values[static_cast<std::size_t>(field->use)];
+                float single = 0.0f;
+                const bool position = field->use <= detail::kZ && field->size == 8;
+                if (position ? !detail::parseDoubleField(word, value)
+                             : !detail::parseFloatField(word, single))
                     return lineError(fmt::format("'{}' is not a number (field {})", printable(word),
                                                  printable(field->name)));
-                values[static_cast<std::size_t>(field->use)] = value;
+                if (!position) value = single;
             }
             if (const char* problem = store(values, rgb, out)) return lineError(problem);
             ++point;
@@ -596,12 +601,15 @@ void appendBinary(std::string& out, T value) {
 }
 
 Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& points, bool ascii,
-                          std::string_view file) {
+                          glm::dvec3 origin, std::string_view file) {
     assert(points.normal.size() == points.size());
     if (const std::optional<std::string> problem = detail::attributeNameProblem(points))
         return fail(file, *problem);
     std::vector<std::string_view> names = {"x", "y", "z", "normal_x", "normal_y", "normal_z"};
     std::vector<std::string_view> sizes(6, "4"), types(6, "F");
+    // Positions as doubles where they are stored less an origin (PlyData::origin).
+    const int doubles = origin != glm::dvec3(0.0) ? 3 : 0;
+    std::fill_n(sizes.begin(), doubles, "8");
     if (points.hasRadius()) names.push_back("radius"), sizes.push_back("4"), types.push_back("F");
     if (points.hasCrease()) {
         names.insert(names.end(), {"nx2", "ny2", "nz2", "crease"});
@@ -630,7 +638,11 @@ Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& poi
             const glm::u8vec3 c = points.hasColour() ? points.colour[i] : glm::u8vec3(0);
             const std::uint32_t rgb = (std::uint32_t{c.x} << 16) | (std::uint32_t{c.y} << 8) | c.z;
             if (ascii) {
-                for (int k = 0; k < floats; ++k) {
+                for (int k = 0; k < doubles; ++k) {
+                    detail::appendScalarText(rows, ScalarType::Float64, origin[k] + double(values[k]));
+                    rows += ' ';
+                }
+                for (int k = doubles; k < floats; ++k) {
                     if (k > 0) rows += ' ';
                     appendFloatText(rows, values[k]);
                 }
@@ -643,7 +655,8 @@ Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& poi
                 }
                 rows += '\n';
             } else {
-                for (int k = 0; k < floats; ++k) appendBinary(rows, values[k]);
+                for (int k = 0; k < doubles; ++k) appendBinary(rows, origin[k] + double(values[k]));
+                for (int k = doubles; k < floats; ++k) appendBinary(rows, values[k]);
                 if (points.hasCrease()) appendBinary(rows, static_cast<std::uint8_t>(crease ? 1 : 0));
                 if (points.hasColour()) appendBinary(rows, rgb);
                 for (const Attribute& a : points.attributes)
@@ -660,9 +673,10 @@ Result<PlyData> parsePcd(std::string_view bytes, std::string_view name, const Po
     return detail::guarded(name, "reading", [&] { return PcdReader(bytes, name, options).read(skipped); });
 }
 
-Result<void> writePcd(const std::filesystem::path& path, const PointSet& points, bool ascii) {
+Result<void> writePcd(const std::filesystem::path& path, const PointSet& points, bool ascii,
+                      glm::dvec3 origin) {
     const std::string file = outputName(path);
-    return detail::guarded(file, "writing", [&] { return writePcdFile(path, points, ascii, file); });
+    return detail::guarded(file, "writing", [&] { return writePcdFile(path, points, ascii, origin, file); });
 }
 
 } // namespace pnsplat

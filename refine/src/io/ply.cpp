@@ -317,10 +317,11 @@ detail::RowLayout rowLayout(const VertexLayout& layout) {
 
 // Stores row `i` (values by slot) into `points`: the checks every reader shares (detail::storeRow),
 // then the colour and the attributes (any value, NaN too); returns the problem, or nullptr when valid.
-const char* storeVertex(PointSet& points, const VertexLayout& layout, std::size_t i, const RowValues& v) {
+const char* storeVertex(PlyData& data, const VertexLayout& layout, std::size_t i, const RowValues& v) {
     const std::array<double, detail::kRowSlots> row = {
         v[kX], v[kY], v[kZ], v[kNx], v[kNy], v[kNz], v[kRadius], v[kNx2], v[kNy2], v[kNz2], v[kCreaseFlag]};
-    if (const char* problem = detail::storeRow(points, rowLayout(layout), i, row)) return problem;
+    PointSet& points = data.points;
+    if (const char* problem = detail::storeRow(data, rowLayout(layout), i, row)) return problem;
     if (layout.hasColour) {
         if (!std::isfinite(v[kRed]) || !std::isfinite(v[kGreen]) || !std::isfinite(v[kBlue]))
             return "non-finite colour";
@@ -509,7 +510,7 @@ class BinaryReader {
             for (std::size_t i = 0; i < count; ++i) {
                 const unsigned char* row = data_ + pos_ + i * stride;
                 for (const Field& f : fields) values[f.slot] = loadScalar<kSwap>(row + f.offset, f.type);
-                if (const char* problem = storeVertex(out.points, layout, i, values))
+                if (const char* problem = storeVertex(out, layout, i, values))
                     return fail(file_, fmt::format("{} at vertex {}", problem, i));
             }
         }
@@ -560,7 +561,7 @@ class BinaryReader {
                 pos_ += length * itemSize;
             }
             if (isVertex)
-                if (const char* problem = storeVertex(out.points, layout, i, values))
+                if (const char* problem = storeVertex(out, layout, i, values))
                     return fail(file_, fmt::format("{} at vertex {}", problem, i));
         }
         return {};
@@ -725,7 +726,7 @@ class AsciiReader {
                             fmt::format("line {}: more values than {} {} has properties ({})", rowLine_,
                                         printable(element.name), i, element.properties.size()));
             if (isVertex)
-                if (const char* problem = storeVertex(out.points, layout, i, values))
+                if (const char* problem = storeVertex(out, layout, i, values))
                     return fail(file_, fmt::format("{} at vertex {} (line {})", problem, i, line_));
         }
         return {};
@@ -790,6 +791,7 @@ Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options
     }
     }
     if (!read) return read.error();
+    detail::settleOrigin(out);
     if (Result<void> normals =
             detail::settleZeroNormals(out, options.requireNormals && !options.readFaces, file);
         !normals)
@@ -807,7 +809,8 @@ Result<PlyData> parseBytes(std::string_view bytes, const PlyReadOptions& options
 // ---------------------------------------------------------------------------------------------
 // Writing
 
-std::string plyHeader(const PointSet& points, PlyFormat format, std::span<const std::string> comments) {
+std::string plyHeader(const PointSet& points, PlyFormat format, std::span<const std::string> comments,
+                      bool doublePositions) {
     std::string header =
         fmt::format("ply\nformat {} 1.0\n", format == PlyFormat::Ascii ? "ascii" : "binary_little_endian");
     for (const std::string& line : comments) {
@@ -816,8 +819,9 @@ std::string plyHeader(const PointSet& points, PlyFormat format, std::span<const 
         header += line + '\n';
     }
     header += fmt::format("{}\nelement vertex {}\n", kWrittenByPnsplat, points.size());
-    for (const char* name : {"x", "y", "z", "nx", "ny", "nz"})
-        header += fmt::format("property float {}\n", name);
+    for (const char* name : {"x", "y", "z"})
+        header += fmt::format("property {} {}\n", doublePositions ? "double" : "float", name);
+    for (const char* name : {"nx", "ny", "nz"}) header += fmt::format("property float {}\n", name);
     if (points.hasRadius()) header += "property float radius\n";
     if (points.hasCrease())
         header += "property float nx2\nproperty float ny2\nproperty float nz2\nproperty uchar crease\n";
@@ -843,9 +847,11 @@ void appendFloatAscii(std::string& out, float value, char separator) {
     out += separator;
 }
 
-void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyFormat format) {
+void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyFormat format, glm::dvec3 origin) {
     std::array<float, 10> values{};
     const int floats = detail::rowFloats(points, i, values);
+    // Positions as doubles where they are stored less an origin (PlyData::origin).
+    const int first = origin != glm::dvec3(0.0) ? 3 : 0;
     const bool crease = points.isCrease(i);
     // The bytes after the floats: the crease flag, then the colour.
     std::uint8_t bytes[4];
@@ -854,13 +860,19 @@ void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyForma
     if (points.hasColour())
         for (int k = 0; k < 3; ++k) bytes[byteCount++] = points.colour[i][k];
     if (format == PlyFormat::BinaryLittleEndian) {
-        for (int k = 0; k < floats; ++k) appendFloatBinary(out, values[k]);
+        for (int k = 0; k < first; ++k)
+            detail::appendScalarBinary(out, ScalarType::Float64, origin[k] + double(values[k]));
+        for (int k = first; k < floats; ++k) appendFloatBinary(out, values[k]);
         out.append(reinterpret_cast<const char*>(bytes), static_cast<std::size_t>(byteCount));
         for (const Attribute& a : points.attributes) detail::appendScalarBinary(out, a.type, a.values[i]);
         return;
     }
     const bool more = !points.attributes.empty();
-    for (int k = 0; k < floats; ++k)
+    for (int k = 0; k < first; ++k) {
+        detail::appendScalarText(out, ScalarType::Float64, origin[k] + double(values[k]));
+        out += ' ';
+    }
+    for (int k = first; k < floats; ++k)
         appendFloatAscii(out, values[k], (k + 1 < floats || byteCount > 0 || more) ? ' ' : '\n');
     for (int k = 0; k < byteCount; ++k)
         fmt::format_to(std::back_inserter(out), "{}{}", bytes[k], k + 1 < byteCount || more ? ' ' : '\n');
@@ -872,7 +884,7 @@ void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyForma
 }
 
 Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyFormat format,
-                          std::span<const std::string> comments, std::string_view file) {
+                          std::span<const std::string> comments, glm::dvec3 origin, std::string_view file) {
     assert(points.normal.size() == points.size());
     assert(!points.hasRadius() || points.radius.size() == points.size());
     assert(!points.hasColour() || points.colour.size() == points.size());
@@ -881,14 +893,14 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
     if (const std::optional<std::string> problem = detail::attributeNameProblem(points))
         return fail(file, *problem);
 
-    std::string buffer = plyHeader(points, format, comments);
+    std::string buffer = plyHeader(points, format, comments, origin != glm::dvec3(0.0));
     if (buffer.size() > kMaxHeaderBytes)
         return fail(file, fmt::format("the header comments to carry over take {} KiB, more than a header "
                                       "of {} KiB readPly reads",
                                       (buffer.size() + 1023) / 1024, kMaxHeaderBytes / 1024));
-    return detail::writeRows(path, format == PlyFormat::Ascii ? OutputContent::Text : OutputContent::Binary,
-                             std::move(buffer), points.size(),
-                             [&](std::string& rows, std::size_t i) { appendRow(rows, points, i, format); });
+    return detail::writeRows(
+        path, format == PlyFormat::Ascii ? OutputContent::Text : OutputContent::Binary, std::move(buffer),
+        points.size(), [&](std::string& rows, std::size_t i) { appendRow(rows, points, i, format, origin); });
 }
 
 } // namespace
@@ -915,9 +927,16 @@ Result<PlyData> parsePly(std::string_view bytes, std::string_view name, const Pl
 }
 
 Result<void> writePly(const std::filesystem::path& path, const PointSet& points, PlyFormat format,
-                      std::span<const std::string> comments) {
+                      std::span<const std::string> comments, glm::dvec3 origin) {
     const std::string file = outputName(path);
-    return guarded(file, "writing", [&] { return writePlyFile(path, points, format, comments, file); });
+    return guarded(file, "writing",
+                   [&] { return writePlyFile(path, points, format, comments, origin, file); });
+}
+
+void moveToOrigin(std::span<glm::vec3> positions, glm::dvec3 from, glm::dvec3 to) {
+    if (from == to) return;
+    const glm::dvec3 shift = from - to;
+    for (glm::vec3& p : positions) p = glm::vec3(glm::dvec3(p) + shift);
 }
 
 } // namespace pnsplat

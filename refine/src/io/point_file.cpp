@@ -61,16 +61,16 @@ Result<PointFileData> readPointFile(const std::filesystem::path& path, const Poi
 }
 
 Result<void> writePointFile(const std::filesystem::path& path, const PointSet& points, bool ascii,
-                            std::span<const std::string> comments) {
+                            std::span<const std::string> comments, glm::dvec3 origin) {
     switch (path == "-" ? PointFileKind::Ply : pointFileKindOf(path).value_or(PointFileKind::Ply)) {
     case PointFileKind::Pcd:
-        return writePcd(path, points, ascii);
+        return writePcd(path, points, ascii, origin);
     case PointFileKind::Text:
-        return writePointText(path, points);
+        return writePointText(path, points, origin);
     case PointFileKind::Ply:
         break;
     }
-    return writePly(path, points, ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian, comments);
+    return writePly(path, points, ascii ? PlyFormat::Ascii : PlyFormat::BinaryLittleEndian, comments, origin);
 }
 
 } // namespace pnsplat

@@ -125,6 +125,17 @@ bool parseFloatField(std::string_view field, float& value) {
     return true;
 }
 
+bool parseDoubleField(std::string_view field, double& value) {
+    if (field.size() > 1 && field[0] == '+' && field[1] != '-') field.remove_prefix(1);
+    const char* end = field.data() + field.size();
+    const auto [ptr, ec] = std::from_chars(field.data(), end, value);
+    if (field.empty() || ptr != end) return false;
+    if (ec == std::errc::result_out_of_range) // beyond double's range: infinity, refused by the readers
+        value = field[0] == '-' ? -std::numeric_limits<double>::infinity()
+                                : std::numeric_limits<double>::infinity();
+    return ec == std::errc() || ec == std::errc::result_out_of_range;
+}
+
 std::vector<std::string_view> splitWords(std::string_view line) {
     std::vector<std::string_view> words;
     std::size_t i = 0;
@@ -254,8 +265,40 @@ Result<void> settleZeroNormals(PlyData& data, bool required, std::string_view fi
     return {};
 }
 
-const char* storeRow(PointSet& points, const RowLayout& layout, std::size_t i,
+void settleOrigin(PlyData& data) {
+    const std::vector<glm::dvec3> exact = std::move(data.farPositions);
+    data.farPositions = {};
+    PointSet& points = data.points;
+    const std::size_t n = points.size();
+    if (n < 2 || exact.size() < n) return;
+    glm::dvec3 lo = exact[0], hi = lo;
+    for (std::size_t i = 1; i < n; ++i) lo = glm::min(lo, exact[i]), hi = glm::max(hi, exact[i]);
+    const double diagonal = glm::length(hi - lo);
+    const double largest = std::max(
+        {std::abs(lo.x), std::abs(lo.y), std::abs(lo.z), std::abs(hi.x), std::abs(hi.y), std::abs(hi.z)});
+    int exponent = 0;
+    std::frexp(largest, &exponent);                     // largest in [2^(exponent-1), 2^exponent)
+    const double step = std::ldexp(1.0, exponent - 24); // a float's step there
+    const double spacing = diagonal / std::sqrt(static_cast<double>(n)); // about, for a surface
+    if (!(diagonal > 0.0) || !(step > kOriginStep * spacing)) return;
+    // Single precision in the file itself: rounded so already.
+    const bool singles = std::all_of(exact.begin(), exact.begin() + static_cast<std::ptrdiff_t>(n),
+                                     [](const glm::dvec3& p) { return glm::dvec3(glm::vec3(p)) == p; });
+    if (singles && step > kCoarseStep * spacing) data.roundedBy = step / spacing;
+    // A multiple of the power of two at or above the diagonal: the same origin for the model and
+    // for what is made of it (a refinement's centre moves less than that).
+    const double grid = std::exp2(std::ceil(std::log2(diagonal)));
+    data.origin = glm::round(0.5 * (lo + hi) / grid) * grid;
+    for (std::size_t i = 0; i < n; ++i) points.position[i] = glm::vec3(exact[i] - data.origin);
+}
+
+const char* storeRow(PlyData& data, const RowLayout& layout, std::size_t i,
                      const std::array<double, kRowSlots>& v) {
+    PointSet& points = data.points;
+    // Kept in double where the first point lies far from 0, for settleOrigin.
+    if (i == 0 && std::max({std::abs(v[kX]), std::abs(v[kY]), std::abs(v[kZ])}) >= kOriginFrom)
+        data.farPositions.resize(points.size());
+    if (!data.farPositions.empty()) data.farPositions[i] = glm::dvec3(v[kX], v[kY], v[kZ]);
     const auto x = static_cast<float>(v[kX]);
     const auto y = static_cast<float>(v[kY]);
     const auto z = static_cast<float>(v[kZ]);

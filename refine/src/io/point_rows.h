@@ -69,13 +69,25 @@ struct RowLayout {
 // Sizes the arrays of `points` for `n` rows of `layout` (and colour when `colour`).
 void sizePoints(PointSet& points, const RowLayout& layout, bool colour, std::size_t n);
 
-// Checks row `i` (values by slot; colour apart) and stores it into `points`; returns the problem
-// ("non-finite coordinate", "zero-length normal", ...), or nullptr when the row is valid. Zero
-// normals are stored while every row before has one (settleZeroNormals decides after the last). The
-// crease convention is ply.h's: with the flag, 0 is an ordinary point; without it, a point is
-// ordinary when n2 is zero or equal to n.
-const char* storeRow(PointSet& points, const RowLayout& layout, std::size_t i,
+// Checks row `i` (values by slot; colour apart) and stores it into `data.points`; returns the
+// problem ("non-finite coordinate", "zero-length normal", ...), or nullptr when the row is valid.
+// Positions are given in the precision the file holds (double where it is written so or as text)
+// and kept so in data.farPositions where the first lies kOriginFrom or farther from 0 on an axis,
+// for settleOrigin. Zero normals are stored while every row before has one (settleZeroNormals decides after
+// the last). The crease convention is ply.h's: with the flag, 0 is an ordinary point; without it,
+// a point is ordinary when n2 is zero or equal to n.
+const char* storeRow(PlyData& data, const RowLayout& layout, std::size_t i,
                      const std::array<double, kRowSlots>& v);
+
+// After the last row: where single precision steps by more than kOriginStep times the mean spacing
+// at the points' distance from 0, they are stored less an origin (PlyData::origin: the centre of
+// their box in double, rounded to a multiple of the power of two at or above its diagonal), from
+// the positions kept in double; data.farPositions is released either way. Where the file holds
+// them in single precision, rounded so already, and a float's step there exceeds kCoarseStep times
+// the spacing, data.roundedBy says by how much.
+inline constexpr double kOriginStep = 1e-3;
+inline constexpr double kCoarseStep = 1e-2;
+void settleOrigin(PlyData& data);
 
 // After the last row: a file whose every normal is zero (an exporter that writes 0 0 0 for no
 // normal, a Gaussian-splatting scene) has none, as if it had no normal columns (data.zeroNormals
@@ -114,6 +126,8 @@ std::optional<std::string> attributeNameProblem(const PointSet& points);
 // huge ones to infinity): std::from_chars, so the shortest representation of a float reads back
 // bit for bit.
 bool parseFloatField(std::string_view field, float& value);
+// The same as a double (the positions of text files and of PCD's 8-byte fields: PlyData::origin).
+bool parseDoubleField(std::string_view field, double& value);
 
 // Writes `path` whole or not at all (OutputFile): `buffer` (the header), then appendRow(buffer, i)
 // for each of `count` rows, in chunks of about a mebibyte.

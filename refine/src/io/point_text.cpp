@@ -256,6 +256,7 @@ class TextReader {
         if (n == 0) return fail(file_, "no points");
         out.points.resize(n);
         if (columns_.colour) storeColours(out.points);
+        detail::settleOrigin(out);
         if (Result<void> normals = detail::settleZeroNormals(out, options_.requireNormals, file_); !normals)
             return normals.error();
         return out;
@@ -284,13 +285,24 @@ class TextReader {
                              fmt::format("{} field(s), expected {}", fields.size(), columns_.use.size()));
         for (const auto& [column, use] : columns_.reading) {
             const std::string_view field = fields[static_cast<std::size_t>(column)];
+            // Positions in the precision they are written with (PlyData::origin), the rest as floats.
+            const bool position = use >= 0 && use <= detail::kZ;
             float value = 0.0f;
-            if (!detail::parseFloatField(field, value))
+            double exact = 0.0;
+            if (!detail::parseFloatField(field, value) ||
+                (position && !detail::parseDoubleField(field, exact)))
                 return lineError(lineNumber, fmt::format("'{}' is not a number (column {})", printable(field),
                                                          column + 1));
             if (!std::isfinite(value))
                 return lineError(lineNumber, fmt::format("non-finite value '{}' (column {})",
                                                          printable(field), column + 1));
+            if (position) {
+                // The float the text names where the double rounds to another (of all floats' shortest
+                // forms, only 7.038531e-26 does): positions without an origin are the floats read.
+                values_[static_cast<std::size_t>(use)] =
+                    static_cast<float>(exact) == value ? exact : double(value);
+                continue;
+            }
             if (use >= kAttribute) {
                 out.points.attributes[static_cast<std::size_t>(use - kAttribute)].values[n] = value;
             } else if (use >= kColour) {
@@ -301,7 +313,7 @@ class TextReader {
                 values_[static_cast<std::size_t>(use)] = value;
             }
         }
-        if (const char* problem = detail::storeRow(out.points, columns_.layout, n, values_))
+        if (const char* problem = detail::storeRow(out, columns_.layout, n, values_))
             return lineError(lineNumber, problem);
         return {};
     }
@@ -365,7 +377,8 @@ void appendFloat(std::string& out, float value) {
     out.append(buffer, end);
 }
 
-Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& points, std::string_view file) {
+Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& points, glm::dvec3 origin,
+                           std::string_view file) {
     assert(points.normal.size() == points.size());
     if (const std::optional<std::string> problem = detail::attributeNameProblem(points))
         return fail(file, *problem);
@@ -388,9 +401,14 @@ Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& po
             std::array<float, 10> values{};
             const int floats = detail::rowFloats(points, i, values);
             const bool crease = points.isCrease(i);
+            // Positions as doubles where they are stored less an origin (PlyData::origin).
+            const int doubles = origin != glm::dvec3(0.0) ? 3 : 0;
             for (int k = 0; k < floats; ++k) {
                 if (k > 0) rows += separator;
-                appendFloat(rows, values[k]);
+                if (k < doubles)
+                    detail::appendScalarText(rows, ScalarType::Float64, origin[k] + double(values[k]));
+                else
+                    appendFloat(rows, values[k]);
             }
             if (points.hasCrease()) {
                 rows += separator;
@@ -414,9 +432,9 @@ Result<PlyData> parsePointText(std::string_view bytes, std::string_view name,
     return detail::guarded(name, "reading", [&] { return TextReader(bytes, name, options).read(); });
 }
 
-Result<void> writePointText(const std::filesystem::path& path, const PointSet& points) {
+Result<void> writePointText(const std::filesystem::path& path, const PointSet& points, glm::dvec3 origin) {
     const std::string file = outputName(path);
-    return detail::guarded(file, "writing", [&] { return writeTextFile(path, points, file); });
+    return detail::guarded(file, "writing", [&] { return writeTextFile(path, points, origin, file); });
 }
 
 } // namespace pnsplat

@@ -11,13 +11,21 @@
 
 namespace pnsplat {
 
-// Parses a whole string as a finite float (no leading '+', no trailing characters).
-inline std::optional<float> parseFloat(std::string_view text) {
-    float value = 0.0f;
+// Parses a whole string as a finite float or double (no leading '+', no trailing characters).
+template <typename T>
+std::optional<T> parseFinite(std::string_view text) {
+    T value = 0;
     const char* end = text.data() + text.size();
     const auto [ptr, ec] = std::from_chars(text.data(), end, value);
     if (ec != std::errc() || ptr != end || !std::isfinite(value)) return std::nullopt;
     return value;
+}
+inline std::optional<float> parseFloat(std::string_view text) {
+    return parseFinite<float>(text);
+}
+// Coordinates of a file held less an origin (PlyData::origin) are given in double.
+inline std::optional<double> parseDouble(std::string_view text) {
+    return parseFinite<double>(text);
 }
 
 // A JSON number: the shortest text that reads back as `v`; null when not finite (JSON has no

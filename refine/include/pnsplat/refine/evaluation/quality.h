@@ -56,6 +56,7 @@ struct Reference {
     std::optional<AnalyticSurface> surface; // set for an analytic reference
     PointSet points;                        // file references: vertices with unit normals
     std::vector<glm::u32vec3> triangles;    // mesh references: indices into `points`
+    glm::dvec3 origin{0.0};                 // file references: `points` are stored less it (PlyData::origin)
 
     bool isAnalytic() const { return surface.has_value(); }
     bool isMesh() const { return !surface && !triangles.empty(); }

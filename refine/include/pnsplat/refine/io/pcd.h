@@ -31,7 +31,9 @@ Result<PlyData> parsePcd(std::string_view bytes, std::string_view name, const Po
 // Writes `points` as PCD v0.7 (FIELDS x y z normal_x normal_y normal_z, then radius, nx2 ny2 nz2
 // crease, rgb where the set has them; rgb a packed float as PCL's PointXYZRGB has it, written in
 // ascii as the integer of its bits), DATA ascii (floats in their shortest exact form) or binary.
-// `points.normal` must be filled; through OutputFile.
-Result<void> writePcd(const std::filesystem::path& path, const PointSet& points, bool ascii);
+// `points.normal` must be filled; through OutputFile. Where `origin` is not zero, x y z are
+// 8-byte doubles, origin + position (PlyData::origin).
+Result<void> writePcd(const std::filesystem::path& path, const PointSet& points, bool ascii,
+                      glm::dvec3 origin = glm::dvec3(0.0));
 
 } // namespace pnsplat

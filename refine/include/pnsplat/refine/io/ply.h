@@ -20,6 +20,8 @@
 #include <string_view>
 #include <vector>
 
+#include <glm/vec3.hpp>
+
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/result.h"
 
@@ -52,10 +54,31 @@ struct PlyData {
     std::vector<Element> unusedElements;
     // Every normal of the file was zero (0 0 0): read as none (`points` has no normals).
     bool zeroNormals = false;
+    // The file's positions are origin + points.position (in double). Where single precision would
+    // round the file's coordinates coarsely for the points' spacing at their distance from 0
+    // (georeferenced scans: UTM coordinates of 10^5 to 10^7), the points are stored less a nearby
+    // origin, so that they keep their detail and what is computed from them too; else zero, and
+    // the positions are the file's as floats. Files read together share one origin through
+    // moveToOrigin; the writers add it back in double.
+    glm::dvec3 origin{0.0};
+    // Where the file holds such coordinates in single precision, rounded by more than a hundredth
+    // of their spacing: that step over the mean spacing (else 0).
+    double roundedBy = 0.0;
+    // The readers' own, empty once read: the positions in double while a file whose first point
+    // lies kOriginFrom or farther from 0 is read.
+    std::vector<glm::dvec3> farPositions;
     // The header's `comment` and `obj_info` lines as they stand, from the keyword on (writePly
     // can carry them on).
     std::vector<std::string> comments;
 };
+
+// The first point's distance from 0 on an axis from which the readers keep the positions in double
+// until they decide on PlyData::origin (below it, a float steps by at most 2^-19 there).
+inline constexpr double kOriginFrom = 16.0;
+
+// Positions stored less `from` (PlyData::origin of the file they came from) restated less `to`, in
+// double then rounded to float: how a file read with one origin joins another's points.
+void moveToOrigin(std::span<glm::vec3> positions, glm::dvec3 from, glm::dvec3 to);
 
 // `path` "-" is standard input (inputName); pipes and character devices (/dev/stdin, process
 // substitution) are read to their end as well.
@@ -73,7 +96,8 @@ Result<PlyData> parsePly(std::string_view bytes, std::string_view name, const Pl
 enum class PlyFormat { Ascii, BinaryLittleEndian };
 
 // Writes `points` (x y z nx ny nz as float, then radius when present, then red green blue when
-// present) through OutputFile (output_file.h): complete or not at all, "-" for standard output,
+// present; x y z as double, origin + position, where `origin` is not zero: PlyData::origin) through
+// OutputFile (output_file.h): complete or not at all, "-" for standard output,
 // links followed, devices and pipes written through, binary data never to a terminal. Floats
 // round-trip exactly in both formats (ascii uses the shortest representation). `points.normal`
 // must be filled. `comments` (PlyData::comments of the file the points came from: lines that start
@@ -81,7 +105,7 @@ enum class PlyFormat { Ascii, BinaryLittleEndian };
 // comment; a header they would take beyond the 64 KiB that readPly reads is an error.
 Result<void> writePly(const std::filesystem::path& path, const PointSet& points,
                       PlyFormat format = PlyFormat::BinaryLittleEndian,
-                      std::span<const std::string> comments = {});
+                      std::span<const std::string> comments = {}, glm::dvec3 origin = glm::dvec3(0.0));
 
 // pnsplat's own comment, which writePly puts in every header.
 inline constexpr std::string_view kWrittenByPnsplat = "comment written by pnsplat";

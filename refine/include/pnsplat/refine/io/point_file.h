@@ -55,9 +55,10 @@ Result<PointFileData> parsePointFile(std::string_view bytes, std::string_view na
 
 // How an output is written: PLY by default and for names of no point-file kind ("-" included);
 // PCD for `.pcd`; text for `.xyz .txt .pts .csv`. `ascii` selects PLY's and PCD's ascii encoding;
-// `comments` (PlyData::comments) go into PLY files only. `points.normal` must be filled.
+// `comments` (PlyData::comments) go into PLY files only; `origin` (PlyData::origin) is added back
+// to the positions, written as doubles where it is not zero. `points.normal` must be filled.
 // Written through OutputFile (output_file.h): complete or not at all.
 Result<void> writePointFile(const std::filesystem::path& path, const PointSet& points, bool ascii = false,
-                            std::span<const std::string> comments = {});
+                            std::span<const std::string> comments = {}, glm::dvec3 origin = glm::dvec3(0.0));
 
 } // namespace pnsplat

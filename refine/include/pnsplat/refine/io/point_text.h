@@ -48,7 +48,10 @@ Result<PlyData> parsePointText(std::string_view bytes, std::string_view name,
 // nz2 crease, red green blue where the set has them), then one point a line, floats in their
 // shortest exact form, colours as 0-255 integers. The extension picks the flavour: `.csv` commas
 // and a bare header line; others spaces and the header after "//" (CloudCompare's comment), which
-// `.pts` precedes with the count line. `points.normal` must be filled; through OutputFile.
-Result<void> writePointText(const std::filesystem::path& path, const PointSet& points);
+// `.pts` precedes with the count line. `points.normal` must be filled; through OutputFile. Where
+// `origin` is not zero, x y z are origin + position in the shortest form of a double
+// (PlyData::origin).
+Result<void> writePointText(const std::filesystem::path& path, const PointSet& points,
+                            glm::dvec3 origin = glm::dvec3(0.0));
 
 } // namespace pnsplat

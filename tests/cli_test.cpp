@@ -233,7 +233,7 @@ TEST(CliRefine, GeoreferencedCoordinatesAreRefinedLessAnOrigin) {
             run("refine " + quote(far) + " --fill-hole 500005.5,-1999998.5,2.5,0.3 -l 1 -o " + quote(out));
         ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
         EXPECT_NE(r.err.find("coordinates near 500004, -2000000, 0: held less that origin, in single "
-                             "precision, and written back in double"),
+                             "precision (point files written add it back, in double)"),
                   std::string::npos)
             << r.err;
         EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
@@ -245,6 +245,14 @@ TEST(CliRefine, GeoreferencedCoordinatesAreRefinedLessAnOrigin) {
         EXPECT_TRUE(sameBits(back->data.points.normal, nearOut->points.normal)) << kind;
     }
     EXPECT_NE(readText(dir / "far-out.ply").find("property double x\n"), std::string::npos);
+    // Read in double beside an origin, a hole's radius or place must still be a float's.
+    for (const auto& [bad, says] : {std::pair{"500005.5,-1999998.5,2.5,1e-50", "the radius is not positive"},
+                                    std::pair{"1e39,-1999998.5,2.5,0.3", "four finite numbers"}}) {
+        const RunResult r =
+            run("refine " + quote(dir / "far.pcd") + " --fill-hole " + bad + " -o " + quote(dir / "bad.ply"));
+        EXPECT_TRUE(r.exited && r.exitCode == static_cast<int>(Exit::Usage)) << r.err;
+        EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
+    }
     // eval puts the files it reads on one origin: a reference of points with one more, 12 away,
     // has another (500000: the multiple of 16 nearest its centre) and is moved to the refined
     // points'; the same report as near 0 but for roundings.
@@ -1340,6 +1348,10 @@ TEST(CliBadInput, RenderAndDiffFailWithOneLineAndNoOutput) {
          "1 distinct position"},
         {"three numbers for a hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
          "--fill-hole 1,2,3", "expected X,Y,Z,R", Exit::Usage},
+        {"a radius zero as a float", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
+         "--fill-hole 1,2,3,1e-50", "expected X,Y,Z,R", Exit::Usage},
+        {"a centre beyond floats", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
+         "--fill-hole 1e39,2,3,1", "expected X,Y,Z,R", Exit::Usage},
         {"a point inside the hole", headerAscii(4) + "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n1 1 0 0 0 1\n",
          "--fill-hole 0.1,0,0,0.5", "lies inside hole 1"},
     };

@@ -262,9 +262,10 @@ void runBenchRefine(const BenchArgs& given) {
 // thread count.
 
 struct BenchInput {
-    std::string name; // the file's stem, or "sphere-N-uniform"
-    std::string file; // as given; empty for the sphere
-    PointSet points;  // completed (radii, normals) and valid for refinement
+    std::string name;       // the file's stem, or "sphere-N-uniform"
+    std::string file;       // as given; empty for the sphere
+    PointSet points;        // completed (radii, normals) and valid for refinement
+    glm::dvec3 origin{0.0}; // the points are stored less it (PlyData::origin)
 };
 
 // What one run of all levels measured, per level.
@@ -277,13 +278,14 @@ struct LevelRecord {
 // missing file among them, are a CommandError naming it.
 BenchInput loadBenchInput(const std::string& file) {
     const std::string name = inputName(file);
-    PointSet points = readInput(file);
+    glm::dvec3 origin(0.0);
+    PointSet points = readInput(file, nullptr, {}, &origin);
     if (points.size() < 3)
         throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", name, points.size()));
     completeInput(points, 0, name);
     if (auto valid = validateForRefinement(points); !valid)
         throw CommandError(name + ": " + valid.error().message);
-    return {std::filesystem::path(file).stem().string(), file, std::move(points)};
+    return {std::filesystem::path(file).stem().string(), file, std::move(points), origin};
 }
 
 // The inputs in order: with `--models default` the sphere and the default models found (a missing
@@ -355,7 +357,7 @@ std::string pclMlsJson(const BenchInput& input, std::size_t pointsOut, const std
             if (k > 0) times.push_back(run.seconds);
             if (k == 0 && t == 0 && !args.pclMlsOutput.empty())
                 unwrap(writePly(std::filesystem::path(args.pclMlsOutput) / (input.name + "-pcl-mls.ply"),
-                                run.output));
+                                run.output, PlyFormat::BinaryLittleEndian, {}, input.origin));
         }
         if (points == 0) throw CommandError(input.name + ": PCL's MLS upsampling made no point");
         const double rate = static_cast<double>(points) / median(times);

@@ -43,8 +43,10 @@ void runBenchView(BenchViewArgs args) {
     using Clock = std::chrono::steady_clock;
     std::string name;
     const HoleSize holes = parseHoleSize(args.fillHoles);
-    PointSet points = loadForRendering(args.input, {.keepOutliers = args.keepOutliers}, name, args.columns);
-    points = withHolesFilled(std::move(points), holes, name);
+    glm::dvec3 origin(0.0);
+    PointSet points = loadForRendering(args.input, {.keepOutliers = args.keepOutliers}, name, args.columns,
+                                       nullptr, &origin);
+    points = withHolesFilled(std::move(points), holes, name, origin);
     const std::size_t inputPoints = points.size();
     // A path file is read before the engine is made: a bad one fails at once, not after the whole
     // levels' refinement.

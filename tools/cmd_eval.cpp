@@ -65,6 +65,7 @@ void runEval(const EvalArgs& args) {
         origin = glm::dvec3(0.0);
     }
     moveToOrigin(reference.points.position, reference.origin, origin);
+    reference.origin = origin;
 
     PointSet input;
     glm::dvec3 inputOrigin(0.0);

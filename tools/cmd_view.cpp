@@ -38,8 +38,9 @@ viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float
                         const InputOptions& input, const std::vector<std::string>& columns,
                         const HoleSize& holes) {
     viewer::Model model;
-    PointSet points = loadForRendering(path, input, model.name, columns);
-    model.points = withHolesFilled(std::move(points), holes, model.name);
+    glm::dvec3 origin(0.0);
+    PointSet points = loadForRendering(path, input, model.name, columns, nullptr, &origin);
+    model.points = withHolesFilled(std::move(points), holes, model.name, origin);
     std::optional<engine::Viewpoint> view;
     model.camera = chooseCamera(camera, model.points, aspect, view);
     model.bounds = engine::boundingSphere(model.points.position);

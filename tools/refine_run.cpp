@@ -35,7 +35,9 @@ Hole parseHole(std::string_view text, glm::dvec3 origin) {
         const std::size_t end = std::min(text.find(',', begin), text.size());
         std::string_view part = text.substr(begin, end - begin);
         if (part.starts_with('+')) part.remove_prefix(1);
-        const std::optional<double> value = parseDouble(part);
+        // Near 0 as floats (as before origins); far from it, in double until the origin is taken off.
+        std::optional<double> value = parseDouble(part);
+        if (origin == glm::dvec3(0.0)) value = parseFloat(part);
         if (!value || count == 4)
             count = 5; // not a number, or a fifth one
         else
@@ -45,11 +47,15 @@ Hole parseHole(std::string_view text, glm::dvec3 origin) {
     if (count != 4)
         throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text),
                            kExitUsage);
-    if (!(values[3] > 0.0) || !std::isfinite(static_cast<float>(values[3])))
-        throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text), kExitUsage);
     // In the file's coordinates: the points' are stored less their origin.
-    return Hole{glm::vec3(glm::dvec3(values[0], values[1], values[2]) - origin),
-                static_cast<float>(values[3])};
+    const Hole hole{glm::vec3(glm::dvec3(values[0], values[1], values[2]) - origin),
+                    static_cast<float>(values[3])};
+    if (!std::isfinite(hole.centre.x) || !std::isfinite(hole.centre.y) || !std::isfinite(hole.centre.z))
+        throw CommandError(fmt::format("--fill-hole {}: expected X,Y,Z,R, four finite numbers", text),
+                           kExitUsage);
+    if (!(hole.radius > 0.0f))
+        throw CommandError(fmt::format("--fill-hole {}: the radius is not positive", text), kExitUsage);
+    return hole;
 }
 
 // "about 35.4 million", "2.1e+33": a count for messages.
@@ -259,9 +265,8 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments,
         fmt::print(
             stderr,
             "pnsplat: {}: coordinates near {:.17g}, {:.17g}, {:.17g}: held less that origin, in single "
-            "precision{}\n",
-            inputName(path), data.origin.x, data.origin.y, data.origin.z,
-            origin ? ", and written back in double" : "");
+            "precision (point files written add it back, in double)\n",
+            inputName(path), data.origin.x, data.origin.y, data.origin.z);
     if (data.roundedBy > 0.0)
         fmt::print(
             stderr,
@@ -402,10 +407,12 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
     return fillAndRefine(std::move(points), std::move(job), std::move(run), inputName);
 }
 
-PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::string& inputName) {
+PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::string& inputName,
+                         glm::dvec3 origin) {
     if (!(upTo.value > 0.0f)) return points;
     RefineJob job;
     job.fillHolesUpTo = upTo;
+    job.origin = origin;
     RefineRun run;
     run.inputPoints = points.size();
     addFoundHoles(points, job, run, inputName);

@@ -70,7 +70,9 @@ void addFillHolesOption(CLI::App& cmd, std::string& upTo);
 // `points` (completed: completeInput) with the holes findHoles finds up to `upTo` filled as
 // `refine --fill-holes` fills them (fillHoles; no uniform level), for the real-time engine, which
 // refines from there; unchanged when upTo.value is 0. Says what it found on stderr, as refine does.
-PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::string& inputName);
+// `origin`: the points' (PlyData::origin), for the holes' places in the file's coordinates.
+PointSet withHolesFilled(PointSet points, const HoleSize& upTo, const std::string& inputName,
+                         glm::dvec3 origin = glm::dvec3(0.0));
 // `--fill-holes`'s SIZE: a positive finite length ("0.05"), or a multiple of the spacing ("20x");
 // empty: none. Anything else is a CommandError (a usage error) naming the option and the text.
 HoleSize parseHoleSize(std::string_view text);

@@ -501,10 +501,11 @@ class PcdReader {
                                                      printable(field->name)));
                     continue;
                 }
-                // A position of 8 bytes in the precision it is written with (PlyData::origin).
+                // A position of 8 bytes or an integer in the precision it is written with
+                // (PlyData::origin), as the binary reader takes it.
                 double& value = values[static_cast<std::size_t>(field->use)];
                 float single = 0.0f;
-                const bool position = field->use <= detail::kZ && field->size == 8;
+                const bool position = field->use <= detail::kZ && (field->size == 8 || field->type != 'F');
                 if (position ? !detail::parseDoubleField(word, value)
                              : !detail::parseFloatField(word, single))
                     return lineError(fmt::format("'{}' is not a number (field {})", printable(word),
@@ -638,13 +639,12 @@ Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& poi
             const glm::u8vec3 c = points.hasColour() ? points.colour[i] : glm::u8vec3(0);
             const std::uint32_t rgb = (std::uint32_t{c.x} << 16) | (std::uint32_t{c.y} << 8) | c.z;
             if (ascii) {
-                for (int k = 0; k < doubles; ++k) {
-                    detail::appendScalarText(rows, ScalarType::Float64, origin[k] + double(values[k]));
-                    rows += ' ';
-                }
-                for (int k = doubles; k < floats; ++k) {
+                for (int k = 0; k < floats; ++k) {
                     if (k > 0) rows += ' ';
-                    appendFloatText(rows, values[k]);
+                    if (k < doubles)
+                        detail::appendScalarText(rows, ScalarType::Float64, origin[k] + double(values[k]));
+                    else
+                        appendFloatText(rows, values[k]);
                 }
                 if (points.hasCrease()) rows += crease ? " 1" : " 0";
                 if (points.hasColour())

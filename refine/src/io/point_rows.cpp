@@ -285,8 +285,9 @@ void settleOrigin(PlyData& data) {
     const bool singles = std::all_of(exact.begin(), exact.begin() + static_cast<std::ptrdiff_t>(n),
                                      [](const glm::dvec3& p) { return glm::dvec3(glm::vec3(p)) == p; });
     if (singles && step > kCoarseStep * spacing) data.roundedBy = step / spacing;
-    // A multiple of the power of two at or above the diagonal: the same origin for the model and
-    // for what is made of it (a refinement's centre moves less than that).
+    // A multiple of the power of two at or above the diagonal: mostly the same origin for the model
+    // and for what is made of it (a refinement's centre moves far less than that, unless it lies
+    // near a multiple's boundary or its diagonal crosses a power of two).
     const double grid = std::exp2(std::ceil(std::log2(diagonal)));
     data.origin = glm::round(0.5 * (lo + hi) / grid) * grid;
     for (std::size_t i = 0; i < n; ++i) points.position[i] = glm::vec3(exact[i] - data.origin);

@@ -73,7 +73,7 @@ struct PlyData {
 };
 
 // The first point's distance from 0 on an axis from which the readers keep the positions in double
-// until they decide on PlyData::origin (below it, a float steps by at most 2^-19 there).
+// until they decide on PlyData::origin (below it, a float steps by at most 2^-20 there).
 inline constexpr double kOriginFrom = 16.0;
 
 // Positions stored less `from` (PlyData::origin of the file they came from) restated less `to`, in

@@ -26,7 +26,8 @@
 // ("1.0 0.5 0"). Values are rounded and clamped to 0..255.
 //
 // Numbers are read with std::from_chars as floats (a leading '+' allowed), so the shortest
-// representation that writeText writes reads back bit for bit. Errors are one line naming the
+// representation that writeText writes reads back bit for bit; positions also as doubles, for
+// coordinates far from 0 (PlyData::origin; elsewhere the float read is kept). Errors are one line naming the
 // file and the line: a field that is not a number, a line of another number of fields, a
 // non-finite value (inf, nan, out of float range), a zero-length normal, a header without x y z,
 // a column named twice, a file with no points.

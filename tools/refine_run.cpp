@@ -36,8 +36,11 @@ Hole parseHole(std::string_view text, glm::dvec3 origin) {
         std::string_view part = text.substr(begin, end - begin);
         if (part.starts_with('+')) part.remove_prefix(1);
         // Near 0 as floats (as before origins); far from it, in double until the origin is taken off.
-        std::optional<double> value = parseDouble(part);
-        if (origin == glm::dvec3(0.0)) value = parseFloat(part);
+        std::optional<double> value;
+        if (origin != glm::dvec3(0.0))
+            value = parseDouble(part);
+        else if (const std::optional<float> single = parseFloat(part))
+            value = *single;
         if (!value || count == 4)
             count = 5; // not a number, or a fifth one
         else
@@ -227,8 +230,6 @@ void addKeepOutliersOption(CLI::App& cmd, bool& keep) {
                     "out, with a note",
                     kOutlierNearest));
 }
-
-namespace {} // namespace
 
 PointSet readInput(const std::string& path, std::vector<std::string>* comments,
                    const std::vector<std::string>& columns, glm::dvec3* origin) {

@@ -608,8 +608,7 @@ Result<void> writePcdFile(const std::filesystem::path& path, const PointSet& poi
         return fail(file, *problem);
     std::vector<std::string_view> names = {"x", "y", "z", "normal_x", "normal_y", "normal_z"};
     std::vector<std::string_view> sizes(6, "4"), types(6, "F");
-    // Positions as doubles where they are stored less an origin (PlyData::origin).
-    const int doubles = origin != glm::dvec3(0.0) ? 3 : 0;
+    const int doubles = detail::doublePositions(origin);
     std::fill_n(sizes.begin(), doubles, "8");
     if (points.hasRadius()) names.push_back("radius"), sizes.push_back("4"), types.push_back("F");
     if (points.hasCrease()) {

@@ -850,8 +850,7 @@ void appendFloatAscii(std::string& out, float value, char separator) {
 void appendRow(std::string& out, const PointSet& points, std::size_t i, PlyFormat format, glm::dvec3 origin) {
     std::array<float, 10> values{};
     const int floats = detail::rowFloats(points, i, values);
-    // Positions as doubles where they are stored less an origin (PlyData::origin).
-    const int first = origin != glm::dvec3(0.0) ? 3 : 0;
+    const int first = detail::doublePositions(origin);
     const bool crease = points.isCrease(i);
     // The bytes after the floats: the crease flag, then the colour.
     std::uint8_t bytes[4];
@@ -893,7 +892,7 @@ Result<void> writePlyFile(const fs::path& path, const PointSet& points, PlyForma
     if (const std::optional<std::string> problem = detail::attributeNameProblem(points))
         return fail(file, *problem);
 
-    std::string buffer = plyHeader(points, format, comments, origin != glm::dvec3(0.0));
+    std::string buffer = plyHeader(points, format, comments, detail::doublePositions(origin) > 0);
     if (buffer.size() > kMaxHeaderBytes)
         return fail(file, fmt::format("the header comments to carry over take {} KiB, more than a header "
                                       "of {} KiB readPly reads",

@@ -99,6 +99,12 @@ Result<void> settleZeroNormals(PlyData& data, bool required, std::string_view fi
 // convention); returns their count.
 int rowFloats(const PointSet& points, std::size_t i, std::array<float, 10>& values);
 
+// How many of a written row's first values (x y z) are doubles, origin + position: 3 where the
+// points are stored less an origin (PlyData::origin), else 0 (floats, as stored).
+inline int doublePositions(glm::dvec3 origin) {
+    return origin != glm::dvec3(0.0) ? 3 : 0;
+}
+
 // An attribute's value (PointSet::attributes), representable() first, as text: an integer type's as an
 // integer, a float's and a double's in the shortest form that reads back exactly as that type.
 void appendScalarText(std::string& out, ScalarType type, double value);

@@ -396,13 +396,12 @@ Result<void> writeTextFile(const std::filesystem::path& path, const PointSet& po
     if (!csv) buffer += "//";
     buffer += fmt::format("{}\n", fmt::join(names, std::string_view(&separator, 1)));
 
+    const int doubles = detail::doublePositions(origin);
     return detail::writeRows(
         path, OutputContent::Text, std::move(buffer), points.size(), [&](std::string& rows, std::size_t i) {
             std::array<float, 10> values{};
             const int floats = detail::rowFloats(points, i, values);
             const bool crease = points.isCrease(i);
-            // Positions as doubles where they are stored less an origin (PlyData::origin).
-            const int doubles = origin != glm::dvec3(0.0) ? 3 : 0;
             for (int k = 0; k < floats; ++k) {
                 if (k > 0) rows += separator;
                 if (k < doubles)

@@ -253,12 +253,15 @@ TEST(CliRefine, GeoreferencedCoordinatesAreRefinedLessAnOrigin) {
         EXPECT_TRUE(r.exited && r.exitCode == static_cast<int>(Exit::Usage)) << r.err;
         EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
     }
-    // eval puts the files it reads on one origin: a reference of points with one more, 12 away,
-    // has another (500000: the multiple of 16 nearest its centre) and is moved to the refined
-    // points'; the same report as near 0 but for roundings.
+    // eval puts the files it reads on one origin: a reference of the sphere and a copy of it 12
+    // above, out of every refined point's reach, has another (500000: the multiple of 32 nearest
+    // the middle of its box) and is moved to the refined points'; the same report as near 0 but
+    // for roundings.
     PointSet reference = sphere;
-    reference.appendFrom(sphere, 0);
-    reference.position.back() = glm::vec3(1.5f, 1.5f, 12.5f);
+    for (std::size_t i = 0; i < sphere.size(); ++i) {
+        reference.appendFrom(sphere, i);
+        reference.position.back().z += 12.0f;
+    }
     ASSERT_TRUE(writePly(dir / "near-ref.ply", reference).ok());
     ASSERT_TRUE(writePly(dir / "far-ref.ply", reference, PlyFormat::BinaryLittleEndian, {}, origin).ok());
     const Result<PlyData> farReference = readPly(dir / "far-ref.ply");
@@ -276,6 +279,15 @@ TEST(CliRefine, GeoreferencedCoordinatesAreRefinedLessAnOrigin) {
     const double nearMean = meanDistance("near-out.ply", "near-ref.ply", "near.ply");
     EXPECT_GT(nearMean, 0.0);
     EXPECT_NEAR(meanDistance("far-out.ply", "far-ref.ply", "far.ply"), nearMean, 1e-6);
+
+    // The notes give places in the file's coordinates: an outlier 10 from the sphere.
+    PointSet stray = sphere;
+    stray.position[0] = glm::vec3(-4.0f, 10.0f, 7.0f); // 500000 -1999990 7 in the file
+    ASSERT_TRUE(writePointFile(dir / "stray.ply", stray, false, {}, origin).ok());
+    const RunResult strayRun =
+        run("refine " + quote(dir / "stray.ply") + " -l 1 -o " + quote(dir / "stray-out.ply"));
+    ASSERT_TRUE(strayRun.exited && strayRun.exitCode == 0) << strayRun.err;
+    EXPECT_NE(strayRun.err.find("(the first at 500000 -1999990 7)"), std::string::npos) << strayRun.err;
 
     for (glm::vec3& p : sphere.position) p += glm::vec3(5e5f, -2e6f, 0.0f); // single precision, far
     ASSERT_TRUE(writePly(dir / "single.ply", sphere).ok());

@@ -282,7 +282,7 @@ BenchInput loadBenchInput(const std::string& file) {
     PointSet points = readInput(file, nullptr, {}, &origin);
     if (points.size() < 3)
         throw CommandError(fmt::format("{}: {} point(s); refinement needs at least 3", name, points.size()));
-    completeInput(points, 0, name);
+    completeInput(points, 0, name, {}, origin);
     if (auto valid = validateForRefinement(points); !valid)
         throw CommandError(name + ": " + valid.error().message);
     return {std::filesystem::path(file).stem().string(), file, std::move(points), origin};

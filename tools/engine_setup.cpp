@@ -13,6 +13,8 @@ namespace pnsplat::tools {
 PointSet loadForRendering(const std::string& input, const InputOptions& options, std::string& name,
                           const std::vector<std::string>& columns, InputCompletion* completion,
                           glm::dvec3* origin) {
+    glm::dvec3 fileOrigin(0.0);
+    if (!origin) origin = &fileOrigin; // for the notes' places
     PointSet points;
     std::vector<std::string> comments;
     if (input.empty()) {
@@ -33,7 +35,7 @@ PointSet loadForRendering(const std::string& input, const InputOptions& options,
                    "for outliers or flipped normals)\n",
                    name);
     }
-    const InputCompletion done = completeInput(points, 0, name, completing);
+    const InputCompletion done = completeInput(points, 0, name, completing, *origin);
     if (completion) *completion = done;
     return points;
 }

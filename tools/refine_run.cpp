@@ -114,6 +114,12 @@ void refineLevels(PointSet points, const RefineJob& job, const HoleRims& rims, R
     run.points = std::move(refiner).takePoints();
 }
 
+// Significant digits that show `value` to about a thousandth of `size` (4 near 0, more far from it).
+int digits(double value, double size) {
+    const double magnitude = std::max(std::abs(value), size);
+    return 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
+}
+
 } // namespace
 
 void checkFits(const PointSet& points, const RefineJob& job, const std::string& inputName) {
@@ -281,7 +287,7 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments,
 }
 
 InputCompletion completeInput(PointSet& points, unsigned threads, const std::string& inputName,
-                              const InputOptions& options) {
+                              const InputOptions& options, glm::dvec3 origin) {
     ProgressBar bar("completing " + inputName);
     const Result<InputCompletion> done = pnsplat::completeInput(
         points, threads, options, [&](std::size_t step, std::size_t steps) { bar.update(step, steps); });
@@ -296,15 +302,18 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
                                                           "colour, crease or attribute value, now lost",
                                                           removed.withOtherAttributes)
                                             : "");
-    if (done->outliers > 0)
+    if (done->outliers > 0) {
+        const glm::dvec3 at = origin + glm::dvec3(done->firstOutlier);
+        const double size = done->outlierThreshold;
         fmt::print(
             stderr,
             "pnsplat: {}: {} outlier(s) left out: points far from their {} nearest (a mean distance "
             "above {:.4g}, {:.1f} times the median, in the first pass) or off their plane (the first at "
-            "{:.6g} {:.6g} {:.6g}); --keep-outliers keeps them\n",
+            "{:.{}g} {:.{}g} {:.{}g}); --keep-outliers keeps them\n",
             inputName, done->outliers, kOutlierNearest, done->outlierThreshold,
-            done->outlierThreshold / done->outlierMedian, done->firstOutlier.x, done->firstOutlier.y,
-            done->firstOutlier.z);
+            done->outlierThreshold / done->outlierMedian, at.x, digits(at.x, size), at.y, digits(at.y, size),
+            at.z, digits(at.z, size));
+    }
     if (done->normalComponents > 0)
         fmt::print(stderr,
                    "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented "
@@ -320,12 +329,6 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
 }
 
 namespace {
-
-// Significant digits that show `value` to about a thousandth of `size` (4 near 0, more far from it).
-int digits(double value, double size) {
-    const double magnitude = std::max(std::abs(value), size);
-    return 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
-}
 
 // The holes findHoles finds in `points` up to job.fillHolesUpTo, appended to job.holes but for those
 // also given (their balls meet one of job.holes: filled once, from the ball given), counted in
@@ -396,10 +399,10 @@ RefineRun refineWithProgress(PointSet points, RefineJob job, const std::string& 
         throw CommandError(
             fmt::format("{}: {} point(s); refinement needs at least 3", inputName, points.size()));
     checkFits(points, job, inputName);
-    const InputCompletion completed = completeInput(points, job.options.threads, inputName,
-                                                    {.replaceRadii = job.estimateRadii,
-                                                     .keepNormals = job.keepNormals,
-                                                     .keepOutliers = job.keepOutliers});
+    const InputCompletion completed = completeInput(
+        points, job.options.threads, inputName,
+        {.replaceRadii = job.estimateRadii, .keepNormals = job.keepNormals, .keepOutliers = job.keepOutliers},
+        job.origin);
     RefineRun run;
     run.radiiEstimated = completed.radiiEstimated;
     run.inputPoints = points.size();

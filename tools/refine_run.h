@@ -103,10 +103,10 @@ PointSet readInput(const std::string& path, std::vector<std::string>* comments =
 
 // Completes an input (pnsplat::completeInput, input.h), with a note on stderr for the repeated
 // positions dropped, for outliers left out, for normals estimated and for flipped normals turned
-// back; its errors are a
-// CommandError naming `inputName`.
+// back; its errors are a CommandError naming `inputName`. The notes give places in the file's
+// coordinates: `origin` (PlyData::origin) + position.
 InputCompletion completeInput(PointSet& points, unsigned threads, const std::string& inputName,
-                              const InputOptions& options = {});
+                              const InputOptions& options = {}, glm::dvec3 origin = glm::dvec3(0.0));
 
 // Refuses (CommandError naming `inputName`) a job whose estimated output is above job.maxPoints,
 // or with 0 above what the memory budget leaves room for, saying what it would make and need.

@@ -13,7 +13,9 @@
 #include <cstring>
 #include <iterator>
 #include <limits>
+#include <span>
 #include <system_error>
+#include <utility>
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -265,14 +267,40 @@ Result<void> settleZeroNormals(PlyData& data, bool required, std::string_view fi
     return {};
 }
 
+namespace {
+
+// Where most of the points lie: per axis, the median ± the interquartile range (the whole range of
+// an even spread is twice it), from every ceil(n / kMiddleSample)-th point. A few points far from
+// the rest (a scanner's own position, invalid returns written as 0 0 0) move neither the box nor
+// the origin settleOrigin takes from it; the whole box would put them inside and estimate the
+// spacing from its diagonal.
+constexpr std::size_t kMiddleSample = 1 << 16;
+std::pair<glm::dvec3, glm::dvec3> middleBox(std::span<const glm::dvec3> exact) {
+    const std::size_t stride = (exact.size() + kMiddleSample - 1) / kMiddleSample;
+    std::vector<double> axis;
+    axis.reserve(exact.size() / stride + 1);
+    glm::dvec3 lo{0.0}, hi{0.0};
+    for (int a = 0; a < 3; ++a) {
+        axis.clear();
+        for (std::size_t i = 0; i < exact.size(); i += stride) axis.push_back(exact[i][a]);
+        std::sort(axis.begin(), axis.end());
+        const std::size_t m = axis.size();
+        const double quartiles = axis[3 * m / 4] - axis[m / 4];
+        lo[a] = axis[m / 2] - quartiles;
+        hi[a] = axis[m / 2] + quartiles;
+    }
+    return {lo, hi};
+}
+
+} // namespace
+
 void settleOrigin(PlyData& data) {
     const std::vector<glm::dvec3> exact = std::move(data.farPositions);
     data.farPositions = {};
     PointSet& points = data.points;
     const std::size_t n = points.size();
     if (n < 2 || exact.size() < n) return;
-    glm::dvec3 lo = exact[0], hi = lo;
-    for (std::size_t i = 1; i < n; ++i) lo = glm::min(lo, exact[i]), hi = glm::max(hi, exact[i]);
+    const auto [lo, hi] = middleBox(std::span(exact).first(n));
     const double diagonal = glm::length(hi - lo);
     const double largest = std::max(
         {std::abs(lo.x), std::abs(lo.y), std::abs(lo.z), std::abs(hi.x), std::abs(hi.y), std::abs(hi.z)});
@@ -296,9 +324,15 @@ void settleOrigin(PlyData& data) {
 const char* storeRow(PlyData& data, const RowLayout& layout, std::size_t i,
                      const std::array<double, kRowSlots>& v) {
     PointSet& points = data.points;
-    // Kept in double where the first point lies far from 0, for settleOrigin.
-    if (i == 0 && std::max({std::abs(v[kX]), std::abs(v[kY]), std::abs(v[kZ])}) >= kOriginFrom)
+    // Kept in double from the first point that lies far from 0 on, for settleOrigin; the rows
+    // before it, near 0, as the floats they were stored as (a scanner's own position, or invalid
+    // returns written as 0 0 0, before the scan).
+    if (data.farPositions.empty() &&
+        std::max({std::abs(v[kX]), std::abs(v[kY]), std::abs(v[kZ])}) >= kOriginFrom) {
         data.farPositions.resize(points.size());
+        std::copy(points.position.begin(), points.position.begin() + static_cast<std::ptrdiff_t>(i),
+                  data.farPositions.begin());
+    }
     if (!data.farPositions.empty()) data.farPositions[i] = glm::dvec3(v[kX], v[kY], v[kZ]);
     const auto x = static_cast<float>(v[kX]);
     const auto y = static_cast<float>(v[kY]);

@@ -72,16 +72,17 @@ void sizePoints(PointSet& points, const RowLayout& layout, bool colour, std::siz
 // Checks row `i` (values by slot; colour apart) and stores it into `data.points`; returns the
 // problem ("non-finite coordinate", "zero-length normal", ...), or nullptr when the row is valid.
 // Positions are given in the precision the file holds (double where it is written so or as text)
-// and kept so in data.farPositions where the first lies kOriginFrom or farther from 0 on an axis,
-// for settleOrigin. Zero normals are stored while every row before has one (settleZeroNormals decides after
-// the last). The crease convention is ply.h's: with the flag, 0 is an ordinary point; without it,
-// a point is ordinary when n2 is zero or equal to n.
+// and kept so in data.farPositions from the first that lies kOriginFrom or farther from 0 on an
+// axis on (the rows before it as stored), for settleOrigin. Zero normals are stored while every row before
+// has one (settleZeroNormals decides after the last). The crease convention is ply.h's: with the flag, 0 is
+// an ordinary point; without it, a point is ordinary when n2 is zero or equal to n.
 const char* storeRow(PlyData& data, const RowLayout& layout, std::size_t i,
                      const std::array<double, kRowSlots>& v);
 
 // After the last row: where single precision steps by more than kOriginStep times the mean spacing
 // at the points' distance from 0, they are stored less an origin (PlyData::origin: the centre of
-// their box in double, rounded to a multiple of the power of two at or above its diagonal), from
+// the box where most of them lie, in double, rounded to a multiple of the power of two at or above
+// its diagonal; box and spacing leave out a few points far from the rest), from
 // the positions kept in double; data.farPositions is released either way. Where the file holds
 // them in single precision, rounded so already, and a float's step there exceeds kCoarseStep times
 // the spacing, data.roundedBy says by how much.

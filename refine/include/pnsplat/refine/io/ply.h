@@ -64,16 +64,17 @@ struct PlyData {
     // Where the file holds such coordinates in single precision, rounded by more than a hundredth
     // of their spacing: that step over the mean spacing (else 0).
     double roundedBy = 0.0;
-    // The readers' own, empty once read: the positions in double while a file whose first point
-    // lies kOriginFrom or farther from 0 is read.
+    // The readers' own, empty once read: the positions in double, from a file's first point that
+    // lies kOriginFrom or farther from 0 on, while it is read.
     std::vector<glm::dvec3> farPositions;
     // The header's `comment` and `obj_info` lines as they stand, from the keyword on (writePly
     // can carry them on).
     std::vector<std::string> comments;
 };
 
-// The first point's distance from 0 on an axis from which the readers keep the positions in double
-// until they decide on PlyData::origin (below it, a float steps by at most 2^-20 there).
+// A point's distance from 0 on an axis from which the readers keep the positions in double until
+// they decide on PlyData::origin (below it, a float steps by at most 2^-20, so the points before
+// the first such one are kept as the floats they were read as).
 inline constexpr double kOriginFrom = 16.0;
 
 // Positions stored less `from` (PlyData::origin of the file they came from) restated less `to`, in

@@ -3,6 +3,7 @@
 #include "pnsplat/refine/memory_budget.h"
 
 #include <iostream>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -56,12 +57,24 @@ TEST(MemoryBudget, TargetAndEvenOutAndThreads) {
     EXPECT_DOUBLE_EQ(estimateRefinement(plan).points, 9000.0 * 1.05);
     plan.evenOutFactor = 1.0f;
     EXPECT_DOUBLE_EQ(estimateRefinement(plan).points, 9000.0 * 2.55);
-    // Memory: 5 times the 28 bytes of a point in the file, and 84 MiB per thread.
+    // Memory: 5 times the 28 bytes of a point in the file, and 84 MiB of address space per thread,
+    // of which 4 MiB resident for each thread after the first.
     plan.evenOutFactor = 0.0f;
     plan.threads = 2;
     EXPECT_DOUBLE_EQ(estimateRefinement(plan).memoryBytes, 9000.0 * 140.0 + 2.0 * kMemoryPerThread);
-    EXPECT_EQ(pointsWithin(2.0 * kMemoryPerThread + 140.0 * 1000.0, plan), 1000u);
-    EXPECT_EQ(pointsWithin(kMemoryPerThread, plan), 0u);
+    EXPECT_DOUBLE_EQ(estimateRefinement(plan).residentBytes,
+                     9000.0 * 140.0 + kMemoryPerThread + kResidentPerThread);
+    const MemoryBudget addressSpace{2.0 * kMemoryPerThread + 140.0 * 1000.0, "ulimit -v", true};
+    EXPECT_EQ(pointsWithin(addressSpace, plan), 1000u);
+    EXPECT_EQ(pointsWithin({kMemoryPerThread, "ulimit -v", true}, plan), 0u);
+    // Resident memory: the threads after the first take 4 MiB each, so that 1,000 threads do not
+    // refuse a small input for their 84 GB of address space (they did).
+    EXPECT_EQ(pointsWithin({addressSpace.bytes, "physical memory", false}, plan),
+              1000u + static_cast<std::size_t>((kMemoryPerThread - kResidentPerThread) / 140.0));
+    plan.threads = 1000;
+    EXPECT_GT(pointsWithin({8e9, "physical memory", false}, plan), 10'000'000u);
+    EXPECT_EQ(pointsWithin({8e9, "ulimit -v", true}, plan), 0u);
+    plan.threads = 2;
     plan.colour = plan.crease = true;
     EXPECT_DOUBLE_EQ(estimateRefinement(plan).fileBytes, 9000.0 * 44.0);
     // Attributes, a float and a uchar: 5 bytes in the file, a double each in memory.
@@ -73,10 +86,15 @@ TEST(MemoryBudget, TargetAndEvenOutAndThreads) {
 }
 
 TEST(MemoryBudget, BudgetIsPositiveAndNamesItsSource) {
-    const MemoryBudget budget = memoryBudget();
-    std::cout << "    " << budget.bytes / 1e9 << " GB, set by " << budget.source << "\n";
-    EXPECT_GT(budget.bytes, 0.0);
-    EXPECT_FALSE(budget.source.empty());
+    const std::vector<MemoryBudget> limits = memoryLimits();
+    ASSERT_FALSE(limits.empty());
+    EXPECT_EQ(limits[0].source, "physical memory");
+    EXPECT_FALSE(limits[0].addressSpace);
+    for (const MemoryBudget& limit : limits) {
+        std::cout << "    " << limit.bytes / 1e9 << " GB, set by " << limit.source << "\n";
+        EXPECT_GT(limit.bytes, 0.0);
+        EXPECT_FALSE(limit.source.empty());
+    }
 }
 
 } // namespace

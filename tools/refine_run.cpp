@@ -138,19 +138,26 @@ void checkFits(const PointSet& points, const RefineJob& job, const std::string& 
         "{}: {} would make about {} points (a {} file) and need about {} of memory", inputName,
         job.targetPoints != 0 ? fmt::format("--target-points {}", job.targetPoints)
                               : fmt::format("{} level(s)", job.levels),
-        approximately(estimate.points), bytesText(estimate.fileBytes), bytesText(estimate.memoryBytes));
+        approximately(estimate.points), bytesText(estimate.fileBytes), bytesText(estimate.residentBytes));
     if (job.maxPoints != 0) {
         if (estimate.points > static_cast<double>(job.maxPoints))
             throw CommandError(fmt::format("{}, more than --max-points {}", would, job.maxPoints));
         return;
     }
-    const MemoryBudget budget = memoryBudget();
-    const std::size_t fits = pointsWithin(budget.bytes, plan);
+    // The limit that allows the fewest points.
+    std::optional<MemoryBudget> tightest;
+    std::size_t fits = 0;
+    for (const MemoryBudget& limit : memoryLimits())
+        if (const std::size_t within = pointsWithin(limit, plan); !tightest || within < fits)
+            tightest = limit, fits = within;
     if (estimate.points > static_cast<double>(fits))
         throw CommandError(fmt::format(
-            "{}; {} allows {}, about {} points (refine less, or with fewer threads; "
+            "{}{}; {} allows {}, about {} points (refine less, or with fewer threads; "
             "--max-points sets the bound to try anyway)",
-            would, budget.source, bytesText(budget.bytes), approximately(static_cast<double>(fits))));
+            would,
+            tightest->addressSpace ? fmt::format(" ({} of address space)", bytesText(estimate.memoryBytes))
+                                   : "",
+            tightest->source, bytesText(tightest->bytes), approximately(static_cast<double>(fits))));
 }
 
 HoleSize parseHoleSize(std::string_view text) {
@@ -206,7 +213,7 @@ void addMaxPointsOption(CLI::App& cmd, std::size_t& maxPoints) {
            "--max-points", maxPoints,
            "refuse to start a refinement estimated to make more points than this (default: as many as "
            "the memory allows: the least of the physical memory, a control group's limit and ulimit -v "
-           "or -d, at about 140 bytes per point and 84 MiB per thread)")
+           "or -d, at about 140 bytes per point, and 4 MiB of memory or 84 MiB of address space per thread)")
         ->check(kPositiveCount);
 }
 

@@ -32,6 +32,12 @@ double threadCount(const RefinementPlan& plan) {
     return plan.threads != 0 ? plan.threads : std::max(1u, std::thread::hardware_concurrency());
 }
 
+// The threads' part of the estimate: address space, or resident memory.
+double threadBytes(const RefinementPlan& plan, bool addressSpace) {
+    return addressSpace ? kMemoryPerThread * threadCount(plan)
+                        : kMemoryPerThread + kResidentPerThread * (threadCount(plan) - 1.0);
+}
+
 // The first number in a control group's limit file; 0 when absent or "max" (no limit).
 double cgroupLimit(const char* path) {
     std::ifstream in(path);
@@ -54,32 +60,31 @@ RefinementEstimate estimateRefinement(const RefinementPlan& plan) {
     RefinementEstimate estimate;
     estimate.points = points;
     estimate.fileBytes = points * pointFileBytes(plan);
-    estimate.memoryBytes =
-        kMemoryPerFileByte * pointMemoryBytes(plan) * points + kMemoryPerThread * threadCount(plan);
+    const double pointBytes = kMemoryPerFileByte * pointMemoryBytes(plan) * points;
+    estimate.memoryBytes = pointBytes + threadBytes(plan, true);
+    estimate.residentBytes = pointBytes + threadBytes(plan, false);
     return estimate;
 }
 
-MemoryBudget memoryBudget() {
-    MemoryBudget budget{static_cast<double>(sysconf(_SC_PHYS_PAGES)) *
-                            static_cast<double>(sysconf(_SC_PAGESIZE)),
-                        "physical memory"};
-    const auto consider = [&](double bytes, const char* source) {
-        if (bytes > 0.0 && bytes < budget.bytes) budget = {bytes, source};
-    };
-    consider(cgroupLimit("/sys/fs/cgroup/memory.max"), "the control group's memory limit");
-    consider(cgroupLimit("/sys/fs/cgroup/memory/memory.limit_in_bytes"), "the control group's memory limit");
+std::vector<MemoryBudget> memoryLimits() {
+    std::vector<MemoryBudget> limits{
+        {static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGESIZE)),
+         "physical memory", false}};
+    for (const char* path : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"})
+        if (const double bytes = cgroupLimit(path); bytes > 0.0 && bytes < limits[0].bytes)
+            limits.push_back({bytes, "the control group's memory limit", false});
     for (const auto& [resource, source] : {std::pair{RLIMIT_AS, "the address-space limit (ulimit -v)"},
                                            std::pair{RLIMIT_DATA, "the data-size limit (ulimit -d)"}}) {
         rlimit limit{};
         if (getrlimit(resource, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY)
-            consider(static_cast<double>(limit.rlim_cur), source);
+            limits.push_back({static_cast<double>(limit.rlim_cur), source, true});
     }
-    return budget;
+    return limits;
 }
 
-std::size_t pointsWithin(double bytes, const RefinementPlan& plan) {
+std::size_t pointsWithin(const MemoryBudget& limit, const RefinementPlan& plan) {
     const double points =
-        (bytes - kMemoryPerThread * threadCount(plan)) / (kMemoryPerFileByte * pointMemoryBytes(plan));
+        (limit.bytes - threadBytes(plan, limit.addressSpace)) / (kMemoryPerFileByte * pointMemoryBytes(plan));
     return points > 0.0 ? static_cast<std::size_t>(points) : 0;
 }
 

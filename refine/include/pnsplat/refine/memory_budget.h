@@ -12,20 +12,25 @@
 //    resident for x y z nx ny nz radius (28 bytes in the file), 147 and 89 with colour (31), 178
 //    and 124 with crease normals (41): kMemoryPerFileByte = 5 times the point's bytes in the file;
 //  - per worker thread: 82 MiB of address space (a malloc arena reserves 64 MiB, the stack 8 MiB,
-//    the level's arena blocks 8 MiB), little of it resident: kMemoryPerThread = 84 MiB, counted for
-//    the first thread too (what the program itself takes: 50 MiB).
+//    the level's arena blocks 8 MiB): kMemoryPerThread = 84 MiB, counted for the first thread too
+//    (what the program itself takes: 50 MiB). Little of it is resident: each thread after the first
+//    adds 1.5 to 2.1 MiB (VmHWM of the sparse bunny's 5 levels on 16 and 64 threads, of igea-600's
+//    3 levels on 16, against one thread): kResidentPerThread = 4 MiB, so that physical memory and a
+//    control group's limit do not refuse many threads for their address space.
 // Any thread may call these functions.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace pnsplat {
 
 inline constexpr double kLevelGrowth = 3.0;
 inline constexpr double kMemoryPerFileByte = 5.0;
 inline constexpr double kMemoryPerThread = 84.0 * (1 << 20);
+inline constexpr double kResidentPerThread = 4.0 * (1 << 20);
 
 // What a refinement will do: from `inputPoints`, `levels` uniform levels, stopping at the first
 // that reaches `targetPoints` (0: no target), then evening out with `evenOutFactor` (0: none; see
@@ -46,9 +51,10 @@ struct RefinementPlan {
 };
 
 struct RefinementEstimate {
-    double points = 0.0;      // in the output
-    double fileBytes = 0.0;   // of the binary PLY written
-    double memoryBytes = 0.0; // address space at the peak (the last level)
+    double points = 0.0;        // in the output
+    double fileBytes = 0.0;     // of the binary PLY written
+    double memoryBytes = 0.0;   // address space at the peak (the last level)
+    double residentBytes = 0.0; // resident memory at the peak: the same but for the threads
 };
 
 // Rather above than below what the run takes: kLevelGrowth per level; with a target, at most
@@ -58,19 +64,21 @@ struct RefinementEstimate {
 // (600 points and 64 levels: 2e33 points); they are doubles for that reason.
 RefinementEstimate estimateRefinement(const RefinementPlan& plan);
 
-// The memory a run may take, and what sets it: the least of the physical memory, the control
-// group's memory limit (cgroup v2 memory.max or v1 memory.limit_in_bytes, as a container sees
-// them), the address-space limit (ulimit -v, RLIMIT_AS) and the data limit (ulimit -d,
-// RLIMIT_DATA). `source` names it for messages ("physical memory", "the address-space limit
-// (ulimit -v)", ...).
+// A limit on the memory a run may take: the physical memory and the control group's memory limit
+// (cgroup v2 memory.max or v1 memory.limit_in_bytes, as a container sees them) bound resident
+// memory; the address-space limit (ulimit -v, RLIMIT_AS) and the data limit (ulimit -d,
+// RLIMIT_DATA) bound address space. `source` names it for messages ("physical memory", "the
+// address-space limit (ulimit -v)", ...).
 struct MemoryBudget {
     double bytes = 0.0;
     std::string source;
+    bool addressSpace = false;
 };
-MemoryBudget memoryBudget();
+// Every limit that applies: the physical memory first, then those of the others that are set.
+std::vector<MemoryBudget> memoryLimits();
 
-// The most output points whose estimate (as estimateRefinement counts memory) fits in `bytes`, 0
-// when not even the threads do.
-std::size_t pointsWithin(double bytes, const RefinementPlan& plan);
+// The most output points whose estimate (estimateRefinement's resident memory, or its address
+// space for a limit of address space) fits within `limit`, 0 when not even the threads do.
+std::size_t pointsWithin(const MemoryBudget& limit, const RefinementPlan& plan);
 
 } // namespace pnsplat

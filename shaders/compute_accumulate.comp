@@ -39,15 +39,15 @@ uint64_t packAcrossRay(float w, vec3 n, float rx, float ry, float invRayLength) 
 
 void main() {
     uint index;
-    if (!invocationSplat(index)) return;
-    Splat s = splatAt(index);
-    ViewSplat v = toView(s);
+    Splat s;
+    ViewSplat v;
     ivec2 lo, hi;
-    if (!frontFacing(v) || !footprint(v, lo, hi)) return;
+    int rowStep;
+    if (!drawnSplat(1u, index, s, v, lo, hi, rowStep)) return;
     vec3 colour = kOneColour ? vec3(0.0) : linearColour(s, v);
     vec3 n = kOneColour ? v.normal : v.normal * 0.5 + 0.5;
     SplatConic k = conicOf(v);
-    for (int y = lo.y; y <= hi.y; ++y) {
+    for (int y = lo.y; y <= hi.y; y += rowStep) {
         int x0 = lo.x, x1 = hi.x;
         ConicRow row;
         if (!conicRow(k, y, x0, x1, row)) continue;

@@ -10,12 +10,13 @@ layout(set = 0, binding = kBindingDepth, std430) buffer DepthBlock { uint depthB
 
 void main() {
     uint index;
-    if (!invocationSplat(index)) return;
-    ViewSplat v = toView(splatAt(index));
+    Splat s;
+    ViewSplat v;
     ivec2 lo, hi;
-    if (!frontFacing(v) || !footprint(v, lo, hi)) return;
+    int rowStep;
+    if (!drawnSplat(0u, index, s, v, lo, hi, rowStep)) return;
     SplatConic k = conicOf(v);
-    for (int y = lo.y; y <= hi.y; ++y) {
+    for (int y = lo.y; y <= hi.y; y += rowStep) {
         int x0 = lo.x, x1 = hi.x;
         ConicRow row;
         if (!conicRow(k, y, x0, x1, row)) continue;

@@ -27,6 +27,15 @@ using uint = std::uint32_t;
 PNSPLAT_CONST uint kLocalSize = 1024;
 PNSPLAT_CONST uint kChunkSize = 1024;
 PNSPLAT_CONST uint kGroupRanges = 16;
+// Compute path: a splat whose footprint's box holds more than kBigSplatPixels pixels is listed by
+// the splat pass instead of drawn, and a second dispatch of the pass draws each listed splat with a
+// workgroup, a row an invocation (splat_compute.glsl, drawnSplat). lavapipe ends every loop of an
+// invocation after 65,535 iterations in all, so one invocation walking a larger splat left it cut
+// off (docs/REALTIME.md, "What a frame costs on lavapipe"). At most kBigSplatCapacity are listed a
+// pass and frame (a dispatch's most workgroups in x that every device allows); past them, a splat
+// is drawn by one invocation, as the others.
+PNSPLAT_CONST uint kBigSplatPixels = 16384;
+PNSPLAT_CONST uint kBigSplatCapacity = 65535;
 // The compute path accumulates in fixed point with 64-bit integer atomicAdd (native on CPUs, where
 // float atomics are compare-and-swap loops): per pixel kAccumStride 64-bit words, each two 32-bit
 // sums of values in [0, w] scaled by kFixedScale: (w·r, w·g), (w·b, w), (w·n'x, w·n'y), (w·n'z, 0)
@@ -74,8 +83,10 @@ PNSPLAT_CONST uint kBindingDepthTexels = 6;
 PNSPLAT_CONST uint kBindingAccumTexels = 7;
 // The normalization's tiles: the count of those that splats reached, the x of its indirect
 // dispatch (VkDispatchIndirectCommand: x, y = 1, z = 1), then a flag per tile (reached) and the
-// list of those reached (their indices, in any order). One buffer: with the depth, the sums and
-// the picture, four storage buffers, Vulkan's least maxPerStageDescriptorStorageBuffers.
+// list of those reached (their indices, in any order). After them, the big splats (kBigSplatPixels)
+// of the visibility and the accumulation passes: two indirect dispatches (the count listed, 1, 1),
+// then the two lists of kBigSplatCapacity entries. One buffer: with the depth, the sums and the
+// picture, four storage buffers, Vulkan's least maxPerStageDescriptorStorageBuffers.
 PNSPLAT_CONST uint kBindingTiles = 8;
 // Graphics path: the accumulation targets, sampled by the normalization pass.
 PNSPLAT_CONST uint kBindingAccumColour = 2; // w·rgb, w

@@ -1,10 +1,22 @@
 // The compute path (ALGORITHM.md §11.5, with atomics instead of the raster pipeline): one invocation per
 // splat walks the pixels of its screen footprint. A workgroup draws up to kGroupRanges ranges of the
 // splats drawn (runs of a chunk's facing classes), kLocalSize splats in all, its invocations the
-// ranges' splats in order.
+// ranges' splats in order; a splat too large for one invocation is listed and drawn by a workgroup
+// of a second dispatch (drawnSplat).
 #include "splat_common.glsl"
 
 layout(local_size_x = kLocalSize) in;
+
+// The dispatch that draws the big splats a pass listed (gpu_types.h, kBigSplatPixels); constant
+// ids 0 to 2 are the passes' own.
+layout(constant_id = 3) const bool kBigSplats = false;
+
+// The tiles' buffer (gpu_types.h, kBindingTiles) as words: after the normalization's tiles, at
+// bigSplatsAt(), the passes' two indirect dispatches and their two lists.
+layout(set = 0, binding = kBindingTiles, std430) buffer BigSplatBlock { uint tileWords[]; };
+uint bigSplatsAt() {
+    return 3u + 2u * frame.picture.z;
+}
 
 // Per workgroup (its first range, its ranges), then the ranges (first splat, count): texels, which
 // lavapipe fetches for all lanes at once (splat_common.glsl, splatAt).
@@ -53,6 +65,40 @@ bool footprint(ViewSplat v, out ivec2 lo, out ivec2 hi) {
     lo = ivec2(max(ceil(pixelLow - 0.5), vec2(0.0)));
     hi = ivec2(min(floor(pixelHigh - 0.5), frame.viewport.xy - 1.0));
     return lo.x <= hi.x && lo.y <= hi.y;
+}
+
+// The splat this invocation draws (its index, as stored and in view space), the pixels of its
+// footprint (footprint below) and the rows it walks: lo.y, lo.y + rowStep, ..., up to hi.y. In a
+// pass's first dispatch, a splat an invocation and every row of it; a splat whose footprint's box
+// holds more than kBigSplatPixels pixels is listed instead, in the list of `pass` (0 visibility,
+// 1 accumulation), while it has room. With kBigSplats, the dispatch of that list: a splat a
+// workgroup, a row an invocation. Either way each splat is drawn once in each pass.
+bool drawnSplat(uint pass, out uint index, out Splat s, out ViewSplat v, out ivec2 lo, out ivec2 hi,
+                out int rowStep) {
+    uint at = bigSplatsAt(), count = at + 4u * pass, list = at + 8u + kBigSplatCapacity * pass;
+    rowStep = 1;
+    if (kBigSplats) {
+        index = tileWords[list + gl_WorkGroupID.x];
+    } else if (!invocationSplat(index)) {
+        return false;
+    }
+    s = splatAt(index);
+    v = toView(s);
+    if (!frontFacing(v) || !footprint(v, lo, hi)) return false;
+    if (kBigSplats) {
+        lo.y += int(gl_LocalInvocationID.x);
+        rowStep = int(kLocalSize);
+        return lo.y <= hi.y;
+    }
+    ivec2 size = hi - lo + 1;
+    if (size.x * size.y <= int(kBigSplatPixels)) return true;
+    uint k = atomicAdd(tileWords[count], 1u);
+    if (k < kBigSplatCapacity) {
+        tileWords[list + k] = index;
+        return false;
+    }
+    atomicAdd(tileWords[count], 0xFFFFFFFFu); // the list is full: drawn here, the count kept at it
+    return true;
 }
 
 // The disk seen through the pixels (ALGORITHM.md §11.2), set up once per splat so that each pixel

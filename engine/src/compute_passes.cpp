@@ -1,8 +1,10 @@
 // The compute path's passes (render_passes.h; ALGORITHM.md §11.5): one invocation per splat walks
 // the pixels of its footprint, with atomics on storage buffers of one word (depth) and one or four
 // words (sums) a pixel; the passes after the first read the depth, the normalization the sums, as
-// texels. The normalization draws only the tiles that splats reached, listed by a first dispatch
-// of its shader; the picture is filled with the background before.
+// texels. A splat pass lists the splats too large for one invocation (gpu::kBigSplatPixels) and
+// draws them in a second, indirect dispatch, a workgroup each. The normalization draws only the
+// tiles that splats reached, listed by a first dispatch of its shader; the picture is filled with
+// the background before.
 #include <algorithm>
 #include <array>
 
@@ -55,34 +57,45 @@ class ComputePasses final : public RenderPasses {
 
   private:
     // `oneColour` sets the shader's specialization constant 0 (kOneColour of compute_accumulate.comp
-    // and compute_normalize.comp), `tileScan` its constant 1 (kTileScan of compute_normalize.comp).
+    // and compute_normalize.comp), `tileScan` its constant 1 (kTileScan of compute_normalize.comp),
+    // `bigSplats` its constant 3 (kBigSplats of splat_compute.glsl).
     Unique<VkPipeline> pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour = false,
-                                bool tileScan = false) const;
+                                bool tileScan = false, bool bigSplats = false) const;
     glm::uvec2 tiles() const { return normalizationTiles(settings_.width, settings_.height); }
+    // Where the big splats' two indirect dispatches begin in tiles_ (splat_compute.glsl,
+    // bigSplatsAt), in bytes.
+    VkDeviceSize bigSplatsAt() const {
+        return sizeof(VkDispatchIndirectCommand) + VkDeviceSize{tiles().x} * tiles().y * 8;
+    }
+    void dispatchBigSplats(VkCommandBuffer cmd, int pass, const PathFrame& frame) const;
 
     Context& context_;
     const RenderSettings& settings_;
     VkDevice device_;
     Buffer depthBits_, accum_, output_;
     // The normalization's indirect dispatch (the count of tiles reached, 1, 1), a flag per tile and
-    // the list of those reached (gpu::kBindingTiles).
+    // the list of those reached, then the splat passes' big splats (gpu::kBindingTiles).
     Buffer tiles_;
     Unique<VkBufferView> depthTexels_, accumTexels_; // R32UI and RG32UI (gpu::kBindingDepthTexels, ...)
     std::array<Unique<VkPipeline>, 3> pipelines_;    // visibility, accumulation, normalization
     // Splats of one colour: accumulation and normalization.
     std::array<Unique<VkPipeline>, 2> oneColourPipelines_;
     Unique<VkPipeline> tileScan_; // the normalization's first dispatch
+    // The splat passes' dispatches of their big splats: visibility, accumulation, and accumulation
+    // of splats of one colour.
+    std::array<Unique<VkPipeline>, 3> bigSplatPipelines_;
 };
 
 Unique<VkPipeline> ComputePasses::pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour,
-                                           bool tileScan) const {
-    // kOneColour, kTileScan, and the normalization's rows of invocations (the scan's one; the splat
-    // passes have no constant 2).
-    const std::array<std::uint32_t, 3> values{oneColour ? VK_TRUE : VK_FALSE, tileScan ? VK_TRUE : VK_FALSE,
-                                              tileScan ? 1u : gpu::kTileHeight};
-    std::array<VkSpecializationMapEntry, 3> entries{};
+                                           bool tileScan, bool bigSplats) const {
+    // kOneColour, kTileScan, the normalization's rows of invocations (the scan's one; the splat
+    // passes have no constant 2) and kBigSplats (the normalization has no constant 3).
+    const std::array<std::uint32_t, 4> values{oneColour ? VK_TRUE : VK_FALSE, tileScan ? VK_TRUE : VK_FALSE,
+                                              tileScan ? 1u : gpu::kTileHeight,
+                                              bigSplats ? VK_TRUE : VK_FALSE};
+    std::array<VkSpecializationMapEntry, 4> entries{};
     for (std::uint32_t k = 0; k < entries.size(); ++k) entries[k] = {k, 4 * k, 4};
-    const VkSpecializationInfo specialization{3, entries.data(), sizeof(values), values.data()};
+    const VkSpecializationInfo specialization{4, entries.data(), sizeof(values), values.data()};
     VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
     info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -104,9 +117,9 @@ void ComputePasses::create(VkPipelineLayout layout) {
     depthBits_ = createBuffer(context_, pixels * 4, kTexels, MemoryUse::Device);
     accum_ = createBuffer(context_, pixels * gpu::kAccumStride * 8, kTexels, MemoryUse::Device);
     output_ = createBuffer(context_, pixels * 4, kStorage, MemoryUse::Device);
-    tiles_ =
-        createBuffer(context_, sizeof(VkDispatchIndirectCommand) + std::size_t{tiles().x} * tiles().y * 8,
-                     kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUse::Device);
+    // After the tiles, two indirect dispatches of 4 words each and two lists.
+    tiles_ = createBuffer(context_, bigSplatsAt() + 8 * 4 + 2 * std::size_t{gpu::kBigSplatCapacity} * 4,
+                          kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, MemoryUse::Device);
     depthTexels_ = createTexelView(context_, depthBits_, VK_FORMAT_R32_UINT);
     accumTexels_ = createTexelView(context_, accum_, VK_FORMAT_R32G32_UINT);
     const auto visibility = shaderModule(device_, k_compute_visibility_comp);
@@ -116,6 +129,20 @@ void ComputePasses::create(VkPipelineLayout layout) {
                   pipeline(normalize.get(), layout)};
     oneColourPipelines_ = {pipeline(accumulate.get(), layout, true), pipeline(normalize.get(), layout, true)};
     tileScan_ = pipeline(normalize.get(), layout, false, true);
+    bigSplatPipelines_ = {pipeline(visibility.get(), layout, false, false, true),
+                          pipeline(accumulate.get(), layout, false, false, true),
+                          pipeline(accumulate.get(), layout, true, false, true)};
+}
+
+void ComputePasses::dispatchBigSplats(VkCommandBuffer cmd, int pass, const PathFrame& frame) const {
+    // After the first dispatch has listed them and counted them into the indirect dispatch.
+    bufferBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                      VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
+    const int which = pass == 1 && frame.oneColour ? 2 : pass;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, bigSplatPipelines_[which].get());
+    vkCmdDispatchIndirect(cmd, tiles_.buffer.get(), bigSplatsAt() + 16 * VkDeviceSize(pass));
 }
 
 void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame) {
@@ -141,6 +168,11 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), 0, 4, 0u);
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), 4, 8, 1u);
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), sizeof(VkDispatchIndirectCommand), flags, 0u);
+        // No big splat listed: the two dispatches (0, 1, 1).
+        for (const VkDeviceSize at : {bigSplatsAt(), bigSplatsAt() + 16}) {
+            vkCmdFillBuffer(cmd, tiles_.buffer.get(), at, 4, 0u);
+            vkCmdFillBuffer(cmd, tiles_.buffer.get(), at + 4, 8, 1u);
+        }
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else if (pass == 2) {
         bufferBarrier(cmd, kCompute, VK_ACCESS_SHADER_WRITE_BIT, kCompute, kRW);
@@ -163,6 +195,7 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         const std::uint32_t row =
             std::min(frame.workgroups, context_.properties().limits.maxComputeWorkGroupCount[0]);
         if (frame.workgroups > 0) vkCmdDispatch(cmd, row, (frame.workgroups + row - 1) / row, 1);
+        dispatchBigSplats(cmd, pass, frame);
     } else {
         vkCmdDispatchIndirect(cmd, tiles_.buffer.get(), 0); // the tiles listed, pairs of pixels
     }

@@ -280,6 +280,38 @@ TEST(CliRefine, GeoreferencedCoordinatesAreRefinedLessAnOrigin) {
     EXPECT_GT(nearMean, 0.0);
     EXPECT_NEAR(meanDistance("far-out.ply", "far-ref.ply", "far.ply"), nearMean, 1e-6);
 
+    // render prints its camera in the file's coordinates and takes --camera so: the same picture
+    // (the camera given to a millionth of its distance), and the same as the sphere near 0 from
+    // the camera less the origin. Fails where --camera is read less no origin (tried).
+    const auto render = [&](const std::string& input, const std::string& options, const std::string& png) {
+        const RunResult r = run("render " + quote(dir / input) + " --width 64 --height 48" + options +
+                                " -o " + quote(dir / png));
+        EXPECT_TRUE(r.exited && r.exitCode == 0) << r.err;
+        const std::size_t at = r.out.find("camera: --camera ");
+        return at == std::string::npos ? std::string()
+                                       : r.out.substr(at + 17, r.out.find(' ', at + 17) - at - 17);
+    };
+    const std::string farCamera = render("far.ply", "", "far.png");
+    render("far.ply", " --camera " + farCamera, "again.png");
+    const std::string nearCamera = render("near.ply", "", "near.png");
+    const auto numbers = [](std::string text) {
+        std::replace(text.begin(), text.end(), ',', ' ');
+        std::istringstream in(text);
+        std::vector<double> values;
+        for (double v = 0.0; in >> v;) values.push_back(v);
+        return values;
+    };
+    const std::vector<double> farValues = numbers(farCamera), nearValues = numbers(nearCamera);
+    ASSERT_EQ(farValues.size(), 9u) << farCamera;
+    ASSERT_EQ(nearValues.size(), 9u) << nearCamera;
+    for (int k = 0; k < 9; ++k)
+        EXPECT_NEAR(farValues[k] - (k < 6 ? origin[k % 3] : 0.0), nearValues[k], 1e-5) << farCamera;
+    for (const char* png : {"again.png", "near.png"}) {
+        const RunResult same =
+            run("diff " + quote(dir / "far.png") + " " + quote(dir / png) + " --max-rmse 0.5");
+        EXPECT_TRUE(same.exited && same.exitCode == 0) << png << ": " << same.out << same.err;
+    }
+
     // The notes give places in the file's coordinates: an outlier 10 from the sphere.
     PointSet stray = sphere;
     stray.position[0] = glm::vec3(-4.0f, 10.0f, 7.0f); // 500000 -1999990 7 in the file

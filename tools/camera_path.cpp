@@ -36,7 +36,7 @@ CameraPath CameraPath::zoom(const engine::Sphere& bounds, float aspect, float fo
     return path;
 }
 
-CameraPath CameraPath::load(const std::string& file) {
+CameraPath CameraPath::load(const std::string& file, glm::dvec3 origin) {
     std::ifstream in(file);
     if (!in) throw CommandError(file + ": cannot open the camera path");
     CameraPath path;
@@ -63,8 +63,8 @@ CameraPath CameraPath::load(const std::string& file) {
             throw CommandError(fmt::format(
                 "{}:{}: the frame index must be a whole number above the previous one", file, number));
         engine::Camera camera;
-        camera.eye = {float(values[1]), float(values[2]), float(values[3])};
-        camera.target = {float(values[4]), float(values[5]), float(values[6])};
+        camera.eye = glm::vec3(glm::dvec3(values[1], values[2], values[3]) - origin);
+        camera.target = glm::vec3(glm::dvec3(values[4], values[5], values[6]) - origin);
         if (values.size() >= 10) camera.up = {float(values[7]), float(values[8]), float(values[9])};
         camera.fovY = float((values.size() == 11 ? values[10] : 40.0) * std::numbers::pi / 180.0);
         if (!camera.valid())

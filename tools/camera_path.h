@@ -22,8 +22,9 @@ class CameraPath {
     static CameraPath orbit(const engine::Sphere& bounds, float aspect, float fovY, std::size_t frames);
     // From the framing distance towards the centre to 0.4 of it and back, in `frames` frames.
     static CameraPath zoom(const engine::Sphere& bounds, float aspect, float fovY, std::size_t frames);
-    // Keyframes from a file; a malformed file is a CommandError naming the file and the line.
-    static CameraPath load(const std::string& path);
+    // Keyframes from a file, in the coordinates of the model's file (less `origin`, PlyData::origin,
+    // where the model is held less it); a malformed file is a CommandError naming the file and the line.
+    static CameraPath load(const std::string& path, glm::dvec3 origin = glm::dvec3(0.0));
 
     // The number of frames the path defines (the last keyframe's index + 1 for a file).
     std::size_t frames() const { return frames_; }

@@ -51,7 +51,8 @@ void runBenchView(BenchViewArgs args) {
     // A path file is read before the engine is made: a bad one fails at once, not after the whole
     // levels' refinement.
     std::optional<CameraPath> loaded;
-    if (args.cameraPath != "orbit" && args.cameraPath != "zoom") loaded = CameraPath::load(args.cameraPath);
+    if (args.cameraPath != "orbit" && args.cameraPath != "zoom")
+        loaded = CameraPath::load(args.cameraPath, origin);
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
     // The quality frames' reference engine draws the same points (standard input cannot be read twice).
@@ -117,7 +118,7 @@ void runBenchView(BenchViewArgs args) {
             if (k + 1 >= starts.size() && !last) break;
             const Clock::time_point end = k + 1 < starts.size() ? starts[k + 1] : finished;
             const double frameMs = std::chrono::duration<double, std::milli>(end - starts[k]).count();
-            fmt::print("{}\n", frameJson(pending[done], frameMs));
+            fmt::print("{}\n", frameJson(pending[done], frameMs, origin));
             series.add(pending[done], frameMs);
         }
         pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(done));

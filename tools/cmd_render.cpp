@@ -101,7 +101,7 @@ void runCompare(const RenderArgs& args) {
     std::optional<Viewpoint> view;
     // The camera is chosen once, for the input, and used for every panel and the reference.
     job.camera = chooseCamera(args.view, args.frame.empty() ? job.input : frame,
-                              float(args.engine.width) / float(args.engine.height), view);
+                              float(args.engine.width) / float(args.engine.height), view, origin);
     job.engine = args.engine;
     job.background = {args.background[0], args.background[1], args.background[2]};
     const std::size_t inputCount = job.input.size();
@@ -137,7 +137,7 @@ void runCompare(const RenderArgs& args) {
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
             inputCount, args.engine.width, args.engine.height, jsonString(context->deviceName()), path,
-            engine::cameraText(camera), jsonNumber(args.view.fovDegrees), c.refinedFrame.splatsDrawn,
+            engine::cameraText(camera, origin), jsonNumber(args.view.fovDegrees), c.refinedFrame.splatsDrawn,
             c.treePoints, jsonNumber(args.engine.threshold), c.refinedFrame.maxSplatPx,
             c.refinedFrame.overThreshold,
             c.splats
@@ -165,7 +165,7 @@ void runCompare(const RenderArgs& args) {
                 : "",
             c.splats->ssim, c.refined->ssim);
     if (view)
-        fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
+        fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera, origin),
                    viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);
 }
 
@@ -185,7 +185,7 @@ void runRender(const RenderArgs& args) {
         args.frame.empty() ? PointSet() : loadBeside(args.frame, args.inputOptions(), frameName, origin);
     std::optional<Viewpoint> view;
     const Camera camera = chooseCamera(args.view, args.frame.empty() ? points : frame,
-                                       float(args.engine.width) / float(args.engine.height), view);
+                                       float(args.engine.width) / float(args.engine.height), view, origin);
 
     const std::size_t inputCount = points.size();
     unsigned levels = 0;
@@ -263,7 +263,7 @@ void runRender(const RenderArgs& args) {
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
             inputCount, levels, splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
             jsonString(context->deviceName()), path, gpu.visibilityMs, gpu.accumulationMs,
-            gpu.normalizationMs, engine::cameraText(camera), jsonNumber(args.view.fovDegrees),
+            gpu.normalizationMs, engine::cameraText(camera, origin), jsonNumber(args.view.fovDegrees),
             args.frame.empty() ? "null" : jsonString(args.frame),
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
@@ -287,7 +287,7 @@ void runRender(const RenderArgs& args) {
             name, args.engine.threshold, drawn.medianSplatPx, 100.0 * drawn.overThreshold, drawn.p99SplatPx,
             drawn.maxSplatPx, engine.tree().nodeCount(), splats, pointsIn, refineMs);
     if (view)
-        fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera),
+        fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera, origin),
                    viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);
 }
 

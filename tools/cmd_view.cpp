@@ -42,7 +42,8 @@ viewer::Model loadModel(const std::string& path, const CameraArgs& camera, float
     PointSet points = loadForRendering(path, input, model.name, columns, nullptr, &origin);
     model.points = withHolesFilled(std::move(points), holes, model.name, origin);
     std::optional<engine::Viewpoint> view;
-    model.camera = chooseCamera(camera, model.points, aspect, view);
+    model.camera = chooseCamera(camera, model.points, aspect, view, origin);
+    model.origin = origin;
     model.bounds = engine::boundingSphere(model.points.position);
     return model;
 }
@@ -89,8 +90,8 @@ void runView(const ViewArgs& args) {
     FrameSeries series;
     viewer::FrameSink sink;
     if (stats)
-        sink = [&](const engine::FrameReport& report, double frameMs) {
-            unwrap(stats->write(frameJson(report, frameMs) + '\n'));
+        sink = [&](const engine::FrameReport& report, double frameMs, glm::dvec3 origin) {
+            unwrap(stats->write(frameJson(report, frameMs, origin) + '\n'));
             series.add(report, frameMs);
         };
     const auto summary = viewer::run(**windows, *context, std::move(model), options, loader, sink);

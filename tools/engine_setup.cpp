@@ -118,7 +118,8 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
 CLI::Option* addCameraOptions(CLI::App& cmd, CameraArgs& args) {
     CLI::Option* camera =
         cmd.add_option("--camera", args.camera,
-                       "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz (as render prints it)")
+                       "eye, target and up: ex,ey,ez,tx,ty,tz,ux,uy,uz, in the file's coordinates (as render "
+                       "prints it)")
             ->delimiter(',')
             ->expected(9)
             ->check(finiteRange(-1e30, 1e30));
@@ -143,13 +144,16 @@ CLI::Option* addCameraOptions(CLI::App& cmd, CameraArgs& args) {
 }
 
 engine::Camera chooseCamera(const CameraArgs& args, const PointSet& frame, float aspect,
-                            std::optional<engine::Viewpoint>& view) {
+                            std::optional<engine::Viewpoint>& view, glm::dvec3 origin) {
     const float fov = static_cast<float>(radians(args.fovDegrees));
     engine::Camera camera;
     if (!args.camera.empty()) {
-        camera.eye = {args.camera[0], args.camera[1], args.camera[2]};
-        camera.target = {args.camera[3], args.camera[4], args.camera[5]};
-        camera.up = {args.camera[6], args.camera[7], args.camera[8]};
+        const auto at = [&](int first) {
+            return glm::dvec3(args.camera[first], args.camera[first + 1], args.camera[first + 2]);
+        };
+        camera.eye = glm::vec3(at(0) - origin);
+        camera.target = glm::vec3(at(3) - origin);
+        camera.up = glm::vec3(at(6));
         camera.fovY = fov;
         if (!camera.valid())
             throw CommandError("--camera: the eye is on the target, or up lies along the line of sight",

@@ -65,8 +65,8 @@ void addEngineOptions(CLI::App& cmd, EngineArgs& args, bool adaptive, bool requi
 // The camera options that `render` and `view` share: --camera, or the framing camera's --up,
 // --orbit and --elevation; --fov for both.
 struct CameraArgs {
-    std::vector<float> camera; // eye, target, up (9 values) or empty
-    std::string up = "auto";   // auto, x, y or z
+    std::vector<double> camera; // eye, target, up (9 values) or empty; in the file's coordinates
+    std::string up = "auto";    // auto, x, y or z
     double orbitDegrees = 0.0;
     double elevationDegrees = 0.0;
     double fovDegrees = 40.0;
@@ -76,10 +76,11 @@ CLI::Option* addCameraOptions(CLI::App& cmd, CameraArgs& args);
 // The camera of --camera, or the one chosen for `frame` (the points to frame: a model as loaded,
 // before any refinement) in an image of the given aspect (width / height):
 // engine::chooseViewpoint, then frameSphere about boundingSphere(frame.position). `view`
-// receives the viewpoint chosen (unset for --camera). Throws a usage error for a --camera whose eye
-// is on its target or whose up lies along the line of sight.
+// receives the viewpoint chosen (unset for --camera). --camera is in the file's coordinates: less
+// `origin` (PlyData::origin, where `frame` is held less it). Throws a usage error for a --camera
+// whose eye is on its target or whose up lies along the line of sight.
 engine::Camera chooseCamera(const CameraArgs& args, const PointSet& frame, float aspect,
-                            std::optional<engine::Viewpoint>& view);
+                            std::optional<engine::Viewpoint>& view, glm::dvec3 origin = glm::dvec3(0.0));
 
 // The Vulkan context for the args (validation layer with --validation, and always in debug builds);
 // `options` adds what else it needs (a window's extensions).

@@ -43,7 +43,7 @@ std::string orNull(const std::vector<double>& values, double figure) {
 }
 } // namespace
 
-std::string frameJson(const engine::FrameReport& r, double frameMs) {
+std::string frameJson(const engine::FrameReport& r, double frameMs, glm::dvec3 origin) {
     return fmt::format(
         R"({{"frame": {}, "frame_ms": {:.2f}, "cpu_ms": {:.2f}, "selection_ms": {:.2f}, "upload_ms": {:.2f}, )"
         R"("refine_wait_ms": {:.2f}, "gpu_wait_ms": {:.2f}, "refine_ms": {:.2f}, "visibility_ms": {:.2f}, "accumulation_ms": {:.2f}, "normalization_ms": {:.2f}, )"
@@ -62,7 +62,7 @@ std::string frameJson(const engine::FrameReport& r, double frameMs) {
         nullUnless(r.splatsMeasured, fmt::format("{:.3f}", r.medianSplatPx)),
         nullUnless(r.splatsMeasured, fmt::format("{:.3f}", r.maxSplatPx)),
         nullUnless(r.splatsMeasured, fmt::format("{:.5f}", r.overThreshold)), r.resting ? "true" : "false",
-        r.settled ? "true" : "false", engine::cameraText(r.camera), glm::degrees(r.camera.fovY));
+        r.settled ? "true" : "false", engine::cameraText(r.camera, origin), glm::degrees(r.camera.fovY));
 }
 
 void FrameSeries::add(const engine::FrameReport& report, double frameMs) {

@@ -11,8 +11,9 @@ namespace pnsplat::tools {
 
 // One line: the frame's fields (frame_ms is the wall time from its start to the next frame's;
 // camera and fov_degrees as render's --camera and --fov take them; median_splat_px, max_splat_px and
-// over_threshold are null unless FrameReport::splatsMeasured).
-std::string frameJson(const engine::FrameReport& report, double frameMs);
+// over_threshold are null unless FrameReport::splatsMeasured; the camera in the file's coordinates,
+// `origin` + position, engine::cameraText).
+std::string frameJson(const engine::FrameReport& report, double frameMs, glm::dvec3 origin = glm::dvec3(0.0));
 
 // Frames of one run, summarised.
 class FrameSeries {

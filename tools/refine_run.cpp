@@ -114,12 +114,6 @@ void refineLevels(PointSet points, const RefineJob& job, const HoleRims& rims, R
     run.points = std::move(refiner).takePoints();
 }
 
-// Significant digits that show `value` to about a thousandth of `size` (4 near 0, more far from it).
-int digits(double value, double size) {
-    const double magnitude = std::max(std::abs(value), size);
-    return 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
-}
-
 } // namespace
 
 void checkFits(const PointSet& points, const RefineJob& job, const std::string& inputName) {
@@ -318,8 +312,8 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
             "above {:.4g}, {:.1f} times the median, in the first pass) or off their plane (the first at "
             "{:.{}g} {:.{}g} {:.{}g}); --keep-outliers keeps them\n",
             inputName, done->outliers, kOutlierNearest, done->outlierThreshold,
-            done->outlierThreshold / done->outlierMedian, at.x, digits(at.x, size), at.y, digits(at.y, size),
-            at.z, digits(at.z, size));
+            done->outlierThreshold / done->outlierMedian, at.x, significantDigits(at.x, size), at.y,
+            significantDigits(at.y, size), at.z, significantDigits(at.z, size));
     }
     if (done->normalComponents > 0)
         fmt::print(stderr,
@@ -362,8 +356,9 @@ void addFoundHoles(const PointSet& points, RefineJob& job, RefineRun& run, const
     for (const FoundHole& hole : found.holes) {
         const glm::dvec3 centre = glm::dvec3(hole.ball.centre) + job.origin; // in the file's coordinates
         detail += fmt::format("{}{:.4g} across at {:.{}g},{:.{}g},{:.{}g}", detail.empty() ? ": " : "; ",
-                              hole.size, centre.x, digits(centre.x, hole.size), centre.y,
-                              digits(centre.y, hole.size), centre.z, digits(centre.z, hole.size));
+                              hole.size, centre.x, significantDigits(centre.x, hole.size), centre.y,
+                              significantDigits(centre.y, hole.size), centre.z,
+                              significantDigits(centre.z, hole.size));
     }
     const std::size_t alsoGiven = found.holes.size() - run.holesFound;
     fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}{}\n", inputName,

@@ -14,6 +14,7 @@
 #include <glm/vec4.hpp>
 
 #include "pnsplat/refine/quantile.h"
+#include "pnsplat/refine/text.h"
 
 namespace pnsplat::engine {
 
@@ -82,9 +83,18 @@ glm::mat4 Camera::view() const {
     return glm::lookAtRH(eye, target, up);
 }
 
-std::string cameraText(const Camera& c) {
-    return fmt::format("{},{},{},{},{},{},{},{},{}", c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y,
-                       c.target.z, c.up.x, c.up.y, c.up.z);
+std::string cameraText(const Camera& c, glm::dvec3 origin) {
+    if (origin == glm::dvec3(0.0))
+        return fmt::format("{},{},{},{},{},{},{},{},{}", c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y,
+                           c.target.z, c.up.x, c.up.y, c.up.z);
+    const double size = 1e-3 * glm::distance(glm::dvec3(c.eye), glm::dvec3(c.target));
+    std::string text;
+    for (const glm::vec3 place : {c.eye, c.target})
+        for (int axis = 0; axis < 3; ++axis) {
+            const double value = origin[axis] + double(place[axis]);
+            text += fmt::format("{:.{}g},", value, significantDigits(value, size));
+        }
+    return text + fmt::format("{},{},{}", c.up.x, c.up.y, c.up.z);
 }
 
 Sphere boundingSphere(std::span<const glm::vec3> positions) {

@@ -492,7 +492,7 @@ void Session::collectReports(bool all) {
             starts_.pop_front();
         }
         presenter_->finished(report.frame);
-        if (sink_) sink_(report, ms);
+        if (sink_) sink_(report, ms, model_.origin);
         recent_.push_back({report, ms, now});
         while (!recent_.empty() && secondsBetween(recent_.front().at, now) > 1.0 && recent_.size() > 2)
             recent_.pop_front();
@@ -756,7 +756,7 @@ Result<ViewerSummary> Session::run() {
                     continue;
                 }
                 message(fmt::format("screenshot: {} (camera: --camera {})", shot.path,
-                                    engine::cameraText(control_.camera())));
+                                    engine::cameraText(control_.camera(), model_.origin)));
             }
             const bool idle =
                 report.nodesRefined == 0 && report.nodesUploaded == 0 && report.queueLength == 0;

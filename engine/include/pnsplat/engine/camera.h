@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include <glm/ext/vector_double3.hpp>
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
@@ -27,8 +28,10 @@ struct Camera {
 };
 
 // The camera as text: eye, target and up, nine numbers separated by commas, each in its shortest
-// form that reads back as the same float (what `pnsplat render --camera` takes and prints).
-std::string cameraText(const Camera& camera);
+// form that reads back as the same float (what `pnsplat render --camera` takes and prints). With an
+// origin (PlyData::origin: the model is held less it), eye and target in the file's coordinates,
+// origin + position in double, to about a millionth of their distance.
+std::string cameraText(const Camera& camera, glm::dvec3 origin = glm::dvec3(0.0));
 
 // A bounding sphere (of a model or a node).
 struct Sphere {

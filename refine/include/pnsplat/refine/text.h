@@ -2,6 +2,7 @@
 // values in JSON text. Pure functions; any thread.
 #pragma once
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <optional>
@@ -26,6 +27,13 @@ inline std::optional<float> parseFloat(std::string_view text) {
 // Coordinates of a file held less an origin (PlyData::origin) are given in double.
 inline std::optional<double> parseDouble(std::string_view text) {
     return parseFinite<double>(text);
+}
+
+// Significant digits that show `value` to about a thousandth of `size` (4 near 0, more far from
+// it): a place in a file's coordinates (PlyData::origin + position) to the detail that matters.
+inline int significantDigits(double value, double size) {
+    const double magnitude = std::max(std::abs(value), size);
+    return 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
 }
 
 // A JSON number: the shortest text that reads back as `v`; null when not finite (JSON has no

@@ -43,10 +43,11 @@ class WindowSystem {
 
 // A model to show.
 struct Model {
-    PointSet points;       // with normals and radii; with refinement, valid for it (Engine::create)
-    std::string name;      // for messages and the window's title
-    engine::Camera camera; // where the view starts and R returns to
-    engine::Sphere bounds; // what F frames (the points' boundingSphere)
+    PointSet points;        // with normals and radii; with refinement, valid for it (Engine::create)
+    std::string name;       // for messages and the window's title
+    engine::Camera camera;  // where the view starts and R returns to
+    engine::Sphere bounds;  // what F frames (the points' boundingSphere)
+    glm::dvec3 origin{0.0}; // the file's coordinates are origin + position (PlyData::origin)
 };
 
 // Loads the model of a file dropped on the window, framed for a view of aspect `aspect` (width /
@@ -55,8 +56,9 @@ struct Model {
 using ModelLoader = std::function<Model(const std::string& path, float aspect)>;
 
 // Receives each frame's report once the frame has finished on the GPU (its pass times filled), in
-// order, with the frame's time: the wall time from its start to the next frame's, milliseconds.
-using FrameSink = std::function<void(const engine::FrameReport& report, double frameMs)>;
+// order, with the frame's time (the wall time from its start to the next frame's, milliseconds) and
+// the model's Model::origin (its camera is held less it).
+using FrameSink = std::function<void(const engine::FrameReport& report, double frameMs, glm::dvec3 origin)>;
 
 struct ViewerOptions {
     std::uint32_t width = 1280, height = 720; // the window, in screen units

@@ -42,13 +42,14 @@ void main() {
     Splat s;
     ViewSplat v;
     ivec2 lo, hi;
-    int rowStep;
-    if (!drawnSplat(1u, index, s, v, lo, hi, rowStep)) return;
+    Walk walk;
+    if (!drawnSplat(1u, index, s, v, lo, hi, walk)) return;
     vec3 colour = kOneColour ? vec3(0.0) : linearColour(s, v);
     vec3 n = kOneColour ? v.normal : v.normal * 0.5 + 0.5;
     SplatConic k = conicOf(v);
-    for (int y = lo.y; y <= hi.y; y += rowStep) {
-        int x0 = lo.x, x1 = hi.x;
+    for (int j = walk.first; j < walk.count; j += walk.step) {
+        int y, x0, x1;
+        walkPiece(walk, lo, hi, j, y, x0, x1);
         ConicRow row;
         if (!conicRow(k, y, x0, x1, row)) continue;
         for (int x = x0; x <= x1; ++x) {

@@ -28,13 +28,19 @@ PNSPLAT_CONST uint kLocalSize = 1024;
 PNSPLAT_CONST uint kChunkSize = 1024;
 PNSPLAT_CONST uint kGroupRanges = 16;
 // Compute path: a splat whose footprint's box holds more than kBigSplatPixels pixels is listed by
-// the splat pass instead of drawn, and a second dispatch of the pass draws each listed splat with a
-// workgroup, a row an invocation (splat_compute.glsl, drawnSplat). lavapipe ends every loop of an
-// invocation after 65,535 iterations in all, so one invocation walking a larger splat left it cut
-// off (docs/REALTIME.md, "What a frame costs on lavapipe"). At most kBigSplatCapacity are listed a
-// pass and frame (a dispatch's most workgroups in x that every device allows); past them, a splat
-// is drawn by one invocation, as the others.
-PNSPLAT_CONST uint kBigSplatPixels = 16384;
+// the splat pass instead of drawn, and a second dispatch of the pass draws each listed splat with
+// workgroups of kBigSplatGroup invocations, a row's run of at most kBigSplatRun pixels at a time
+// (splat_compute.glsl, drawnSplat). lavapipe ends the loops of a batch of SIMD lanes (8, or 16)
+// after 65,535 iterations in all, so a batch whose splats held more pixels was cut off
+// (docs/REALTIME.md, "Splats too large for one invocation"): 16 splats of kBigSplatPixels make
+// 49,152 at most, their rows 3,072 more. A listed splat gets enough workgroups (compute_passes.cpp,
+// bigSplatParts) that no invocation walks more than kBigSplatRuns runs. At most kBigSplatCapacity
+// are listed a pass and frame (a dispatch's most workgroups in x that every device allows); past
+// them, a splat is drawn by one invocation, as the others.
+PNSPLAT_CONST uint kBigSplatPixels = 3072;
+PNSPLAT_CONST uint kBigSplatGroup = 256;
+PNSPLAT_CONST uint kBigSplatRun = 256;
+PNSPLAT_CONST uint kBigSplatRuns = 64;
 PNSPLAT_CONST uint kBigSplatCapacity = 65535;
 // The compute path accumulates in fixed point with 64-bit integer atomicAdd (native on CPUs, where
 // float atomics are compare-and-swap loops): per pixel kAccumStride 64-bit words, each two 32-bit

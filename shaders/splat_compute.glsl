@@ -5,7 +5,7 @@
 // of a second dispatch (drawnSplat).
 #include "splat_common.glsl"
 
-layout(local_size_x = kLocalSize) in;
+layout(local_size_x = kLocalSize, local_size_x_id = 4) in; // kBigSplatGroup with kBigSplats
 
 // The dispatch that draws the big splats a pass listed (gpu_types.h, kBigSplatPixels); constant
 // ids 0 to 2 are the passes' own.
@@ -67,16 +67,35 @@ bool footprint(ViewSplat v, out ivec2 lo, out ivec2 hi) {
     return lo.x <= hi.x && lo.y <= hi.y;
 }
 
+// The pixels an invocation walks: pieces first, first + step, ... below count, a piece a row of
+// the footprint, or in the big splats' dispatch a row's run of at most kBigSplatRun pixels (piece j:
+// row lo.y + j / runs, columns from lo.x + (j % runs) · kBigSplatRun).
+struct Walk {
+    int first, step, count, runs;
+};
+
+// Piece j of `walk`: its row and columns [x0, x1] within the footprint [lo, hi].
+void walkPiece(Walk walk, ivec2 lo, ivec2 hi, int j, out int y, out int x0, out int x1) {
+    if (kBigSplats) {
+        y = lo.y + j / walk.runs;
+        x0 = lo.x + (j % walk.runs) * int(kBigSplatRun);
+        x1 = min(x0 + int(kBigSplatRun) - 1, hi.x);
+    } else {
+        y = lo.y + j;
+        x0 = lo.x;
+        x1 = hi.x;
+    }
+}
+
 // The splat this invocation draws (its index, as stored and in view space), the pixels of its
-// footprint (footprint below) and the rows it walks: lo.y, lo.y + rowStep, ..., up to hi.y. In a
-// pass's first dispatch, a splat an invocation and every row of it; a splat whose footprint's box
-// holds more than kBigSplatPixels pixels is listed instead, in the list of `pass` (0 visibility,
-// 1 accumulation), while it has room. With kBigSplats, the dispatch of that list: a splat a
-// workgroup, a row an invocation. Either way each splat is drawn once in each pass.
+// footprint (footprint below) and the pieces of them it walks. In a pass's first dispatch, a splat
+// an invocation and all of it; a splat whose footprint's box holds more than kBigSplatPixels pixels
+// is listed instead, in the list of `pass` (0 visibility, 1 accumulation), while it has room. With
+// kBigSplats, the dispatch of that list: a splat a column of workgroups (x the splat, y a part),
+// its runs shared out among their invocations. Either way each splat is drawn once in each pass.
 bool drawnSplat(uint pass, out uint index, out Splat s, out ViewSplat v, out ivec2 lo, out ivec2 hi,
-                out int rowStep) {
+                out Walk walk) {
     uint at = bigSplatsAt(), count = at + 4u * pass, list = at + 8u + kBigSplatCapacity * pass;
-    rowStep = 1;
     if (kBigSplats) {
         index = tileWords[list + gl_WorkGroupID.x];
     } else if (!invocationSplat(index)) {
@@ -85,12 +104,15 @@ bool drawnSplat(uint pass, out uint index, out Splat s, out ViewSplat v, out ive
     s = splatAt(index);
     v = toView(s);
     if (!frontFacing(v) || !footprint(v, lo, hi)) return false;
-    if (kBigSplats) {
-        lo.y += int(gl_LocalInvocationID.x);
-        rowStep = int(kLocalSize);
-        return lo.y <= hi.y;
-    }
     ivec2 size = hi - lo + 1;
+    if (kBigSplats) {
+        walk.runs = (size.x + int(kBigSplatRun) - 1) / int(kBigSplatRun);
+        walk.first = int(gl_WorkGroupID.y * gl_WorkGroupSize.x + gl_LocalInvocationID.x);
+        walk.step = int(gl_NumWorkGroups.y * gl_WorkGroupSize.x);
+        walk.count = size.y * walk.runs;
+        return walk.first < walk.count;
+    }
+    walk = Walk(0, 1, size.y, 1);
     if (size.x * size.y <= int(kBigSplatPixels)) return true;
     uint k = atomicAdd(tileWords[count], 1u);
     if (k < kBigSplatCapacity) {

@@ -234,24 +234,28 @@ TEST_P(PathTest, APinholeIsDrawnAsTheOtherPixelOfItsPair) {
     }
 }
 
-// One splat far larger than the screen covers every pixel (no size limit), also on a screen of
-// more pixels than lavapipe lets one invocation's loops visit (65,535: the compute path draws such
-// a splat a row an invocation, gpu::kBigSplatPixels); and two of them, a red and a blue one (four
-// sums a pixel, not one), mix everywhere. Without the big splats' own dispatch, the compute path
-// left 400 × 300 background from row 163 on (tried).
+// One splat far larger than the screen covers every pixel (no size limit), also on screens of
+// more pixels than lavapipe lets one invocation's loops visit (65,535: the compute path lists such
+// a splat and draws it with workgroups of its own, gpu::kBigSplatPixels): one without colour (one
+// sum a pixel on the compute path), and a red and a blue one (four sums), which mix everywhere.
+// At 300 × 1400 an invocation walks up to 11 runs (2,800 runs of at most 256 pixels over 256
+// invocations), at 1100 × 60 a row is five runs. Without the big splats' own dispatch, the compute
+// path left 400 × 300 background from row 163 on (tried).
 TEST_P(PathTest, HugeSplatCoversTheScreen) {
+    PointSet one = disk({0, 0, 0}, {0, 0, 1}, 50.0f, {255, 255, 255});
+    one.colour.clear();
     PointSet two = disk({0, 0, 0}, {0, 0, 1}, 50.0f, {255, 0, 0});
     two.appendFrom(disk({0, 0, 0}, {0, 0, 1}, 50.0f, {0, 0, 255}), 0);
-    for (const auto& [width, height] : {std::pair{64u, 48u}, std::pair{400u, 300u}}) {
-        SCOPED_TRACE(width);
-        const RgbaImage image = render(disk({0, 0, 0}, {0, 0, 1}, 50.0f, {255, 255, 255}),
-                                       small(GetParam(), width, height), lookingDownZ(2.0f));
-        ASSERT_EQ(image.width, width);
+    for (const auto& [width, height] :
+         {std::pair{64u, 48u}, std::pair{400u, 300u}, std::pair{300u, 1400u}, std::pair{1100u, 60u}}) {
+        SCOPED_TRACE(fmt::format("{} x {}", width, height));
+        const RgbaImage plain = render(one, small(GetParam(), width, height), lookingDownZ(2.0f));
+        ASSERT_EQ(plain.width, width);
         const RgbaImage mixed = render(two, small(GetParam(), width, height), lookingDownZ(2.0f));
         ASSERT_EQ(mixed.width, width);
         for (std::uint32_t y = 0; y < height; ++y)
             for (std::uint32_t x = 0; x < width; ++x) {
-                ASSERT_GT(image.at(x, y).x, 100) << x << "," << y;
+                ASSERT_GT(plain.at(x, y).x, 100) << x << "," << y;
                 ASSERT_GT(mixed.at(x, y).x, 50) << x << "," << y;
                 ASSERT_GT(mixed.at(x, y).z, 50) << x << "," << y;
             }

@@ -58,7 +58,8 @@ class ComputePasses final : public RenderPasses {
   private:
     // `oneColour` sets the shader's specialization constant 0 (kOneColour of compute_accumulate.comp
     // and compute_normalize.comp), `tileScan` its constant 1 (kTileScan of compute_normalize.comp),
-    // `bigSplats` its constant 3 (kBigSplats of splat_compute.glsl).
+    // `bigSplats` its constant 3 (kBigSplats of splat_compute.glsl) and its workgroup's size, constant
+    // 4 (gpu::kBigSplatGroup instead of kLocalSize).
     Unique<VkPipeline> pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour = false,
                                 bool tileScan = false, bool bigSplats = false) const;
     glm::uvec2 tiles() const { return normalizationTiles(settings_.width, settings_.height); }
@@ -66,6 +67,13 @@ class ComputePasses final : public RenderPasses {
     // bigSplatsAt), in bytes.
     VkDeviceSize bigSplatsAt() const {
         return sizeof(VkDispatchIndirectCommand) + VkDeviceSize{tiles().x} * tiles().y * 8;
+    }
+    // Workgroups a big splat takes (the y of its dispatch): enough for a footprint of the whole
+    // picture with at most gpu::kBigSplatRuns runs an invocation.
+    std::uint32_t bigSplatParts() const {
+        const std::uint32_t runs = (settings_.width + gpu::kBigSplatRun - 1) / gpu::kBigSplatRun;
+        const std::uint32_t perPart = gpu::kBigSplatGroup * gpu::kBigSplatRuns;
+        return (settings_.height * runs + perPart - 1) / perPart;
     }
     void dispatchBigSplats(VkCommandBuffer cmd, int pass, const PathFrame& frame) const;
 
@@ -89,13 +97,14 @@ class ComputePasses final : public RenderPasses {
 Unique<VkPipeline> ComputePasses::pipeline(VkShaderModule module, VkPipelineLayout layout, bool oneColour,
                                            bool tileScan, bool bigSplats) const {
     // kOneColour, kTileScan, the normalization's rows of invocations (the scan's one; the splat
-    // passes have no constant 2) and kBigSplats (the normalization has no constant 3).
-    const std::array<std::uint32_t, 4> values{oneColour ? VK_TRUE : VK_FALSE, tileScan ? VK_TRUE : VK_FALSE,
-                                              tileScan ? 1u : gpu::kTileHeight,
-                                              bigSplats ? VK_TRUE : VK_FALSE};
-    std::array<VkSpecializationMapEntry, 4> entries{};
+    // passes have no constant 2), kBigSplats and the splat passes' workgroup size (the
+    // normalization has no constants 3 and 4).
+    const std::array<std::uint32_t, 5> values{
+        oneColour ? VK_TRUE : VK_FALSE, tileScan ? VK_TRUE : VK_FALSE, tileScan ? 1u : gpu::kTileHeight,
+        bigSplats ? VK_TRUE : VK_FALSE, bigSplats ? gpu::kBigSplatGroup : gpu::kLocalSize};
+    std::array<VkSpecializationMapEntry, 5> entries{};
     for (std::uint32_t k = 0; k < entries.size(); ++k) entries[k] = {k, 4 * k, 4};
-    const VkSpecializationInfo specialization{4, entries.data(), sizeof(values), values.data()};
+    const VkSpecializationInfo specialization{5, entries.data(), sizeof(values), values.data()};
     VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
     info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -168,10 +177,11 @@ void ComputePasses::record(VkCommandBuffer cmd, int pass, const PathFrame& frame
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), 0, 4, 0u);
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), 4, 8, 1u);
         vkCmdFillBuffer(cmd, tiles_.buffer.get(), sizeof(VkDispatchIndirectCommand), flags, 0u);
-        // No big splat listed: the two dispatches (0, 1, 1).
+        // No big splat listed: the two dispatches (0, bigSplatParts(), 1).
         for (const VkDeviceSize at : {bigSplatsAt(), bigSplatsAt() + 16}) {
             vkCmdFillBuffer(cmd, tiles_.buffer.get(), at, 4, 0u);
-            vkCmdFillBuffer(cmd, tiles_.buffer.get(), at + 4, 8, 1u);
+            vkCmdFillBuffer(cmd, tiles_.buffer.get(), at + 4, 4, bigSplatParts());
+            vkCmdFillBuffer(cmd, tiles_.buffer.get(), at + 8, 4, 1u);
         }
         bufferBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kCompute, kRW);
     } else if (pass == 2) {

@@ -46,7 +46,7 @@ struct HoleSize {
 // filled first (enlargeAroundHoles, fillHoles; paper figure 9); then `levels` uniform levels, stopping early
 // once `targetPoints` (0: no target) is reached or a level inserts nothing; then the points above
 // `evenOutFactor` times the median radius are evened out (evenOut; 0: not at all). A job whose estimated
-// output (memory_budget.h) exceeds `maxPoints`, or with 0 what memoryBudget() leaves room for, is refused
+// output (memory_budget.h) exceeds `maxPoints`, or with 0 what memoryLimits() leave room for, is refused
 // before it starts.
 struct RefineJob {
     RefineOptions options;

@@ -117,6 +117,7 @@ class Session {
 
     engine::Context& context_;
     Model model_;
+    glm::dvec3 engineOrigin_{0.0}; // the origin of the model engine_ draws (its reports' cameras)
     ViewerOptions options_;
     const ModelLoader& loader_;
     const FrameSink& sink_;
@@ -448,6 +449,7 @@ bool Session::startEngine(const PointSet& points, const engine::EngineSettings& 
         presenter_->finished();
     }
     engine_ = std::move(created).value();
+    engineOrigin_ = model_.origin;
     settings_ = s;
     return true;
 }
@@ -492,7 +494,7 @@ void Session::collectReports(bool all) {
             starts_.pop_front();
         }
         presenter_->finished(report.frame);
-        if (sink_) sink_(report, ms, model_.origin);
+        if (sink_) sink_(report, ms, engineOrigin_);
         recent_.push_back({report, ms, now});
         while (!recent_.empty() && secondsBetween(recent_.front().at, now) > 1.0 && recent_.size() > 2)
             recent_.pop_front();
@@ -679,6 +681,7 @@ Result<ViewerSummary> Session::run() {
         auto created = engine::Engine::create(context_, model_.points, settings_);
         if (!created) return Error{model_.name + ": " + created.error().message};
         engine_ = std::move(created).value();
+        engineOrigin_ = model_.origin;
         presenter_->setCanvas(presenter_->extent());
 
         ViewerSummary summary;

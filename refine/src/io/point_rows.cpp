@@ -270,10 +270,11 @@ Result<void> settleZeroNormals(PlyData& data, bool required, std::string_view fi
 namespace {
 
 // Where most of the points lie: per axis, the median ± the interquartile range (the whole range of
-// an even spread is twice it), from every ceil(n / kMiddleSample)-th point. A few points far from
-// the rest (a scanner's own position, invalid returns written as 0 0 0) move neither the box nor
-// the origin settleOrigin takes from it; the whole box would put them inside and estimate the
-// spacing from its diagonal.
+// an even spread is twice it), from every ceil(n / kMiddleSample)-th point, those at exactly 0 0 0
+// left out (invalid returns, as organised scans write them, may be a quarter of the rows or more;
+// settleOrigin runs only where some point lies far from 0). A few points far from the rest (a
+// scanner's own position) move neither the box nor the origin settleOrigin takes from it; the
+// whole box would put them inside and estimate the spacing from its diagonal.
 constexpr std::size_t kMiddleSample = 1 << 16;
 std::pair<glm::dvec3, glm::dvec3> middleBox(std::span<const glm::dvec3> exact) {
     const std::size_t stride = (exact.size() + kMiddleSample - 1) / kMiddleSample;
@@ -282,7 +283,9 @@ std::pair<glm::dvec3, glm::dvec3> middleBox(std::span<const glm::dvec3> exact) {
     glm::dvec3 lo{0.0}, hi{0.0};
     for (int a = 0; a < 3; ++a) {
         axis.clear();
-        for (std::size_t i = 0; i < exact.size(); i += stride) axis.push_back(exact[i][a]);
+        for (std::size_t i = 0; i < exact.size(); i += stride)
+            if (exact[i] != glm::dvec3(0.0)) axis.push_back(exact[i][a]);
+        if (axis.empty()) return {};
         std::sort(axis.begin(), axis.end());
         const std::size_t m = axis.size();
         const double quartiles = axis[3 * m / 4] - axis[m / 4];

@@ -1,8 +1,8 @@
 // The compute path (ALGORITHM.md §11.5, with atomics instead of the raster pipeline): one invocation per
 // splat walks the pixels of its screen footprint. A workgroup draws up to kGroupRanges ranges of the
 // splats drawn (runs of a chunk's facing classes), kLocalSize splats in all, its invocations the
-// ranges' splats in order; a splat too large for one invocation is listed and drawn by a workgroup
-// of a second dispatch (drawnSplat).
+// ranges' splats in order; a splat too large for one invocation is listed and drawn by workgroups
+// of its own in a second dispatch (drawnSplat).
 #include "splat_common.glsl"
 
 layout(local_size_x = kLocalSize, local_size_x_id = 4) in; // kBigSplatGroup with kBigSplats

@@ -303,18 +303,15 @@ InputCompletion completeInput(PointSet& points, unsigned threads, const std::str
                                                           "colour, crease or attribute value, now lost",
                                                           removed.withOtherAttributes)
                                             : "");
-    if (done->outliers > 0) {
-        const glm::dvec3 at = origin + glm::dvec3(done->firstOutlier);
-        const double size = done->outlierThreshold;
+    if (done->outliers > 0)
         fmt::print(
             stderr,
             "pnsplat: {}: {} outlier(s) left out: points far from their {} nearest (a mean distance "
             "above {:.4g}, {:.1f} times the median, in the first pass) or off their plane (the first at "
-            "{:.{}g} {:.{}g} {:.{}g}); --keep-outliers keeps them\n",
+            "{}); --keep-outliers keeps them\n",
             inputName, done->outliers, kOutlierNearest, done->outlierThreshold,
-            done->outlierThreshold / done->outlierMedian, at.x, significantDigits(at.x, size), at.y,
-            significantDigits(at.y, size), at.z, significantDigits(at.z, size));
-    }
+            done->outlierThreshold / done->outlierMedian,
+            placeText(origin + glm::dvec3(done->firstOutlier), done->outlierThreshold, ' '));
     if (done->normalComponents > 0)
         fmt::print(stderr,
                    "pnsplat: {} has no normals: estimated from the {} nearest points of each (PCA), oriented "
@@ -355,10 +352,8 @@ void addFoundHoles(const PointSet& points, RefineJob& job, RefineRun& run, const
     std::string detail;
     for (const FoundHole& hole : found.holes) {
         const glm::dvec3 centre = glm::dvec3(hole.ball.centre) + job.origin; // in the file's coordinates
-        detail += fmt::format("{}{:.4g} across at {:.{}g},{:.{}g},{:.{}g}", detail.empty() ? ": " : "; ",
-                              hole.size, centre.x, significantDigits(centre.x, hole.size), centre.y,
-                              significantDigits(centre.y, hole.size), centre.z,
-                              significantDigits(centre.z, hole.size));
+        detail += fmt::format("{}{:.4g} across at {}", detail.empty() ? ": " : "; ", hole.size,
+                              placeText(centre, hole.size, ','));
     }
     const std::size_t alsoGiven = found.holes.size() - run.holesFound;
     fmt::print(stderr, "pnsplat: {}: {} hole(s) up to {:.4g} across found{}{}{}\n", inputName,

@@ -88,13 +88,8 @@ std::string cameraText(const Camera& c, glm::dvec3 origin) {
         return fmt::format("{},{},{},{},{},{},{},{},{}", c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y,
                            c.target.z, c.up.x, c.up.y, c.up.z);
     const double size = 1e-3 * glm::distance(glm::dvec3(c.eye), glm::dvec3(c.target));
-    std::string text;
-    for (const glm::vec3 place : {c.eye, c.target})
-        for (int axis = 0; axis < 3; ++axis) {
-            const double value = origin[axis] + double(place[axis]);
-            text += fmt::format("{:.{}g},", value, significantDigits(value, size));
-        }
-    return text + fmt::format("{},{},{}", c.up.x, c.up.y, c.up.z);
+    return fmt::format("{},{},{},{},{}", placeText(origin + glm::dvec3(c.eye), size, ','),
+                       placeText(origin + glm::dvec3(c.target), size, ','), c.up.x, c.up.y, c.up.z);
 }
 
 Sphere boundingSphere(std::span<const glm::vec3> positions) {

@@ -2,7 +2,7 @@
 // the pixels of its footprint, with atomics on storage buffers of one word (depth) and one or four
 // words (sums) a pixel; the passes after the first read the depth, the normalization the sums, as
 // texels. A splat pass lists the splats too large for one invocation (gpu::kBigSplatPixels) and
-// draws them in a second, indirect dispatch, a workgroup each. The normalization draws only the
+// draws them in a second, indirect dispatch, with workgroups of their own. The normalization draws only the
 // tiles that splats reached, listed by a first dispatch of its shader; the picture is filled with
 // the background before.
 #include <algorithm>

@@ -1,10 +1,23 @@
 #include "pnsplat/refine/text.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/core.h>
 
 namespace pnsplat {
+
+std::string placeText(glm::dvec3 place, double size, char separator) {
+    std::string text;
+    for (int axis = 0; axis < 3; ++axis) {
+        const double value = place[axis];
+        const double magnitude = std::max(std::abs(value), size);
+        const int digits = 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
+        if (axis > 0) text += separator;
+        text += fmt::format("{:.{}g}", value, digits);
+    }
+    return text;
+}
 
 std::string jsonNumber(double v) {
     return std::isfinite(v) ? fmt::format("{}", v) : std::string("null");

@@ -2,13 +2,14 @@
 // values in JSON text. Pure functions; any thread.
 #pragma once
 
-#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <system_error>
+
+#include <glm/ext/vector_double3.hpp>
 
 namespace pnsplat {
 
@@ -29,12 +30,9 @@ inline std::optional<double> parseDouble(std::string_view text) {
     return parseFinite<double>(text);
 }
 
-// Significant digits that show `value` to about a thousandth of `size` (4 near 0, more far from
-// it): a place in a file's coordinates (PlyData::origin + position) to the detail that matters.
-inline int significantDigits(double value, double size) {
-    const double magnitude = std::max(std::abs(value), size);
-    return 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
-}
+// A place in a file's coordinates (PlyData::origin + position) as text: x, y and z between
+// `separator`s, each to about a thousandth of `size` (4 significant digits near 0, more far from it).
+std::string placeText(glm::dvec3 place, double size, char separator);
 
 // A JSON number: the shortest text that reads back as `v`; null when not finite (JSON has no
 // infinity or NaN).

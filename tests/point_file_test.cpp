@@ -17,6 +17,7 @@
 #include "pnsplat/refine/io/pcd.h"
 #include "pnsplat/refine/io/point_text.h"
 #include "pnsplat/refine/shapes/shapes.h"
+#include "pnsplat/refine/text.h"
 #include "program.h"
 #include "temp_dir.h"
 
@@ -131,6 +132,17 @@ TEST(PointFile, FarCoordinatesAreHeldLessAnOrigin) {
     std::vector<glm::vec3> positions = {glm::vec3(1.5f, -0.25f, 3.0f)};
     moveToOrigin(positions, glm::dvec3(5e5, -2e6, 0.0), glm::dvec3(5e5 + 4.0, -2e6, -8.0));
     EXPECT_EQ(positions[0], glm::vec3(-2.5f, -0.25f, 11.0f));
+}
+
+// A place in a file's coordinates, as notes and cameras print it: to about a thousandth of the
+// size, and without an exponent where the size is large (a model in millimetres 600,000 across
+// printed "2.8733e+05 5006830 -2.4664e+05" before).
+TEST(PlaceText, WholeNumbersWithoutAnExponent) {
+    EXPECT_EQ(placeText(glm::dvec3(287330.87, 5006830.2, -246640.4), 37390.0, ' '), "287330 5006830 -246640");
+    EXPECT_EQ(placeText(glm::dvec3(287336.0, -99999.0, 1.0), 37390.0, ','), "287340,-99999,1");
+    EXPECT_EQ(placeText(glm::dvec3(512000.5, 4123000.25, 87.0), 0.3, ','), "512000.5,4123000.25,87");
+    EXPECT_EQ(placeText(glm::dvec3(0.0123456, -0.5, 0.0), 0.01, ' '), "0.012346 -0.5 0");
+    EXPECT_EQ(placeText(glm::dvec3(3e17, 0.0, 0.0), 1e16, ' '), "3e+17 0 0"); // past a double's whole digits
 }
 
 TEST(PointFile, TextWritesAHeaderLineNamingTheColumns) {

@@ -14,7 +14,16 @@ std::string placeText(glm::dvec3 place, double size, char separator) {
         const double magnitude = std::max(std::abs(value), size);
         const int digits = 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
         if (axis > 0) text += separator;
-        text += fmt::format("{:.{}g}", value, digits);
+        // Where the whole part has more digits than that (a size of 10,000 or more), %g would
+        // write an exponent ("2.8733e+05"): the whole number instead, rounded to those digits, up
+        // to the 16 whole digits a double holds.
+        const int exponent = value != 0.0 ? static_cast<int>(std::floor(std::log10(std::abs(value)))) : 0;
+        if (exponent >= digits && exponent < 16) {
+            const double step = std::pow(10.0, exponent - digits + 1);
+            text += fmt::format("{:.0f}", std::round(value / step) * step);
+        } else {
+            text += fmt::format("{:.{}g}", value, digits);
+        }
     }
     return text;
 }

@@ -1191,6 +1191,21 @@ TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
     const RunResult wrong = run("eval " + quote(out) + " --reference sphere:1 --input " + quote(other));
     ASSERT_TRUE(wrong.exited && wrong.exitCode == 0) << wrong.err;
     EXPECT_NE(wrong.out.find("\"input_preserved\": false"), std::string::npos) << wrong.out;
+    EXPECT_EQ(eval.err, ""); // a set on its surface gets no note
+
+    // A set in other units (millimetres against metres): the report, and a note naming the cause.
+    PointSet millimetres = sampleSphereUniform(600, 1.0f);
+    for (glm::vec3& x : millimetres.position) x *= 1000.0f;
+    const fs::path scaled = dir / "sphere-mm.ply";
+    ASSERT_TRUE(writePly(scaled, millimetres).ok());
+    const RunResult units = run("eval " + quote(scaled) + " --reference sphere:1");
+    ASSERT_TRUE(units.exited && units.exitCode == 0) << units.err;
+    EXPECT_EQ(units.out.front(), '{');
+    EXPECT_NE(
+        units.err.find(": its points lie 288 times the reference's diagonal (3.464) from its surface on "
+                       "average (their box's diagonal: 3458): are the two in the same units and place?"),
+        std::string::npos)
+        << units.err;
 }
 
 // --hole-map: the refined points in grey, then the reference samples counted as holes (here the

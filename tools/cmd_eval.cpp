@@ -77,6 +77,14 @@ void runEval(const EvalArgs& args) {
     options.flatNormals = args.flatNormals;
     const QualityReport report =
         evaluateQuality(refined, reference, args.input.empty() ? nullptr : &input, options);
+    // Files in other units or places than the reference measure as far apart: say so beside the
+    // report, which is written all the same.
+    if (report.distanceMeanRel > 1.0)
+        fmt::print(
+            stderr,
+            "pnsplat: {}: its points lie {:.3g} times the reference's diagonal ({:.4g}) from its surface on "
+            "average (their box's diagonal: {:.4g}): are the two in the same units and place?\n",
+            args.refined, report.distanceMeanRel, report.diagonal, boundsOf(refined.position).diagonal());
     if (!args.holeMap.empty())
         unwrap(writePly(args.holeMap, holeMap(std::move(refined), report), PlyFormat::BinaryLittleEndian, {},
                         origin));

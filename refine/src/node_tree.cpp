@@ -162,11 +162,7 @@ void describePoints(Node& node) {
 class NearestGrid {
   public:
     explicit NearestGrid(std::span<const glm::vec3> positions) : positions_(positions) {
-        glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-        for (const glm::vec3 p : positions) {
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
+        const auto [lo, hi] = boundsOf(positions);
         lo_ = lo;
         // Cells of about two spacings of the surface the points sample, so that a point's nearest
         // few lie in its 3×3×3 cells: first from the area of the box's three faces, then once more

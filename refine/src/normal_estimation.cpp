@@ -507,12 +507,7 @@ Result<void> checkDistinct(std::span<const glm::vec3> distinct, std::size_t coun
     if (m < 3)
         return Error{fmt::format(
             "{} distinct positions among {} points: normals need at least 3 to fit a plane", m, count)};
-    glm::vec3 lo = distinct[0], hi = lo;
-    for (const glm::vec3& x : distinct) {
-        lo = glm::min(lo, x);
-        hi = glm::max(hi, x);
-    }
-    const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+    const float extent = boundsOf(distinct).extent();
     // The k-d tree measures squared distances in single precision: up to 3·extent² must fit, and
     // extent² must not vanish into its denormals.
     const bool large = !(extent * extent <= 0.25f * std::numeric_limits<float>::max());

@@ -1165,6 +1165,7 @@ TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
     const RunResult eval = run("eval " + quote(out) + " --reference sphere:1 --input " + quote(in));
     ASSERT_TRUE(eval.exited && eval.exitCode == 0) << eval.err;
     std::cout << "[eval, sphere 600 refined 3 levels] " << eval.out;
+    EXPECT_EQ(eval.err, ""); // a set on its surface gets no note
     EXPECT_NE(eval.out.find("\"input_preserved\": true"), std::string::npos) << eval.out;
     EXPECT_NE(eval.out.find("\"input_missing\": 0"), std::string::npos) << eval.out;
     EXPECT_NE(eval.out.find("\"input_points\": 600"), std::string::npos) << eval.out;
@@ -1191,7 +1192,6 @@ TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
     const RunResult wrong = run("eval " + quote(out) + " --reference sphere:1 --input " + quote(other));
     ASSERT_TRUE(wrong.exited && wrong.exitCode == 0) << wrong.err;
     EXPECT_NE(wrong.out.find("\"input_preserved\": false"), std::string::npos) << wrong.out;
-    EXPECT_EQ(eval.err, ""); // a set on its surface gets no note
 
     // A set in other units (millimetres against metres): the report, and a note naming the cause.
     PointSet millimetres = sampleSphereUniform(600, 1.0f);
@@ -1200,12 +1200,19 @@ TEST(CliEval, SphereRefinementPreservesInputAndIsAccurate) {
     ASSERT_TRUE(writePly(scaled, millimetres).ok());
     const RunResult units = run("eval " + quote(scaled) + " --reference sphere:1");
     ASSERT_TRUE(units.exited && units.exitCode == 0) << units.err;
+    ASSERT_FALSE(units.out.empty());
     EXPECT_EQ(units.out.front(), '{');
     EXPECT_NE(
-        units.err.find(": its points lie 288 times the reference's diagonal (3.464) from its surface on "
-                       "average (their box's diagonal: 3458): are the two in the same units and place?"),
+        units.err.find(": its points lie on average 288.4 times the reference's diagonal (3.464) from the "
+                       "reference's surface, and their own box's diagonal is 3458: are the two in the same "
+                       "units and place?"),
         std::string::npos)
         << units.err;
+    // And the other way: a sphere in metres against one in millimetres, on its surface, a box a thousandth
+    // the size.
+    const RunResult metres = run("eval " + quote(in) + " --reference " + quote(scaled));
+    ASSERT_TRUE(metres.exited && metres.exitCode == 0) << metres.err;
+    EXPECT_NE(metres.err.find("are the two in the same units and place?"), std::string::npos) << metres.err;
 }
 
 // --hole-map: the refined points in grey, then the reference samples counted as holes (here the

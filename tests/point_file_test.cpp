@@ -142,6 +142,8 @@ TEST(PlaceText, WholeNumbersWithoutAnExponent) {
     EXPECT_EQ(placeText(glm::dvec3(287336.0, -99999.0, 1.0), 37390.0, ','), "287340,-99999,1");
     EXPECT_EQ(placeText(glm::dvec3(512000.5, 4123000.25, 87.0), 0.3, ','), "512000.5,4123000.25,87");
     EXPECT_EQ(placeText(glm::dvec3(0.0123456, -0.5, 0.0), 0.01, ' '), "0.012346 -0.5 0");
+    // Rounding that carries to the next power of ten.
+    EXPECT_EQ(placeText(glm::dvec3(9999.7, 99999.7, -99999.7), 37390.0, ' '), "10000 100000 -100000");
     EXPECT_EQ(placeText(glm::dvec3(3e17, 0.0, 0.0), 1e16, ' '), "3e+17 0 0"); // past a double's whole digits
 }
 

@@ -77,14 +77,21 @@ void runEval(const EvalArgs& args) {
     options.flatNormals = args.flatNormals;
     const QualityReport report =
         evaluateQuality(refined, reference, args.input.empty() ? nullptr : &input, options);
-    // Files in other units or places than the reference measure as far apart: say so beside the
-    // report, which is written all the same.
-    if (report.distanceMeanRel > 1.0)
+    // Files in other units or places than the reference's: say so beside the report, which is
+    // written all the same. Far from its surface on average, or a box of another size altogether.
+    const double ownDiagonal = boundsOf(refined.position).diagonal();
+    const double sizes = ownDiagonal / report.diagonal;
+    if (report.diagonal > 0.0 && (report.distanceMeanRel > 1.0 || sizes > 100.0 || sizes < 0.01)) {
+        const auto plain = [](double v) {
+            return v >= 1000.0 ? fmt::format("{:.0f}", v) : fmt::format("{:.4g}", v);
+        };
         fmt::print(
             stderr,
-            "pnsplat: {}: its points lie {:.3g} times the reference's diagonal ({:.4g}) from its surface on "
-            "average (their box's diagonal: {:.4g}): are the two in the same units and place?\n",
-            args.refined, report.distanceMeanRel, report.diagonal, boundsOf(refined.position).diagonal());
+            "pnsplat: {}: its points lie on average {} times the reference's diagonal ({}) from the "
+            "reference's surface, and their own box's diagonal is {}: are the two in the same units and "
+            "place?\n",
+            args.refined, plain(report.distanceMeanRel), plain(report.diagonal), plain(ownDiagonal));
+    }
     if (!args.holeMap.empty())
         unwrap(writePly(args.holeMap, holeMap(std::move(refined), report), PlyFormat::BinaryLittleEndian, {},
                         origin));

@@ -11,18 +11,24 @@ std::string placeText(glm::dvec3 place, double size, char separator) {
     std::string text;
     for (int axis = 0; axis < 3; ++axis) {
         const double value = place[axis];
+        if (axis > 0) text += separator;
+        if (!std::isfinite(value) || !(size > 0.0)) {
+            text += fmt::format("{}", value);
+            continue;
+        }
         const double magnitude = std::max(std::abs(value), size);
         const int digits = 4 + std::max(0, static_cast<int>(std::ceil(std::log10(magnitude / size))));
-        if (axis > 0) text += separator;
-        // Where the whole part has more digits than that (a size of 10,000 or more), %g would
-        // write an exponent ("2.8733e+05"): the whole number instead, rounded to those digits, up
+        // Where the whole part, rounded, has more digits than that (a size of 10,000 or more), %g
+        // writes an exponent ("2.8733e+05"): the whole number instead, rounded to those digits, up
         // to the 16 whole digits a double holds.
-        const int exponent = value != 0.0 ? static_cast<int>(std::floor(std::log10(std::abs(value)))) : 0;
-        if (exponent >= digits && exponent < 16) {
+        const std::string general = fmt::format("{:.{}g}", value, digits);
+        const std::size_t e = general.find("e+");
+        const int exponent = e == std::string::npos ? 0 : std::stoi(general.substr(e + 2));
+        if (exponent > 0 && exponent < 16) {
             const double step = std::pow(10.0, exponent - digits + 1);
             text += fmt::format("{:.0f}", std::round(value / step) * step);
         } else {
-            text += fmt::format("{:.{}g}", value, digits);
+            text += general;
         }
     }
     return text;

@@ -32,7 +32,8 @@ inline std::optional<double> parseDouble(std::string_view text) {
 
 // A place in a file's coordinates (PlyData::origin + position) as text: x, y and z between
 // `separator`s, each to about a thousandth of `size` (4 significant digits near 0, more far from it),
-// never with an exponent above 1 (a whole number where the size is 10,000 or more).
+// without an exponent up to 16 whole digits (a whole number, rounded to those digits, where the size
+// is 10,000 or more).
 std::string placeText(glm::dvec3 place, double size, char separator);
 
 // A JSON number: the shortest text that reads back as `v`; null when not finite (JSON has no

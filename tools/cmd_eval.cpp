@@ -90,7 +90,8 @@ void runEval(const EvalArgs& args) {
             "pnsplat: {}: its points lie on average {} times the reference's diagonal ({}) from the "
             "reference's surface, and their own box's diagonal is {}: are the two in the same units and "
             "place?\n",
-            args.refined, plain(report.distanceMeanRel), plain(report.diagonal), plain(ownDiagonal));
+            inputName(args.refined), plain(report.distanceMeanRel), plain(report.diagonal),
+            plain(ownDiagonal));
     }
     if (!args.holeMap.empty())
         unwrap(writePly(args.holeMap, holeMap(std::move(refined), report), PlyFormat::BinaryLittleEndian, {},

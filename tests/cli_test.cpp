@@ -1670,7 +1670,7 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
         for (const char* field :
              {"\"frame_ms\"", "\"visibility_ms\"", "\"splats_drawn\"", "\"nodes_visible\"",
               "\"nodes_refined\"", "\"points_generated\"", "\"cache_bytes_used\"", "\"evictions\"",
-              "\"queue_length\"", "\"refine_busy_ms\"", "\"max_splat_px\""})
+              "\"queue_length\"", "\"refine_busy_ms\"", "\"refine_cpu_ms\"", "\"max_splat_px\""})
             EXPECT_NE(out[k].find(field), std::string::npos) << field << " in " << out[k];
         EXPECT_NE(out[k].find("\"settled\": true"), std::string::npos) << out[k]; // lockstep
         EXPECT_NE(jsonField(out[k], "max_splat_px"), "null") << out[k];
@@ -1683,6 +1683,7 @@ TEST(CliBenchView, PrintsFramesAndASummaryAndCaptures) {
     EXPECT_NE(out[4].find("\"frame_ms_p95\""), std::string::npos);
     EXPECT_NE(out[4].find("\"uploads_per_second\""), std::string::npos);
     EXPECT_NE(out[4].find("\"points_per_second_while_queued\""), std::string::npos);
+    EXPECT_NE(out[4].find("\"points_per_cpu_second\""), std::string::npos);
     EXPECT_NE(out[4].find("\"workers\": 1,"), std::string::npos) << out[4]; // --threads is --workers
 }
 

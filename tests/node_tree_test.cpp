@@ -118,13 +118,15 @@ TEST(NodeSplit, PartsPartitionTheRegionByCount) {
 }
 
 // The workers run jobs as NodeTree::run does on the calling thread, and count as busy only the time a
-// job was waiting or running: nothing while idle, and never more than the time that passed. A
-// bounded wait (the engine's at rest) ends when the jobs do, and at once when there are none.
+// job was waiting or running: nothing while idle, and never more than the time that passed. The
+// jobs' processor time is no more than two workers can spend in the queue's time. A bounded wait
+// (the engine's at rest) ends when the jobs do, and at once when there are none.
 TEST(NodeWorkers, ResultsAreRunsAndBusyTimeIsTheQueuesTime) {
     auto tree = NodeTree::create(withRadii(sampleSphereRandom(3000, 1.0f, 11)), smallNodes());
     ASSERT_TRUE(tree) << tree.error().message;
     NodeWorkers workers(2, tree->settings());
     EXPECT_EQ(workers.busySeconds(), 0.0);
+    EXPECT_EQ(workers.jobSeconds(), 0.0);
     const auto start = std::chrono::steady_clock::now();
     std::vector<NodeJob> jobs;
     for (const NodeId root : tree->roots()) jobs.push_back(tree->makeJob(root));
@@ -137,6 +139,9 @@ TEST(NodeWorkers, ResultsAreRunsAndBusyTimeIsTheQueuesTime) {
     EXPECT_LE(busy, elapsed);
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     EXPECT_EQ(workers.busySeconds(), busy); // idle: results waiting do not count
+    const double jobTime = workers.jobSeconds();
+    EXPECT_GT(jobTime, 0.0);
+    EXPECT_LE(jobTime, 2.0 * busy);
 
     std::vector<NodeJobResult> results = workers.takeResults();
     ASSERT_EQ(results.size(), jobs.size());

@@ -50,7 +50,7 @@ std::string frameJson(const engine::FrameReport& r, double frameMs, glm::dvec3 o
         R"("splats_drawn": {}, "covered_px": {}, "splats_per_covered_px": {}, "nodes_visible": {}, )"
         R"("nodes_refined": {}, "points_generated": {}, )"
         R"("nodes_uploaded": {}, "bytes_uploaded": {}, "cache_bytes_used": {}, "evictions": {}, "queue_length": {}, )"
-        R"("refine_busy_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "median_splat_px": {}, "max_splat_px": {}, )"
+        R"("refine_busy_ms": {:.2f}, "refine_cpu_ms": {:.2f}, "tree_nodes": {}, "tree_points": {}, "threshold_px": {:.3f}, "median_splat_px": {}, "max_splat_px": {}, )"
         R"("over_threshold": {}, )"
         R"("resting": {}, "settled": {}, "camera": "{}", "fov_degrees": {:.6g}}})",
         r.frame, frameMs, r.cpuMs, r.selectionMs, r.uploadMs, r.refineWaitMs, r.gpuWaitMs, r.refineMs,
@@ -58,7 +58,7 @@ std::string frameJson(const engine::FrameReport& r, double frameMs, glm::dvec3 o
         nullUnless(r.coveredPixels > 0,
                    fmt::format("{:.3f}", double(r.splatsDrawn) / double(r.coveredPixels))),
         r.nodesVisible, r.nodesRefined, r.pointsGenerated, r.nodesUploaded, r.bytesUploaded, r.cacheBytesUsed,
-        r.evictions, r.queueLength, r.refineBusyMs, r.treeNodes, r.treePoints, r.thresholdPx,
+        r.evictions, r.queueLength, r.refineBusyMs, r.refineCpuMs, r.treeNodes, r.treePoints, r.thresholdPx,
         nullUnless(r.splatsMeasured, fmt::format("{:.3f}", r.medianSplatPx)),
         nullUnless(r.splatsMeasured, fmt::format("{:.3f}", r.maxSplatPx)),
         nullUnless(r.splatsMeasured, fmt::format("{:.5f}", r.overThreshold)), r.resting ? "true" : "false",
@@ -78,7 +78,7 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
                                      const std::string& device, const std::string& driver) const {
     std::vector<double> ms, selection, upload, visibility, accumulation, normalization, splats, perCovered;
     std::size_t generated = 0, uploads = 0, uploadBytes = 0, evictions = 0;
-    double busyMs = 0.0, worstOver = 0.0;
+    double busyMs = 0.0, cpuMs = 0.0, worstOver = 0.0;
     float largest = 0.0f;
     bool measuredAny = false;
     for (std::size_t k = 0; k < frames_.size(); ++k) {
@@ -98,14 +98,18 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         measuredAny |= r.splatsMeasured;
         largest = std::max(largest, r.maxSplatPx);
         worstOver = std::max(worstOver, r.overThreshold);
-        // The time during which refinement jobs were waiting or running; what they made joins the
-        // tree a frame later (the jobs still running after the last frame add time but no points).
+        // The time during which refinement jobs were waiting or running, and the processor time of
+        // the jobs that finished; what they made joins the tree a frame later (the jobs still
+        // running after the last frame add busy time but no points; the last frame's finished jobs,
+        // processor time but no points).
         busyMs += r.refineBusyMs;
+        cpuMs += r.refineCpuMs;
     }
     return fmt::format(
         R"({{"summary": true, "frames": {}, "seconds": {:.3f}, "frame_ms_median": {:.2f}, "frame_ms_p95": {:.2f}, )"
         R"("fps_median": {:.1f}, "points_generated": {}, "points_per_second": {:.0f}, )"
-        R"("points_per_second_while_queued": {:.0f}, "queued_seconds": {:.3f}, "uploads_per_second": {:.1f}, )"
+        R"("points_per_second_while_queued": {:.0f}, "queued_seconds": {:.3f}, )"
+        R"("points_per_cpu_second": {:.0f}, "refine_cpu_seconds": {:.3f}, "uploads_per_second": {:.1f}, )"
         R"("upload_mb_per_second": {:.2f}, "evictions": {}, "splats_drawn_median": {:.0f}, )"
         R"("splats_per_covered_px_median": {}, "quality_frames": {}, "psnr_median": {}, "psnr_p5": {}, )"
         R"("ssim_median": {}, )"
@@ -116,6 +120,7 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         frames_.size(), seconds, median(ms), quantile(ms, 0.95), median(ms) > 0 ? 1000.0 / median(ms) : 0.0,
         generated, seconds > 0 ? double(generated) / seconds : 0.0,
         busyMs > 0 ? double(generated) / (busyMs * 1e-3) : 0.0, busyMs * 1e-3,
+        cpuMs > 0 ? double(generated) / (cpuMs * 1e-3) : 0.0, cpuMs * 1e-3,
         seconds > 0 ? double(uploads) / seconds : 0.0,
         seconds > 0 ? double(uploadBytes) / double(1 << 20) / seconds : 0.0, evictions, median(splats),
         orNull(perCovered, median(perCovered)), psnr_.size(), orNull(psnr_, median(psnr_)),

@@ -116,6 +116,7 @@ struct Engine::Impl {
     Sphere modelBounds;
     bool hasColour = false;          // else every splat is kDefaultColour
     double workersBusySeconds = 0.0; // NodeWorkers::busySeconds at the last frame's report
+    double workersJobSeconds = 0.0;  // NodeWorkers::jobSeconds at the last frame's report
     float rootMaxRadius = 0.0f;
     // The threshold in force, and the frame time it is adapted to (EngineSettings::targetFrameMs):
     // an exponential mean of the time from one frame's start to the next's.
@@ -590,6 +591,9 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
             const double busy = m.workers->busySeconds();
             report.refineBusyMs = (busy - m.workersBusySeconds) * 1e3;
             m.workersBusySeconds = busy;
+            const double jobs = m.workers->jobSeconds();
+            report.refineCpuMs = (jobs - m.workersJobSeconds) * 1e3;
+            m.workersJobSeconds = jobs;
         }
         report.treeNodes = m.tree.nodeCount();
         report.treePoints = m.tree.pointCount();

@@ -2,6 +2,7 @@
 #include "pnsplat/refine/node_workers.h"
 
 #include <cassert>
+#include <ctime>
 
 #ifdef __linux__
 #include <sys/resource.h>
@@ -10,6 +11,18 @@
 #endif
 
 namespace pnsplat {
+namespace {
+// The calling thread's processor time in seconds (jobSeconds).
+double threadSeconds() {
+#ifdef __linux__
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+#else
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+#endif
+}
+} // namespace
 
 NodeWorkers::NodeWorkers(unsigned threads, const NodeSettings& settings, int nice) : settings_(settings) {
     assert(threads >= 1);
@@ -46,9 +59,12 @@ void NodeWorkers::loop(int nice) {
             queue_.pop_front();
             ++running_;
         }
+        const double jobStart = threadSeconds();
         NodeJobResult result = NodeTree::run(std::move(job), settings_);
+        const double jobTime = threadSeconds() - jobStart;
         {
             std::lock_guard lock(mutex_);
+            jobSeconds_ += jobTime;
             results_.push_back(std::move(result));
             --running_;
             if (running_ == 0 && queue_.empty()) busy_ += std::chrono::steady_clock::now() - busySince_;
@@ -83,6 +99,11 @@ double NodeWorkers::busySeconds() {
     auto busy = busy_;
     if (running_ > 0 || !queue_.empty()) busy += std::chrono::steady_clock::now() - busySince_;
     return std::chrono::duration<double>(busy).count();
+}
+
+double NodeWorkers::jobSeconds() {
+    std::lock_guard lock(mutex_);
+    return jobSeconds_;
 }
 
 void NodeWorkers::waitIdle() {

@@ -116,6 +116,10 @@ struct FrameReport {
     // queue was not empty; NodeWorkers::busySeconds): points generated over it is the refinement's
     // rate while it has work.
     double refineBusyMs = 0.0;
+    // Processor time of the refinement jobs that finished since the last frame's report, summed
+    // over the workers (NodeWorkers::jobSeconds): points generated over it is the refinement's rate
+    // per core, which waiting for a processor does not lower.
+    double refineCpuMs = 0.0;
     std::size_t treeNodes = 0, treePoints = 0; // on the CPU
     // Nothing was wanted for this camera at the threshold asked for: no refinement, no upload, and the
     // threshold in force is the one asked for (the frame-time target has not raised it, or let go);

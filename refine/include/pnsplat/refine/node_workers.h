@@ -44,6 +44,11 @@ class NodeWorkers {
     // refinement queue was not empty, measured when jobs are handed over and when the last one
     // finishes (a result waiting for takeResults does not count).
     double busySeconds();
+    // Processor seconds the jobs finished so far have taken, summed over the workers: each job's
+    // thread CPU time (Linux; elsewhere its wall-clock time). Unlike busySeconds, a job waiting for
+    // a processor (the render thread's or lavapipe's) does not count, so points generated over it
+    // is the refinement's own rate per core.
+    double jobSeconds();
 
   private:
     void loop(int nice);
@@ -58,6 +63,7 @@ class NodeWorkers {
     // Busy time (busySeconds): the intervals closed so far, and the start of the open one.
     std::chrono::steady_clock::duration busy_{};
     std::chrono::steady_clock::time_point busySince_{};
+    double jobSeconds_ = 0.0;     // jobSeconds
     std::size_t outstanding_ = 0; // render thread only
     bool stopping_ = false;
 };

@@ -12,15 +12,14 @@
 
 namespace pnsplat {
 namespace {
-// The calling thread's processor time in seconds (jobSeconds).
+// The calling thread's processor time in seconds (jobSeconds), where the system keeps it; else the
+// wall-clock time.
 double threadSeconds() {
-#ifdef __linux__
+#ifdef CLOCK_THREAD_CPUTIME_ID
     timespec t{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-#else
-    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t) == 0) return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 #endif
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 } // namespace
 

@@ -178,27 +178,34 @@ class NeighbourGraph {
     std::vector<std::uint32_t> reverse_;
 };
 
+// No edge pushed yet (propagateOrientation's `lightest`): heavier than any edge of finite weight.
+constexpr FrontierEdge kNoEdge{std::numeric_limits<double>::infinity(), 0, 0};
+
 // Prim's propagation along a minimum spanning forest: from the `seeds` (reached already), the
 // points not yet `reached` that the graph connects to them are reached by the lightest edge of
 // the frontier first (orientationWeight), and each takes the sign that agrees with the point it is
 // reached from, the opposite sign across two sheets when `sheets` is set (acrossSheets: for
 // estimated normals, whose sign is unknown; given normals keep Hoppe's rule). When `tree` is
 // given, the edges that reach a point are appended to it in the order they are taken.
+// `lightest` (one entry per point) holds the lightest edge pushed towards each point, kNoEdge where
+// none was: an edge no lighter never comes first (the frontier's top is the lightest edge of some
+// point), so it is not pushed, and the same edges are taken in the same order as with every edge
+// pushed, from a smaller heap. Every point that gets an entry is reached before the call returns,
+// so the points still unreached keep kNoEdge: one buffer of kNoEdge serves calls that only add to
+// `reached` (one a connected part), not calls after a point was made unreached again.
 void propagateOrientation(const NeighbourGraph& graph, std::span<const glm::vec3> position,
                           std::span<glm::vec3> normal, std::vector<std::uint8_t>& reached,
-                          std::span<const std::uint32_t> seeds, std::vector<FrontierEdge>* tree = nullptr,
-                          bool sheets = false) {
+                          std::span<const std::uint32_t> seeds, std::vector<FrontierEdge>& lightest,
+                          std::vector<FrontierEdge>* tree = nullptr, bool sheets = false) {
+    assert(lightest.size() == position.size());
     std::priority_queue<FrontierEdge, std::vector<FrontierEdge>, std::greater<>> frontier;
-    // The lightest edge pushed so far towards each point: an edge no lighter never comes first (the
-    // frontier's top is the lightest edge of some point), so it is not pushed. The same edges are
-    // taken in the same order as with every edge pushed, from a smaller heap.
-    std::vector<FrontierEdge> lightest(position.size(),
-                                       FrontierEdge{std::numeric_limits<double>::infinity(), 0, 0});
     const auto extend = [&](std::uint32_t from) {
         graph.forEach(from, [&](std::uint32_t to) {
             if (reached[to]) return;
             const FrontierEdge edge{orientationWeight(position[from], normal[from], position[to], normal[to]),
                                     to, from};
+            // Finite: positions are checked finite and normals unit (a weight lies in [0, 3]).
+            assert(std::isfinite(edge.weight));
             if (!(lightest[to] > edge)) return;
             lightest[to] = edge;
             frontier.push(edge);
@@ -455,7 +462,8 @@ std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::s
             reached[i] = 0;
         }
     }
-    propagateOrientation(graph, position, normal, reached, seeds, nullptr, true);
+    std::vector<FrontierEdge> lightest(m, kNoEdge);
+    propagateOrientation(graph, position, normal, reached, seeds, lightest, nullptr, true);
     return tip;
 }
 
@@ -680,6 +688,7 @@ std::size_t orientComponents(const NeighbourGraph& graph, std::span<const glm::v
     std::sort(starts.begin(), starts.end(),
               [&](std::uint32_t a, std::uint32_t b) { return startsBefore(distinct[a], distinct[b]); });
     std::vector<std::uint8_t> reached(m, 0);
+    std::vector<FrontierEdge> lightest(m, kNoEdge); // one for every part: reached only grows
     std::size_t components = 0;
     for (const std::uint32_t start : starts) {
         if (reached[start]) continue;
@@ -687,7 +696,8 @@ std::size_t orientComponents(const NeighbourGraph& graph, std::span<const glm::v
         if (normal[start].z < 0.0f) normal[start] = -normal[start];
         reached[start] = 1;
         spanning.push_back(FrontierEdge{0.0, start, start});
-        propagateOrientation(graph, distinct, normal, reached, std::span(&start, 1), &spanning, true);
+        propagateOrientation(graph, distinct, normal, reached, std::span(&start, 1), lightest, &spanning,
+                             true);
     }
     return components;
 }
@@ -756,7 +766,8 @@ std::vector<std::uint32_t> findFlippedNormals(const PointSet& points, unsigned t
         }
         if (seeds.size() == count) break;
         const std::vector<glm::vec3> before = normal;
-        propagateOrientation(graph, points.position, normal, reached, seeds);
+        std::vector<FrontierEdge> lightest(count, kNoEdge); // anew: a round starts from its own seeds
+        propagateOrientation(graph, points.position, normal, reached, seeds, lightest);
         if (normal == before) break;
     }
     std::vector<std::uint32_t> flipped;

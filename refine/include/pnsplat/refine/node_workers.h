@@ -45,9 +45,10 @@ class NodeWorkers {
     // finishes (a result waiting for takeResults does not count).
     double busySeconds();
     // Processor seconds the jobs finished so far have taken, summed over the workers: each job's
-    // thread CPU time (Linux; elsewhere its wall-clock time). Unlike busySeconds, a job waiting for
-    // a processor (the render thread's or lavapipe's) does not count, so points generated over it
-    // is the refinement's own rate per core.
+    // thread CPU time (where the system keeps it, as Linux and the BSDs do; elsewhere its
+    // wall-clock time). Unlike busySeconds, a job waiting for a processor (the render thread's or
+    // lavapipe's) does not count, so points generated over it is the refinement's own rate per core
+    // (a little under it: jobs whose result is dropped, their node released meanwhile, count too).
     double jobSeconds();
 
   private:

@@ -41,6 +41,10 @@ std::string nullUnless(bool known, const std::string& figure) {
 std::string orNull(const std::vector<double>& values, double figure) {
     return nullUnless(!values.empty(), fmt::format("{:.4g}", figure));
 }
+// `amount` a second over `seconds`: 0 when no time passed.
+double perSecond(double amount, double seconds) {
+    return seconds > 0 ? amount / seconds : 0.0;
+}
 } // namespace
 
 std::string frameJson(const engine::FrameReport& r, double frameMs, glm::dvec3 origin) {
@@ -118,14 +122,12 @@ std::string FrameSeries::summaryJson(double seconds, const engine::EngineSetting
         R"("over_threshold_max": {}, "threshold_px": {}, "cache_mb": {:.1f}, "workers": {}, "width": {}, )"
         R"("height": {}, "smooth_edges": {}, "fill_pinholes": {}, "path": "{}", "device": "{}", "driver": "{}", "cpu": "{}"}})",
         frames_.size(), seconds, median(ms), quantile(ms, 0.95), median(ms) > 0 ? 1000.0 / median(ms) : 0.0,
-        generated, seconds > 0 ? double(generated) / seconds : 0.0,
-        busyMs > 0 ? double(generated) / (busyMs * 1e-3) : 0.0, busyMs * 1e-3,
-        cpuMs > 0 ? double(generated) / (cpuMs * 1e-3) : 0.0, cpuMs * 1e-3,
-        seconds > 0 ? double(uploads) / seconds : 0.0,
-        seconds > 0 ? double(uploadBytes) / double(1 << 20) / seconds : 0.0, evictions, median(splats),
-        orNull(perCovered, median(perCovered)), psnr_.size(), orNull(psnr_, median(psnr_)),
-        orNull(psnr_, quantile(psnr_, 0.05)), orNull(ssim_, median(ssim_)), median(selection), median(upload),
-        median(visibility), median(accumulation), median(normalization),
+        generated, perSecond(double(generated), seconds), perSecond(double(generated), busyMs * 1e-3),
+        busyMs * 1e-3, perSecond(double(generated), cpuMs * 1e-3), cpuMs * 1e-3,
+        perSecond(double(uploads), seconds), perSecond(double(uploadBytes) / double(1 << 20), seconds),
+        evictions, median(splats), orNull(perCovered, median(perCovered)), psnr_.size(),
+        orNull(psnr_, median(psnr_)), orNull(psnr_, quantile(psnr_, 0.05)), orNull(ssim_, median(ssim_)),
+        median(selection), median(upload), median(visibility), median(accumulation), median(normalization),
         nullUnless(measuredAny, fmt::format("{:.3f}", largest)),
         nullUnless(measuredAny, fmt::format("{:.5f}", worstOver)), settings.threshold,
         double(settings.cacheBytes) / double(1 << 20), settings.workers, settings.render.width,

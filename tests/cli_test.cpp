@@ -541,6 +541,33 @@ TEST(CliRender, FlatAndTerrainScansShowTheSideTheirNormalsFace) {
     }
 }
 
+// render --adaptive with a cache too small for the settled picture (the default model at 64 × 48
+// settles with 19,538 points, 625 kB; 0.1 MiB holds its 1,500 and stops short): it says so, and
+// `settled` is false, where a cache of 1 MiB settles and the summary names the threshold reached.
+TEST(CliRender, AdaptiveSaysWhenTheCacheStopsItShort) {
+    const TempDir dir;
+    const std::string size = " --width 64 --height 48 -o " + quote(dir / "d.png");
+    for (const bool small : {true, false}) {
+        SCOPED_TRACE(small ? "0.1 MiB" : "1 MiB");
+        const std::string cache = small ? " --cache-mb 0.1" : " --cache-mb 1";
+        const RunResult text = run("render --adaptive" + cache + size);
+        ASSERT_TRUE(text.exited && text.exitCode == 0) << text.err;
+        const std::string said = text.out + text.err;
+        EXPECT_EQ(said.find("as far as the cache of 0.1 MiB holds, short of a median splat of 3 px") !=
+                      std::string::npos,
+                  small)
+            << said;
+        EXPECT_EQ(said.find("until its median splat is at most 3 px wide") != std::string::npos, !small)
+            << said;
+        const RunResult json = run("render --adaptive --json" + cache + size);
+        ASSERT_TRUE(json.exited && json.exitCode == 0) << json.err;
+        EXPECT_EQ(jsonField(json.out, "settled"), small ? "false" : "true") << json.out;
+    }
+    const RunResult plain = run("render --json" + size);
+    ASSERT_TRUE(plain.exited && plain.exitCode == 0) << plain.err;
+    EXPECT_EQ(jsonField(plain.out, "settled"), "null") << plain.out;
+}
+
 // A scan of positions only: normals estimated (ALGORITHM.md §9.2), said on stderr, and the refinement runs.
 TEST(CliRefine, EstimatesMissingNormals) {
     const TempDir dir;

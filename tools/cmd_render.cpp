@@ -258,7 +258,7 @@ void runRender(const RenderArgs& args) {
             R"("adaptive": {}, "threshold_px": {}, "nodes": {}, "median_splat_px": {:.3f}, "p99_splat_px": {:.3f}, )"
             R"("max_splat_px": {:.3f}, )"
             R"("over_threshold": {:.5f}, "covered_px": {}, "splats_per_covered_px": {:.3f}, "refine_ms": {:.1f}, )"
-            R"("outliers": {}}})"
+            R"("settled": {}, "outliers": {}}})"
             "\n",
             args.input.empty() ? "null" : jsonString(args.input), jsonString(outputName(args.output)),
             inputCount, levels, splats, drawn.splatsDrawn, args.engine.width, args.engine.height,
@@ -268,7 +268,7 @@ void runRender(const RenderArgs& args) {
             view ? jsonString(axisName(view->up)) : "null", view ? jsonString(axisName(view->front)) : "null",
             args.adaptive ? "true" : "false", jsonNumber(args.engine.threshold), engine.tree().nodeCount(),
             drawn.medianSplatPx, drawn.p99SplatPx, drawn.maxSplatPx, drawn.overThreshold, covered, perCovered,
-            refineMs, completion.outliers);
+            refineMs, args.adaptive ? (drawn.settled ? "true" : "false") : "null", completion.outliers);
         return;
     }
     fmt::print(
@@ -278,14 +278,24 @@ void runRender(const RenderArgs& args) {
         name, splats, drawn.splatsDrawn, args.engine.width, args.engine.height, context->deviceName(), path,
         gpu.visibilityMs, gpu.accumulationMs, gpu.normalizationMs, covered, perCovered,
         outputName(args.output));
-    if (args.adaptive)
+    if (args.adaptive) {
+        // A frame in lockstep stops short of the threshold where nothing more can move: the cache is
+        // full (or a node is at the deepest level). Say so rather than claim the threshold.
+        const std::string reached =
+            drawn.settled
+                ? fmt::format("until its median splat is at most {} px wide and its silhouettes "
+                              "are smooth",
+                              args.engine.threshold)
+                : fmt::format("as far as the cache of {} MiB holds, short of a median splat of {} px "
+                              "(--cache-mb raises it)",
+                              args.engine.cacheMb, args.engine.threshold);
         fmt::print(
             summary,
-            "{}: refined for this camera until its median splat is at most {} px wide and its "
-            "silhouettes are smooth (median {:.2f} px, {:.1f} % above, 99 % at most {:.2f} px, the largest "
-            "{:.2f} px): {} nodes, {} points from {} in {:.0f} ms\n",
-            name, args.engine.threshold, drawn.medianSplatPx, 100.0 * drawn.overThreshold, drawn.p99SplatPx,
+            "{}: refined for this camera {} (median {:.2f} px, {:.1f} % above, 99 % at most {:.2f} px, "
+            "the largest {:.2f} px): {} nodes, {} points from {} in {:.0f} ms\n",
+            name, reached, drawn.medianSplatPx, 100.0 * drawn.overThreshold, drawn.p99SplatPx,
             drawn.maxSplatPx, engine.tree().nodeCount(), splats, pointsIn, refineMs);
+    }
     if (view)
         fmt::print(summary, "camera: --camera {} ({}{})\n", engine::cameraText(camera, origin),
                    viewpointReason(*view, args), args.frame.empty() ? "" : ", framing " + args.frame);

@@ -214,6 +214,20 @@ TEST_F(PlyTest, BytesInMemoryReadAsTheirFile) {
     }
 }
 
+// A binary body may end with a line break or spaces, which some writers leave after the data;
+// anything else there is rows the header does not count (PlyBadFile.BinaryMoreRowsThanDeclared).
+TEST_F(PlyTest, BinaryBodyMayEndWithALineBreak) {
+    const std::string row = binaryBody({{1, 2, 3, 0, 0, 1}});
+    for (const std::string end : {"\n", "\r\n", " \n"}) {
+        const Result<PlyData> read = parsePly(binaryHeader(2) + row + row + end, "in memory");
+        ASSERT_TRUE(read.ok()) << read.error().message;
+        EXPECT_EQ(read->points.size(), 2u);
+    }
+    const Result<PlyData> extra = parsePly(binaryHeader(2) + row + row + "\n\x01", "in memory");
+    ASSERT_FALSE(extra.ok());
+    EXPECT_EQ(extra.error().message, "in memory: 2 bytes after the last row the header declares (vertex 2)");
+}
+
 TEST_F(PlyTest, WrittenBinaryHeaderIsAsSpecified) {
     PointSet points = randomPoints(3, true, true, 7u);
     const fs::path path = file("header.ply");
@@ -648,6 +662,8 @@ std::vector<BadFile> badFiles() {
         // Rows beyond the header's count would be lost unseen (blank lines after the last are fine).
         {"AsciiMoreRowsThanDeclared", ascii + "1 2 3 0 0 1\n1 2 3 0 0 1\n\n4 5 6 0 0 1\n",
          "line 14: '4' after the last row the header declares (vertex 2)"},
+        {"BinaryMoreRowsThanDeclared", binary + goodRow + goodRow + goodRow,
+         "24 bytes after the last row the header declares (vertex 2)"},
         {"AsciiIntegerOutOfRange",
          "ply\nformat ascii 1.0\nelement vertex 1\n" + vertexProps +
              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n0 0 0 0 0 1 300 0 "

@@ -454,6 +454,14 @@ struct Field {
     ScalarType type;
 };
 
+// "vertex 3, face 1": each element and its count.
+std::string declaredRows(const Header& header) {
+    std::string rows;
+    for (const Element& element : header.elements)
+        rows += fmt::format("{}{} {}", rows.empty() ? "" : ", ", printable(element.name), element.count);
+    return rows;
+}
+
 class BinaryReader {
   public:
     BinaryReader(std::string_view body, std::string_view file, const PlyReadOptions& options)
@@ -470,6 +478,12 @@ class BinaryReader {
                                       : readFixed<kSwap>(element, isVertex, isFace, layout, out);
             if (!result) return result;
         }
+        // Rows beyond the header's counts (a count not updated) would be lost unseen, as in ascii
+        // bodies; a line break or spaces after the data, which some writers leave, are no rows.
+        const auto isSpace = [](unsigned char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; };
+        if (!std::all_of(data_ + pos_, data_ + size_, isSpace))
+            return fail(file_, fmt::format("{} bytes after the last row the header declares ({})",
+                                           remaining(), declaredRows(header)));
         return {};
     }
 
@@ -598,14 +612,6 @@ class AsciiReader {
     }
 
   private:
-    // "vertex 3, face 1": each element and its count.
-    static std::string declaredRows(const Header& header) {
-        std::string rows;
-        for (const Element& element : header.elements)
-            rows += fmt::format("{}{} {}", rows.empty() ? "" : ", ", printable(element.name), element.count);
-        return rows;
-    }
-
     static bool isSpace(char c) {
         return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
     }

@@ -37,21 +37,22 @@ SmallestEigen smallestEigenvector(const double (&m)[3][3]) {
             const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
             const double t = std::copysign(1.0, theta) / (std::abs(theta) + std::sqrt(theta * theta + 1.0));
             const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
-            double j[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-            j[p][p] = c, j[q][q] = c, j[p][q] = s, j[q][p] = -s;
-            double aj[3][3] = {}, rotated[3][3] = {}, vj[3][3] = {};
-            for (int r = 0; r < 3; ++r)
-                for (int k = 0; k < 3; ++k)
-                    for (int l = 0; l < 3; ++l) {
-                        aj[r][k] += a[r][l] * j[l][k];
-                        vj[r][k] += v[r][l] * j[l][k];
-                    }
-            for (int r = 0; r < 3; ++r)
-                for (int k = 0; k < 3; ++k)
-                    for (int l = 0; l < 3; ++l) rotated[r][k] += j[l][r] * aj[l][k];
-            rotated[p][q] = rotated[q][p] = 0.0; // exactly, as the rotation was chosen
-            std::copy(&rotated[0][0], &rotated[0][0] + 9, &a[0][0]);
-            std::copy(&vj[0][0], &vj[0][0] + 9, &v[0][0]);
+            // A ← JᵀAJ and V ← VJ, written out: J changes columns p and q of what it multiplies on
+            // the right, rows p and q on the left; the other entries stay.
+            for (int r = 0; r < 3; ++r) {
+                const double arp = a[r][p], arq = a[r][q];
+                a[r][p] = arp * c + arq * -s;
+                a[r][q] = arp * s + arq * c;
+                const double vrp = v[r][p], vrq = v[r][q];
+                v[r][p] = vrp * c + vrq * -s;
+                v[r][q] = vrp * s + vrq * c;
+            }
+            for (int k = 0; k < 3; ++k) {
+                const double apk = a[p][k], aqk = a[q][k];
+                a[p][k] = c * apk + -s * aqk;
+                a[q][k] = s * apk + c * aqk;
+            }
+            a[p][q] = a[q][p] = 0.0; // exactly, as the rotation was chosen
         }
     }
     std::array<int, 3> order{0, 1, 2};

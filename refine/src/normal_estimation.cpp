@@ -233,7 +233,15 @@ class SplatRays {
   public:
     SplatRays(std::span<const glm::vec3> centre, std::span<const glm::vec3> normal,
               std::span<const float> radius)
-        : centre_(centre), radius_(radius), order_(centre.size()) {
+        : centre_(centre), order_(centre.size()), extent_(centre.size()) {
+        // A disk's box: along axis a it reaches r·sqrt(1 - m_a²) from its centre (the largest a
+        // component of a unit vector across m), with a margin far above rounding, so that a ray
+        // that meets the disk meets its box (the slabs of a box around c ± r, before, held
+        // mostly empty space around disks tilted to the axes).
+        for (std::size_t j = 0; j < centre.size(); ++j)
+            for (int a = 0; a < 3; ++a)
+                extent_[j][a] =
+                    radius[j] * (std::sqrt(std::max(0.0f, 1.0f - normal[j][a] * normal[j][a])) + 1e-3f);
         std::iota(order_.begin(), order_.end(), 0u);
         nodes_.emplace_back();
         build(0, 0, static_cast<std::uint32_t>(order_.size()));
@@ -311,8 +319,8 @@ class SplatRays {
         glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-lo), centreLo = lo, centreHi = hi;
         for (std::uint32_t e = begin; e < end; ++e) {
             const glm::vec3 c = centre_[order_[e]];
-            lo = glm::min(lo, c - radius_[order_[e]]);
-            hi = glm::max(hi, c + radius_[order_[e]]);
+            lo = glm::min(lo, c - extent_[order_[e]]);
+            hi = glm::max(hi, c + extent_[order_[e]]);
             centreLo = glm::min(centreLo, c);
             centreHi = glm::max(centreHi, c);
         }
@@ -346,8 +354,8 @@ class SplatRays {
     };
 
     std::span<const glm::vec3> centre_;
-    std::span<const float> radius_;
     std::vector<std::uint32_t> order_;
+    std::vector<glm::vec3> extent_; // of each disk's box from its centre
     std::vector<Node> nodes_;
     std::vector<Disk> disks_; // order_'s disks
 };

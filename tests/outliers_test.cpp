@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <iostream>
+#include <numeric>
 #include <random>
 #include <sstream>
 #include <string>
@@ -138,6 +139,54 @@ TEST(Outliers, PointsThatShieldEachOtherAreFoundInTheNextPass) {
     EXPECT_EQ(findOutliers(plane.position, 2, twoPasses).outliers, (std::vector<std::uint32_t>{900, 901}));
     EXPECT_EQ(findOutliers(plane.position, 2).outliers, (std::vector<std::uint32_t>{900, 901}));
     EXPECT_EQ(findOutliers(plane.position, 1).outliers, (std::vector<std::uint32_t>{900, 901}));
+}
+
+// A pass after the first measures again only the points whose k + 1 nearest it may have changed
+// (ALGORITHM.md §9.7). Oracle: single passes, each over the positions the ones before left, as
+// the passes were defined. Random sphere points (no ties) with strays in clusters, which shield
+// each other so that several passes find some, and a lattice patch (ties everywhere) with strays
+// a spacing or two above it; one and two threads.
+TEST(Outliers, LaterPassesFindWhatPassesOverWhatIsLeftFind) {
+    PointSet points = sampleSphereRandom(3000, 1.0f, 41);
+    std::mt19937_64 rng(41);
+    for (int cluster = 0; cluster < 30; ++cluster) {
+        const glm::vec3 centre = test::randomUnit(rng) * float(test::uniform(rng, 1.15, 1.6));
+        const int size = 1 + cluster % 4;
+        for (int k = 0; k < size; ++k)
+            points.position.push_back(centre + 0.04f * test::randomUnit(rng) * float(k));
+    }
+    for (int y = 0; y < 25; ++y)
+        for (int x = 0; x < 25; ++x)
+            points.position.emplace_back(3.0f + 0.05f * float(x), 0.05f * float(y), 0.0f);
+    for (int k = 0; k < 12; ++k)
+        points.position.emplace_back(3.0f + 0.1f * float(k), 0.6f, 0.05f * float(1 + k % 3));
+
+    std::vector<std::uint32_t> expected, left(points.position.size());
+    std::iota(left.begin(), left.end(), 0u);
+    OutlierParams onePass;
+    onePass.passes = 1;
+    int passesFinding = 0;
+    for (unsigned pass = 0; pass < kOutlierPasses; ++pass) {
+        std::vector<glm::vec3> positions;
+        for (const std::uint32_t i : left) positions.push_back(points.position[i]);
+        const OutlierSearch found = findOutliers(positions, 2, onePass);
+        if (found.outliers.empty()) break;
+        ++passesFinding;
+        std::vector<std::uint32_t> kept;
+        for (std::size_t e = 0, f = 0; e < left.size(); ++e) {
+            if (f < found.outliers.size() && found.outliers[f] == e) {
+                expected.push_back(left[e]);
+                ++f;
+            } else {
+                kept.push_back(left[e]);
+            }
+        }
+        left = std::move(kept);
+    }
+    std::ranges::sort(expected);
+    EXPECT_GE(passesFinding, 2);
+    EXPECT_EQ(findOutliers(points.position, 2).outliers, expected);
+    EXPECT_EQ(findOutliers(points.position, 1).outliers, expected);
 }
 
 // Spacings whose squares overflow single precision (a fuzzed file's): the k-d tree finds fewer than

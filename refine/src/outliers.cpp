@@ -31,67 +31,114 @@ double median(std::vector<double>& values) {
 
 constexpr std::size_t kBatch = 256; // points per task
 
-// d_i for every point (outlierDistances), with the tree over the positions and a pool; with
-// `nearest` (k + 1 entries a point), also the indices of the k + 1 nearest, nearest first.
-std::vector<double> meanDistances(const KdTree& tree, std::span<const glm::vec3> positions, unsigned k,
-                                  WorkerPool& pool, std::span<std::uint32_t> nearest = {}) {
-    assert(nearest.empty() || nearest.size() == positions.size() * (k + 1));
-    std::vector<double> distance(positions.size(), 0.0);
-    parallelForRanges(pool, positions.size(), kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
-        std::array<std::uint32_t, kOutlierMaxNearest + 1> index;
-        std::array<float, kOutlierMaxNearest + 1> distance2;
-        for (std::size_t i = begin; i < end; ++i) {
+// What a pass measured of each point, by its index in the positions given: d_i (infinity where
+// not measured), its offset from its neighbours' plane (rule 2; NaN where rule 2 does not measure
+// it), its k + 1 nearest (indices into the positions given), and whether the next pass may keep
+// all of it (`reusable`).
+struct Measures {
+    std::vector<double> distance, height;
+    std::vector<std::uint32_t> nearest;
+    std::vector<std::uint8_t> reusable;
+};
+
+Measures measuresFor(std::size_t n, unsigned k) {
+    return {std::vector<double>(n), std::vector<double>(n), std::vector<std::uint32_t>(n * (k + 1)),
+            std::vector<std::uint8_t>(n, 0)};
+}
+
+// Measures the points `which` (indices into `positions`) among the points `left` (the tree is over
+// their positions, `leftPositions`, in that order), into `m`. A point's k + 2 nearest are found;
+// where their distances rise strictly, its k + 1 nearest are the only k + 1 nearest and come in the
+// only order, whatever the tree, and stay so in every later pass that keeps them all (the points
+// left are a subset: none comes nearer than the (k + 2)-th). Such a point is `reusable`: a later pass
+// that removed none of its k + 1 nearest measures the same d_i and plane. Elsewhere (a tie: a
+// lattice, a repeated distance) its k + 1 nearest are searched as before, and it is measured again
+// in every pass, so that ties resolve as the tree of that pass resolves them.
+void measure(const KdTree& tree, std::span<const glm::vec3> positions, std::span<const std::uint32_t> left,
+             std::span<const std::uint32_t> which, unsigned k, double offset, WorkerPool& pool, Measures& m) {
+    const std::size_t wanted = std::min<std::size_t>(k + 2, left.size());
+    parallelForRanges(pool, which.size(), kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
+        std::array<std::uint32_t, kOutlierMaxNearest + 2> index;
+        std::array<float, kOutlierMaxNearest + 2> distance2;
+        for (std::size_t w = begin; w < end; ++w) {
+            const std::uint32_t i = which[w];
+            const glm::vec3 x = positions[i];
+            std::size_t found = tree.knnSearch(&x.x, wanted, index.data(), distance2.data());
+            bool rising = found == k + 2;
+            for (std::size_t j = 1; j < found && rising; ++j) rising = distance2[j - 1] < distance2[j];
+            m.reusable[i] = rising ? 1 : 0;
+            if (!rising) found = tree.knnSearch(&x.x, k + 1, index.data(), distance2.data());
             // The k + 1 nearest: the point itself (at 0) and its k nearest others. Their sum does
-            // not depend on how the search orders ties, so neither does the result. The search
-            // finds fewer where squared distances overflow single precision (spacings above about
-            // 1e19): such a point is not measured (infinity), and its `nearest` are not read.
-            const std::size_t found = tree.knnSearch(&positions[i].x, k + 1, index.data(), distance2.data());
+            // not depend on how the search orders ties, so neither does d_i. The search finds fewer
+            // where squared distances overflow single precision (spacings above about 1e19): such
+            // a point is not measured (infinity), and its `nearest` are not read.
+            m.height[i] = std::numeric_limits<double>::quiet_NaN();
             if (found < k + 1) {
-                distance[i] = std::numeric_limits<double>::infinity();
+                m.distance[i] = std::numeric_limits<double>::infinity();
+                m.reusable[i] = 0;
                 continue;
             }
             double sum = 0.0;
-            for (std::size_t j = 0; j < found; ++j) sum += std::sqrt(double{distance2[j]});
-            distance[i] = sum / k;
-            if (!nearest.empty()) std::copy_n(index.begin(), k + 1, nearest.begin() + i * (k + 1));
+            for (std::size_t j = 0; j < k + 1; ++j) sum += std::sqrt(double{distance2[j]});
+            m.distance[i] = sum / k;
+            std::uint32_t* nearest = &m.nearest[std::size_t{i} * (k + 1)];
+            for (std::size_t j = 0; j < k + 1; ++j) nearest[j] = left[index[j]];
+            if (offset <= 0.0 || m.distance[i] <= 0.0) continue;
+            // Rule 2, off the surface: the plane of the k nearest (their centroid and direction of
+            // least variance, as the normal estimation's PCA, §9.2), the k + 1 nearest but i itself
+            // (the first k, were i not among them).
+            std::array<glm::dvec3, kOutlierMaxNearest> neighbour;
+            std::size_t used = 0;
+            for (std::size_t j = 0; j < k + 1 && used < k; ++j)
+                if (nearest[j] != i) neighbour[used++] = glm::dvec3(positions[nearest[j]]);
+            glm::dvec3 centre(0.0);
+            for (std::size_t j = 0; j < used; ++j) centre += neighbour[j];
+            centre /= static_cast<double>(used);
+            double covariance[3][3] = {};
+            for (std::size_t j = 0; j < used; ++j) {
+                const glm::dvec3 e = neighbour[j] - centre;
+                for (int r = 0; r < 3; ++r)
+                    for (int c = r; c < 3; ++c) covariance[r][c] += e[r] * e[c];
+            }
+            const glm::dvec3 normal = smallestEigenvector(covariance).vector;
+            m.height[i] = std::abs(glm::dot(glm::dvec3(x) - centre, normal));
         }
     });
-    return distance;
 }
 
-} // namespace
-
-std::vector<double> outlierDistances(std::span<const glm::vec3> positions, unsigned k, unsigned threads) {
-    assert(k >= 1 && k <= kOutlierMaxNearest);
-    if (positions.size() <= k) return std::vector<double>(positions.size(), 0.0);
-    const KdCloud cloud{positions};
-    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-    tree.buildIndex();
-    WorkerPool pool(threads);
-    return meanDistances(tree, positions, k, pool);
-}
-
-namespace {
-
-// One pass of rules 1 and 2 over `positions`.
-OutlierSearch searchOnce(std::span<const glm::vec3> positions, WorkerPool& pool,
-                         const OutlierParams& params) {
+// One pass of rules 1 and 2 over the points `left` (indices into `positions`), measuring again
+// those whose measures the pass before cannot lend it: every point in the first pass (`first`),
+// then those not reusable or with one of their k + 1 nearest removed since. Returns the outliers
+// found (indices into `positions`, ascending) with the pass's median and threshold.
+OutlierSearch searchOnce(std::span<const glm::vec3> positions, std::span<const std::uint32_t> left,
+                         std::span<const std::uint8_t> removed, bool first, WorkerPool& pool,
+                         const OutlierParams& params, Measures& m) {
     OutlierSearch search;
-    const std::size_t count = positions.size();
+    const std::size_t count = left.size();
     const unsigned k = params.nearest;
     if (count <= params.minPoints || count <= k) return search;
     assert(k >= 1 && k <= kOutlierMaxNearest);
-    const KdCloud cloud{positions};
-    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-    tree.buildIndex();
-    std::vector<std::uint32_t> nearest(count * (k + 1));
-    const std::vector<double> distance = meanDistances(tree, positions, k, pool, nearest);
+    std::vector<std::uint32_t> which;
+    for (const std::uint32_t i : left) {
+        const std::uint32_t* nearest = &m.nearest[std::size_t{i} * (k + 1)];
+        if (first || !m.reusable[i] ||
+            std::any_of(nearest, nearest + k + 1, [&](std::uint32_t j) { return removed[j] != 0; }))
+            which.push_back(i);
+    }
+    if (!which.empty()) {
+        std::vector<glm::vec3> leftPositions(count);
+        for (std::size_t e = 0; e < count; ++e) leftPositions[e] = positions[left[e]];
+        const KdCloud cloud{leftPositions};
+        KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+        tree.buildIndex();
+        measure(tree, positions, left, which, k, params.offset, pool, m);
+    }
     // The statistics and both rules take the measured points only; the others are left to the
     // radius estimation, whose check names the spacing (completeInput).
     std::vector<double> scratch;
     scratch.reserve(count);
-    for (const double d : distance)
-        if (std::isfinite(d)) scratch.push_back(d);
+    for (const std::uint32_t i : left)
+        if (std::isfinite(m.distance[i])) scratch.push_back(m.distance[i]);
     if (scratch.empty()) return search;
     search.median = median(scratch);
     for (double& d : scratch) d = std::abs(d - search.median);
@@ -99,72 +146,53 @@ OutlierSearch searchOnce(std::span<const glm::vec3> positions, WorkerPool& pool,
     constexpr double kMadToDeviation = 1.4826;
     search.threshold = std::max(search.median + params.deviations * kMadToDeviation * median(scratch),
                                 params.ratio * search.median);
-
-    // Rule 2, off the surface: the plane of the k nearest (their centroid and direction of least
-    // variance, as the normal estimation's PCA, §9.2) against the point's own mean distance to them.
-    std::vector<std::uint8_t> outlier(count, 0);
-    parallelForRanges(pool, count, kBatch, [&](std::size_t begin, std::size_t end, unsigned) {
-        for (std::size_t i = begin; i < end; ++i) {
-            if (!std::isfinite(distance[i])) continue;
-            if (distance[i] > search.threshold) {
-                outlier[i] = 1;
-                continue;
-            }
-            if (params.offset <= 0.0 || distance[i] <= 0.0) continue;
-            // The neighbours: the k + 1 nearest but i itself (the first k, were i not among them).
-            std::array<glm::dvec3, kOutlierMaxNearest> neighbour;
-            std::size_t used = 0;
-            for (std::size_t j = i * (k + 1); j < (i + 1) * (k + 1) && used < k; ++j)
-                if (nearest[j] != i) neighbour[used++] = glm::dvec3(positions[nearest[j]]);
-            glm::dvec3 centre(0.0);
-            for (std::size_t j = 0; j < used; ++j) centre += neighbour[j];
-            centre /= static_cast<double>(used);
-            double m[3][3] = {};
-            for (std::size_t j = 0; j < used; ++j) {
-                const glm::dvec3 e = neighbour[j] - centre;
-                for (int r = 0; r < 3; ++r)
-                    for (int c = r; c < 3; ++c) m[r][c] += e[r] * e[c];
-            }
-            const glm::dvec3 normal = smallestEigenvector(m).vector;
-            const double height = std::abs(glm::dot(glm::dvec3(positions[i]) - centre, normal));
-            if (height > params.offset * std::max(distance[i], search.median)) outlier[i] = 1;
-        }
-    });
-    for (std::size_t i = 0; i < count; ++i)
-        if (outlier[i]) search.outliers.push_back(static_cast<std::uint32_t>(i));
+    for (const std::uint32_t i : left) {
+        const double d = m.distance[i];
+        if (!std::isfinite(d)) continue;
+        // Rule 1, or rule 2 where it measured the point (a NaN height fails the comparison).
+        if (d > search.threshold || m.height[i] > params.offset * std::max(d, search.median))
+            search.outliers.push_back(i);
+    }
     return search;
 }
 
 } // namespace
 
+std::vector<double> outlierDistances(std::span<const glm::vec3> positions, unsigned k, unsigned threads) {
+    assert(k >= 1 && k <= kOutlierMaxNearest);
+    const std::size_t n = positions.size();
+    if (n <= k) return std::vector<double>(n, 0.0);
+    std::vector<std::uint32_t> all(n);
+    std::iota(all.begin(), all.end(), 0u);
+    Measures m = measuresFor(n, k);
+    const KdCloud cloud{positions};
+    KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    tree.buildIndex();
+    WorkerPool pool(threads);
+    measure(tree, positions, all, all, k, 0.0, pool, m);
+    return std::move(m.distance);
+}
+
 OutlierSearch findOutliers(std::span<const glm::vec3> positions, unsigned threads,
                            const OutlierParams& params) {
     WorkerPool pool(threads);
-    // The points still in (their indices in `positions`, and their positions), compacted after
-    // each pass.
-    std::vector<std::uint32_t> left(positions.size());
+    const std::size_t n = positions.size();
+    const unsigned k = params.nearest;
+    Measures m = measuresFor(n, k);
+    std::vector<std::uint8_t> removed(n, 0);
+    std::vector<std::uint32_t> left(n); // the points still in, ascending
     std::iota(left.begin(), left.end(), 0u);
-    std::vector<glm::vec3> leftPositions(positions.begin(), positions.end());
     OutlierSearch search;
     for (unsigned pass = 0; pass == 0 || pass < params.passes; ++pass) {
-        const OutlierSearch found = searchOnce(leftPositions, pool, params);
+        const OutlierSearch found = searchOnce(positions, left, removed, pass == 0, pool, params, m);
         if (pass == 0) {
             search.median = found.median;
             search.threshold = found.threshold;
         }
         if (found.outliers.empty()) break;
-        std::size_t kept = 0;
-        for (std::size_t i = 0, f = 0; i < left.size(); ++i) {
-            if (f < found.outliers.size() && found.outliers[f] == i) {
-                search.outliers.push_back(left[i]);
-                ++f;
-                continue;
-            }
-            left[kept] = left[i];
-            leftPositions[kept++] = leftPositions[i];
-        }
-        left.resize(kept);
-        leftPositions.resize(kept);
+        for (const std::uint32_t i : found.outliers) removed[i] = 1;
+        search.outliers.insert(search.outliers.end(), found.outliers.begin(), found.outliers.end());
+        std::erase_if(left, [&](std::uint32_t i) { return removed[i] != 0; });
     }
     std::ranges::sort(search.outliers);
     return search;

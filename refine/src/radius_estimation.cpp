@@ -39,8 +39,25 @@ void estimateRadii(PointSet& points, unsigned threads) {
         std::array<float, kMaxCandidates + 1> distance2;
         for (std::size_t i = begin; i < end; ++i) {
             const glm::vec3 x = points.position[i], n = points.normal[i];
-            const std::size_t found =
-                tree.knnSearch(&x.x, kMaxCandidates + 1, index.data(), distance2.data());
+            // The candidates: the kMaxCandidates + 1 nearest, up to twice the distance of the
+            // kRadiusNearest-th nearest other position. That distance comes from a search of the
+            // few nearest first; the candidates' search then takes only points within the limit
+            // (its result set starts full at the limit), which prunes most of the tree and keeps
+            // the same points in the same order: it walks the same nodes in the same order and
+            // skips only nodes whose points are all beyond the limit, or beyond what it holds.
+            // (A point with more than one coincident duplicate searches them all at once.)
+            std::size_t found = tree.knnSearch(&x.x, kRadiusNearest + 1, index.data(), distance2.data());
+            const bool few = found == kRadiusNearest + 1 && distance2[1] > 0.0f;
+            if (few) {
+                const float limit2 = 4.0f * distance2[kRadiusNearest];
+                nanoflann::KNNResultSet<float, std::uint32_t> within(kMaxCandidates + 1);
+                within.init(index.data(), distance2.data());
+                distance2[kMaxCandidates] = std::nextafter(limit2, std::numeric_limits<float>::infinity());
+                tree.findNeighbors(within, &x.x, nanoflann::SearchParams());
+                found = within.size();
+            } else {
+                found = tree.knnSearch(&x.x, kMaxCandidates + 1, index.data(), distance2.data());
+            }
             // Skip the point itself and coincident duplicates.
             std::size_t first = 0;
             while (first < found && distance2[first] <= 0.0f) ++first;

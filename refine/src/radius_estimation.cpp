@@ -45,7 +45,7 @@ void estimateRadii(PointSet& points, unsigned threads) {
             // (its result set starts full at the limit), which prunes most of the tree and keeps
             // the same points in the same order: it walks the same nodes in the same order and
             // skips only nodes whose points are all beyond the limit, or beyond what it holds.
-            // (A point with more than one coincident duplicate searches them all at once.)
+            // (Where a coincident position is among the few, the candidates are searched unbounded.)
             std::size_t found = tree.knnSearch(&x.x, kRadiusNearest + 1, index.data(), distance2.data());
             const bool few = found == kRadiusNearest + 1 && distance2[1] > 0.0f;
             if (few) {

@@ -214,11 +214,13 @@ TEST_F(PlyTest, BytesInMemoryReadAsTheirFile) {
     }
 }
 
-// A binary body may end with a line break or spaces, which some writers leave after the data;
-// anything else there is rows the header does not count (PlyBadFile.BinaryMoreRowsThanDeclared).
-TEST_F(PlyTest, BinaryBodyMayEndWithALineBreak) {
+// A binary body may end with white space or zero bytes, which some writers leave after the data
+// (a line break, padding); anything else there is rows the header does not count
+// (PlyBadFile.BinaryMoreRowsThanDeclared).
+TEST_F(PlyTest, BinaryBodyMayEndWithALineBreakOrPadding) {
     const std::string row = binaryBody({{1, 2, 3, 0, 0, 1}});
-    for (const std::string end : {"\n", "\r\n", " \n"}) {
+    for (const std::string& end :
+         {std::string("\n"), std::string("\r\n"), std::string(" \n\f\v\t"), std::string(16, '\0')}) {
         const Result<PlyData> read = parsePly(binaryHeader(2) + row + row + end, "in memory");
         ASSERT_TRUE(read.ok()) << read.error().message;
         EXPECT_EQ(read->points.size(), 2u);

@@ -538,7 +538,7 @@ Result<FrameReport> Engine::frame(const Camera& camera, const FrameOptions& opti
                 m.workers->waitIdle();
                 report.refineWaitMs += millisecondsSince(waiting);
             } else if (dispatched == 0 && uploaded == 0) {
-                break; // nothing can move (a full cache, or the deepest level): draw what there is
+                break; // nothing can move (a full cache): draw what there is, not settled
             }
         }
         m.drawnNodes = std::move(selection.draw);

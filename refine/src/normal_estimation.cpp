@@ -236,13 +236,21 @@ class SplatRays {
               std::span<const float> radius)
         : centre_(centre), order_(centre.size()), extent_(centre.size()) {
         // A disk's box: along axis a it reaches r·sqrt(1 - m_a²) from its centre (the largest a
-        // component of a unit vector across m), with a margin far above rounding, so that a ray
-        // that meets the disk meets its box (the slabs of a box around c ± r, before, held
-        // mostly empty space around disks tilted to the axes).
+        // component of a unit vector across m), so that its slabs hold less empty space around
+        // disks tilted to the axes than c ± r did. Widened by 1e-3 r and by
+        // `slack`, far above the rounding of the box's edges and of a ray's distances (a few ulps of
+        // the largest coordinate and of the longest ray, which the diagonal bounds), so that a ray
+        // the disk test takes meets every box around the disk.
+        const Bounds bounds = boundsOf(centre);
+        const glm::vec3 far = glm::max(glm::abs(bounds.lo), glm::abs(bounds.hi));
+        const float slack = centre.empty() ? 0.0f
+                                           : 64.0f * std::numeric_limits<float>::epsilon() *
+                                                 (std::max({far.x, far.y, far.z}) + bounds.diagonal());
         for (std::size_t j = 0; j < centre.size(); ++j)
-            for (int a = 0; a < 3; ++a)
-                extent_[j][a] =
-                    radius[j] * (std::sqrt(std::max(0.0f, 1.0f - normal[j][a] * normal[j][a])) + 1e-3f);
+            for (int a = 0; a < 3; ++a) {
+                const float across = std::sqrt(std::max(0.0f, 1.0f - normal[j][a] * normal[j][a]));
+                extent_[j][a] = radius[j] * (across + 1e-3f) + slack;
+            }
         std::iota(order_.begin(), order_.end(), 0u);
         nodes_.emplace_back();
         build(0, 0, static_cast<std::uint32_t>(order_.size()));
@@ -456,7 +464,7 @@ std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::s
                 const std::uint32_t p = rays.order()[e];
                 const std::size_t i = p;
                 // The rays that escape along the normal's side and along the other. sideRays(-n) are
-                // exactly the rays -u of sideRays(n) (negation is exact at every step), so the tip
+                // the rays -u of sideRays(n), in another order (negation is exact at every step), so the tip
                 // rule below reads these counts instead of casting its rays again.
                 std::array<glm::vec3, kSideRays> side = sideRays(normal[i]), opposite;
                 for (std::size_t k = 0; k < kSideRays; ++k) opposite[k] = -side[k];

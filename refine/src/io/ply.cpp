@@ -479,9 +479,12 @@ class BinaryReader {
             if (!result) return result;
         }
         // Rows beyond the header's counts (a count not updated) would be lost unseen, as in ascii
-        // bodies; a line break or spaces after the data, which some writers leave, are no rows.
-        const auto isSpace = [](unsigned char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; };
-        if (!std::all_of(data_ + pos_, data_ + size_, isSpace))
+        // bodies; white space or zero bytes after the data, which some writers leave (a line
+        // break, padding), are no rows.
+        const auto isPadding = [](unsigned char c) {
+            return c == 0 || c == ' ' || (c >= '\t' && c <= '\r'); // \t \n \v \f \r
+        };
+        if (!std::all_of(data_ + pos_, data_ + size_, isPadding))
             return fail(file_, fmt::format("{} bytes after the last row the header declares ({})",
                                            remaining(), declaredRows(header)));
         return {};

@@ -234,26 +234,29 @@ class SplatRays {
   public:
     SplatRays(std::span<const glm::vec3> centre, std::span<const glm::vec3> normal,
               std::span<const float> radius)
-        : centre_(centre), order_(centre.size()), extent_(centre.size()) {
+        : centre_(centre), order_(centre.size()) {
         // A disk's box: along axis a it reaches r·sqrt(1 - m_a²) from its centre (the largest a
         // component of a unit vector across m), so that its slabs hold less empty space around
         // disks tilted to the axes than c ± r did. Widened by 1e-3 r and by
         // `slack`, far above the rounding of the box's edges and of a ray's distances (a few ulps of
         // the largest coordinate and of the longest ray, which the diagonal bounds), so that a ray
         // the disk test takes meets every box around the disk.
-        const Bounds bounds = boundsOf(centre);
-        const glm::vec3 far = glm::max(glm::abs(bounds.lo), glm::abs(bounds.hi));
-        const float slack = centre.empty() ? 0.0f
-                                           : 64.0f * std::numeric_limits<float>::epsilon() *
-                                                 (std::max({far.x, far.y, far.z}) + bounds.diagonal());
-        for (std::size_t j = 0; j < centre.size(); ++j)
-            for (int a = 0; a < 3; ++a) {
-                const float across = std::sqrt(std::max(0.0f, 1.0f - normal[j][a] * normal[j][a]));
-                extent_[j][a] = radius[j] * (across + 1e-3f) + slack;
-            }
-        std::iota(order_.begin(), order_.end(), 0u);
-        nodes_.emplace_back();
-        build(0, 0, static_cast<std::uint32_t>(order_.size()));
+        {
+            std::vector<glm::vec3> extent(centre.size()); // of each disk's box from its centre
+            const Bounds bounds = boundsOf(centre);
+            const glm::vec3 far = glm::max(glm::abs(bounds.lo), glm::abs(bounds.hi));
+            const float slack = centre.empty() ? 0.0f
+                                               : 64.0f * std::numeric_limits<float>::epsilon() *
+                                                     (std::max({far.x, far.y, far.z}) + bounds.diagonal());
+            for (std::size_t j = 0; j < centre.size(); ++j)
+                for (int a = 0; a < 3; ++a) {
+                    const float across = std::sqrt(std::max(0.0f, 1.0f - normal[j][a] * normal[j][a]));
+                    extent[j][a] = radius[j] * (across + 1e-3f) + slack;
+                }
+            std::iota(order_.begin(), order_.end(), 0u);
+            nodes_.emplace_back();
+            build(0, 0, static_cast<std::uint32_t>(order_.size()), extent);
+        } // the extents go before the disks come
         // The disks in the leaves' order, each whole in one place: a leaf reads them in a row.
         disks_.resize(order_.size());
         for (std::size_t e = 0; e < order_.size(); ++e) {
@@ -344,14 +347,15 @@ class SplatRays {
         std::uint32_t first, count;
     };
 
-    // Fills node `index` with order_[begin, end), split at the median of the centres along their
-    // box's longest side.
-    void build(std::uint32_t index, std::uint32_t begin, std::uint32_t end) {
+    // Fills node `index` with order_[begin, end), in the box of their disks' boxes (`extent` from
+    // each centre), split at the median of the centres along their box's longest side.
+    void build(std::uint32_t index, std::uint32_t begin, std::uint32_t end,
+               std::span<const glm::vec3> extent) {
         glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-lo), centreLo = lo, centreHi = hi;
         for (std::uint32_t e = begin; e < end; ++e) {
             const glm::vec3 c = centre_[order_[e]];
-            lo = glm::min(lo, c - extent_[order_[e]]);
-            hi = glm::max(hi, c + extent_[order_[e]]);
+            lo = glm::min(lo, c - extent[order_[e]]);
+            hi = glm::max(hi, c + extent[order_[e]]);
             centreLo = glm::min(centreLo, c);
             centreHi = glm::max(centreHi, c);
         }
@@ -374,8 +378,8 @@ class SplatRays {
         nodes_[index].first = children;
         nodes_[index].count = 0;
         nodes_.resize(nodes_.size() + 2);
-        build(children, begin, middle);
-        build(children + 1, middle, end);
+        build(children, begin, middle, extent);
+        build(children + 1, middle, end, extent);
     }
 
     struct Disk {
@@ -386,7 +390,6 @@ class SplatRays {
 
     std::span<const glm::vec3> centre_;
     std::vector<std::uint32_t> order_;
-    std::vector<glm::vec3> extent_; // of each disk's box from its centre
     std::vector<Node> nodes_;
     std::vector<Disk> disks_; // order_'s disks
 };

@@ -146,8 +146,7 @@ TEST_F(EngineTest, SettledPictureMatchesTheOfflineRefinement) {
         ASSERT_TRUE(drawn.ok()) << drawn.error().message;
         ASSERT_TRUE(drawn->settled);
         const RgbaImage adaptiveImage = engine.image(drawn->frame).value();
-        std::uint32_t deepest = 0;
-        for (const NodeId id : engine.drawn()) deepest = std::max(deepest, engine.tree().node(id).level);
+        const std::uint32_t deepest = engine.deepestDrawnLevel();
 
         // The offline refinement one level deeper than the deepest node drawn, or, where that is
         // deeper, to the level at which its splats in view are at most 2 px (99th percentile): a
@@ -215,8 +214,7 @@ TEST_F(EngineTest, SettledPictureHasNoHoleTheOfflineRefinementLacks) {
         FrameReport report;
         const RgbaImage adaptiveImage = frameOf(engine, camera, &report);
         ASSERT_TRUE(report.settled);
-        std::uint32_t deepest = 0;
-        for (const NodeId id : engine.drawn()) deepest = std::max(deepest, engine.tree().node(id).level);
+        const std::uint32_t deepest = engine.deepestDrawnLevel();
         const glm::u8vec3 background = engine::backgroundPixel(settings.render.background);
         const auto describe = [](const std::vector<engine::ImageRegion>& regions) {
             std::string text;

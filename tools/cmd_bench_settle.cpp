@@ -275,8 +275,7 @@ void runBenchSettle(const SettleArgs& args) {
             options.lockstep = options.readBack = options.measureSplats = true;
             const engine::FrameReport settled = unwrap(engine.frame(camera, options));
             const engine::RgbaImage picture = unwrap(engine.image(settled.frame));
-            std::uint32_t deepest = 0;
-            for (const NodeId id : engine.drawn()) deepest = std::max(deepest, engine.tree().node(id).level);
+            const std::uint32_t deepest = engine.deepestDrawnLevel();
             const std::size_t made = engine.tree().pointCount();
             const double refineMs = engine.refinementMs(settled);
             engine.finish();

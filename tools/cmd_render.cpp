@@ -282,14 +282,12 @@ void runRender(const RenderArgs& args) {
         // A frame in lockstep stops short of the threshold where nothing more can move, the cache
         // full (not settled); and nodes at the deepest level are refined no further (settled, their
         // splats maybe still wider). Say which rather than claim the threshold.
-        std::uint32_t deepest = 0;
-        for (const NodeId id : engine.drawn()) deepest = std::max(deepest, engine.tree().node(id).level);
         const std::uint32_t maxLevel = engine.tree().settings().maxLevel;
         const std::string reached =
             !drawn.settled ? fmt::format("as far as the cache of {} MiB holds, short of a median splat of {} "
                                          "px (--cache-mb raises it)",
                                          args.engine.cacheMb, args.engine.threshold)
-            : deepest == maxLevel && drawn.medianSplatPx > args.engine.threshold
+            : engine.deepestDrawnLevel() == maxLevel && drawn.medianSplatPx > args.engine.threshold
                 ? fmt::format("to its deepest level ({}), short of a median splat of {} px", maxLevel,
                               args.engine.threshold)
                 : fmt::format("until its median splat is at most {} px wide and its silhouettes are smooth",

@@ -673,6 +673,11 @@ double Engine::refinementMs(const FrameReport& report) const {
 std::span<const NodeId> Engine::drawn() const {
     return impl_->drawnNodes;
 }
+std::uint32_t Engine::deepestDrawnLevel() const {
+    std::uint32_t deepest = 0;
+    for (const NodeId id : impl_->drawnNodes) deepest = std::max(deepest, tree().node(id).level);
+    return deepest;
+}
 std::size_t Engine::overwritesInFlight() const {
     return impl_->overwrites;
 }

@@ -454,6 +454,11 @@ struct Field {
     ScalarType type;
 };
 
+// White space between ascii values, and after a body.
+bool isSpace(char c) {
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
+}
+
 // "vertex 3, face 1": each element and its count.
 std::string declaredRows(const Header& header) {
     std::string rows;
@@ -481,9 +486,7 @@ class BinaryReader {
         // Rows beyond the header's counts (a count not updated) would be lost unseen, as in ascii
         // bodies; white space or zero bytes after the data, which some writers leave (a line
         // break, padding), are no rows.
-        const auto isPadding = [](unsigned char c) {
-            return c == 0 || c == ' ' || (c >= '\t' && c <= '\r'); // \t \n \v \f \r
-        };
+        const auto isPadding = [](unsigned char c) { return c == 0 || isSpace(static_cast<char>(c)); };
         if (!std::all_of(data_ + pos_, data_ + size_, isPadding))
             return fail(file_, fmt::format("{} bytes after the last row the header declares ({})",
                                            remaining(), declaredRows(header)));
@@ -615,10 +618,6 @@ class AsciiReader {
     }
 
   private:
-    static bool isSpace(char c) {
-        return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
-    }
-
     std::size_t remaining() const { return static_cast<std::size_t>(end_ - p_); }
 
     std::string_view nextToken() {

@@ -186,8 +186,9 @@ class Engine {
     // The refinement's time up to `report`, a frame in lockstep (render --adaptive, bench settle):
     // the tree's creation (its whole levels refined, split and measured) and the workers waited for.
     double refinementMs(const FrameReport& report) const;
-    // The nodes drawn by the last frame.
+    // The nodes drawn by the last frame, and the deepest level among them (0 when none).
     std::span<const NodeId> drawn() const;
+    std::uint32_t deepestDrawnLevel() const;
     // Test access. Waits for the GPU, reads the cache buffer back and compares every resident
     // node's chunk with the splats of its points on the CPU: the number of nodes compared, or an
     // error naming the first node that differs.

@@ -153,12 +153,18 @@ void describePoints(Node& node) {
     normalConeOf(node.points.normal, node.coneAxis, node.coneAngle);
 }
 
-// The nearest points of each of a set's points, for neighbourShapeOf: a grid of cubic cells (a dense array
-// of cell starts over the points sorted by cell). Exact: a search stops when the farthest point
-// kept is nearer than every point outside the cells it read; ties in distance go to the lower
-// index, as a brute-force search breaks them. It replaced a k-d tree (nanoflann), whose build and
-// searches were a quarter of the real-time refinement's processor time (the sparse bunny at
-// render's framing, 640x480; now 17 %): 4,500 points on a sphere, 2.7 times faster.
+// The nearest points of each of a set's points, for neighbourShapeOf: a grid of cubic cells, kept
+// as columns along z (a dense array of column starts over the points sorted by column, then by
+// their cell along z). Exact: a search stops when the farthest point kept is nearer than every
+// point outside the cells it read; ties in distance go to the lower index, as a brute-force search
+// breaks them. It replaced a k-d tree (nanoflann), whose build and searches were a quarter of the
+// real-time refinement's processor time (the sparse bunny at render's framing, 640x480; then
+// 17 %): 4,500 points on a sphere, 2.7 times faster. Columns rather than a dense array of every
+// cell: a dense array of at most kCellsPerPoint cells a point made cells of 3 to 4 spacings in a
+// node's box and of 5 over a whole level, so that a point's 3×3×3 cells held 115 to 190 points
+// (the sparse bunny's, lion's and nefertiti's levels 4 and 5); in columns they hold about 50, and
+// neighbourShapeOf takes 0.75–0.85 times the time on those levels and 0.8–0.9 on parts of them the
+// size of a job's, the same bits (its Voronoi cells, cellRadius, are now a third of it).
 class NearestGrid {
   public:
     explicit NearestGrid(std::span<const glm::vec3> positions) : positions_(positions) {
@@ -169,43 +175,68 @@ class NearestGrid {
         // from the points the non-empty cells hold (kOccupancy wanted: a plane sampled at spacing
         // s in cells of side 2 s puts 4 in each; the faces' area overestimates a patch's that
         // crosses its box obliquely, and cells of the real-time refinement's jobs held 2.2 times
-        // the points wanted). No more cells than kCellsPerPoint per point. The grid's geometry is in
-        // double precision: the extent of floats may pass the largest float (3e38 either side).
+        // the points wanted). The first count is in a dense array of at most kCellsPerPoint cells a
+        // point (cells of that size or larger); the grid then has at most kCellsPerPoint columns a
+        // point. The grid's geometry is in double precision: the extent of floats may pass the
+        // largest float (3e38 either side).
         const glm::dvec3 extent = glm::dvec3(hi) - lo_;
         const double n = static_cast<double>(positions.size());
         const double area = extent.x * extent.y + extent.y * extent.z + extent.z * extent.x;
         const double smallest = std::max(1e-6 * std::max({extent.x, extent.y, extent.z}),
                                          double{std::numeric_limits<float>::min()});
         double side = std::max(2.0 * std::sqrt(area / n), smallest);
-        std::vector<std::uint32_t> cellOf(positions.size());
-        for (int pass = 0; pass < 2; ++pass) {
+        {
             for (;; side *= 1.25) {
                 dims_ = glm::ivec3(extent / side) + 1;
                 if (double(dims_.x) * double(dims_.y) * double(dims_.z) <= kCellsPerPoint * n) break;
             }
             scale_ = 1.0 / side;
-            start_.assign(static_cast<std::size_t>(dims_.x) * dims_.y * dims_.z + 1, 0);
-            for (std::size_t i = 0; i < positions.size(); ++i) {
-                cellOf[i] = static_cast<std::uint32_t>(cellIndex(cellAt(positions[i])));
-                ++start_[cellOf[i] + 1];
+            std::vector<bool> occupied(static_cast<std::size_t>(dims_.x) * dims_.y * dims_.z, false);
+            std::size_t count = 0;
+            for (const glm::vec3 p : positions) {
+                const glm::ivec3 c = cellAt(p);
+                const std::size_t at = (static_cast<std::size_t>(c.x) * dims_.y + c.y) * dims_.z + c.z;
+                count += occupied[at] ? 0 : 1;
+                occupied[at] = true;
             }
-            if (pass == 1) break;
-            const auto occupied = static_cast<double>(
-                std::count_if(start_.begin() + 1, start_.end(), [](std::uint32_t c) { return c > 0; }));
-            side = std::max(side * std::sqrt(kOccupancy * occupied / n), smallest);
+            side = std::max(side * std::sqrt(kOccupancy * double(count) / n), smallest);
         }
-        for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+        for (;; side *= 1.25) {
+            dims_ = glm::ivec3(extent / side) + 1;
+            if (double(dims_.x) * double(dims_.y) <= kCellsPerPoint * n) break;
+        }
+        scale_ = 1.0 / side;
+        // Counting sort by column, then each column's points by their cell along z (ties by index:
+        // any order would do, this one is the same every time).
+        columnStart_.assign(columns() + 1, 0);
+        std::vector<std::uint32_t> columnOf(positions.size());
+        std::vector<std::int32_t> cellZ(positions.size());
+        for (std::size_t i = 0; i < positions.size(); ++i) {
+            const glm::ivec3 c = cellAt(positions[i]);
+            columnOf[i] = static_cast<std::uint32_t>(columnIndex(c.x, c.y));
+            cellZ[i] = c.z;
+            ++columnStart_[columnOf[i] + 1];
+        }
+        for (std::size_t c = 1; c < columnStart_.size(); ++c) columnStart_[c] += columnStart_[c - 1];
         sorted_.resize(positions.size());
-        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+        std::vector<std::uint32_t> fill(columnStart_.begin(), columnStart_.end() - 1);
+        for (std::size_t i = 0; i < positions.size(); ++i)
+            sorted_[fill[columnOf[i]]++] = static_cast<std::uint32_t>(i);
+        for (std::size_t c = 0; c + 1 < columnStart_.size(); ++c)
+            std::sort(sorted_.begin() + columnStart_[c], sorted_.begin() + columnStart_[c + 1],
+                      [&](std::uint32_t a, std::uint32_t b) {
+                          return cellZ[a] != cellZ[b] ? cellZ[a] < cellZ[b] : a < b;
+                      });
         x_.resize(positions.size());
         y_.resize(positions.size());
         z_.resize(positions.size());
-        for (std::size_t i = 0; i < positions.size(); ++i) {
-            const std::uint32_t at = fill[cellOf[i]]++;
-            sorted_[at] = static_cast<std::uint32_t>(i);
-            x_[at] = positions[i].x;
-            y_[at] = positions[i].y;
-            z_[at] = positions[i].z;
+        cellZ_.resize(positions.size());
+        for (std::size_t k = 0; k < positions.size(); ++k) {
+            const std::uint32_t i = sorted_[k];
+            x_[k] = positions[i].x;
+            y_[k] = positions[i].y;
+            z_[k] = positions[i].z;
+            cellZ_[k] = cellZ[i];
         }
     }
 
@@ -224,19 +255,35 @@ class NearestGrid {
         std::vector<float> near2;
         std::vector<std::uint32_t> nearAt;
         std::array<std::uint32_t, K> nearest{};
-        for (std::size_t column = begin; column < end; ++column)
-            for (int cz = 0; cz < dims_.z; ++cz) {
-                const glm::ivec3 home(static_cast<int>(column / dims_.y), static_cast<int>(column % dims_.y),
-                                      cz);
-                const std::size_t cell = cellIndex(home);
-                if (start_[cell] == start_[cell + 1]) continue;
-                const glm::ivec3 first = glm::max(home - 1, glm::ivec3(0));
-                const glm::ivec3 last = glm::min(home + 1, dims_ - 1);
-                std::size_t blockSize = 0;
-                for (int ox = first.x; ox <= last.x; ++ox)
-                    for (int oy = first.y; oy <= last.y; ++oy) {
-                        const std::size_t row = cellIndex({ox, oy, 0});
-                        blockSize += start_[row + last.z + 1] - start_[row + first.z];
+        // The block's runs of points, one per column around the cell's: [from, to) in the sorted
+        // order. The cells of a column are visited by rising z, so each run only moves forward.
+        std::array<std::uint32_t, 9> from{}, to{};
+        for (std::size_t column = begin; column < end; ++column) {
+            const int cx = static_cast<int>(column / dims_.y), cy = static_cast<int>(column % dims_.y);
+            const int x0 = std::max(cx - 1, 0), x1 = std::min(cx + 1, dims_.x - 1);
+            const int y0 = std::max(cy - 1, 0), y1 = std::min(cy + 1, dims_.y - 1);
+            std::size_t runs = 0;
+            for (int ox = x0; ox <= x1; ++ox)
+                for (int oy = y0; oy <= y1; ++oy) {
+                    const std::size_t c = columnIndex(ox, oy);
+                    from[runs] = to[runs] = columnStart_[c];
+                    ++runs;
+                }
+            for (std::uint32_t cell = columnStart_[column]; cell < columnStart_[column + 1];) {
+                const int cz = cellZ_[cell];
+                std::uint32_t cellEnd = cell + 1;
+                while (cellEnd < columnStart_[column + 1] && cellZ_[cellEnd] == cz) ++cellEnd;
+                const glm::ivec3 home(cx, cy, cz);
+                const glm::ivec3 first(x0, y0, std::max(cz - 1, 0));
+                const glm::ivec3 last(x1, y1, std::min(cz + 1, dims_.z - 1));
+                std::size_t blockSize = 0, r = 0;
+                for (int ox = x0; ox <= x1; ++ox)
+                    for (int oy = y0; oy <= y1; ++oy, ++r) {
+                        const std::uint32_t columnEnd = columnStart_[columnIndex(ox, oy) + 1];
+                        while (from[r] < columnEnd && cellZ_[from[r]] < first.z) ++from[r];
+                        if (to[r] < from[r]) to[r] = from[r];
+                        while (to[r] < columnEnd && cellZ_[to[r]] <= last.z) ++to[r];
+                        blockSize += to[r] - from[r];
                     }
                 near2.resize(blockSize + 1);
                 nearAt.resize(blockSize + 1);
@@ -245,7 +292,7 @@ class NearestGrid {
                 // narrower bound (the points of one cell lie at like spacings), which leaves fewer
                 // candidates to sort; where fewer than K lie within it, the block's bound.
                 float guess2 = std::numeric_limits<float>::infinity();
-                for (std::uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
+                for (std::uint32_t k = cell; k < cellEnd; ++k) {
                     const float px = x_[k], py = y_[k], pz = z_[k];
                     // Every point outside the block is farther than `clear`: the K nearest are
                     // among those nearer than it, if K of them are.
@@ -255,17 +302,13 @@ class NearestGrid {
                     std::size_t count = 0;
                     const auto gather = [&](float bound2, bool all) {
                         count = 0;
-                        for (int ox = first.x; ox <= last.x; ++ox)
-                            for (int oy = first.y; oy <= last.y; ++oy) {
-                                const std::size_t row = cellIndex({ox, oy, 0});
-                                for (std::uint32_t j = start_[row + first.z]; j < start_[row + last.z + 1];
-                                     ++j) {
-                                    const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
-                                    const float d2 = dx * dx + dy * dy + dz * dz;
-                                    near2[count] = d2;
-                                    nearAt[count] = j;
-                                    count += static_cast<std::size_t>(d2 < bound2 || all);
-                                }
+                        for (std::size_t run = 0; run < runs; ++run)
+                            for (std::uint32_t j = from[run]; j < to[run]; ++j) {
+                                const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
+                                const float d2 = dx * dx + dy * dy + dz * dz;
+                                near2[count] = d2;
+                                nearAt[count] = j;
+                                count += static_cast<std::size_t>(d2 < bound2 || all);
                             }
                     };
                     if (guess2 < limit2) gather(guess2, false);
@@ -284,7 +327,9 @@ class NearestGrid {
                     }
                     visit(sorted_[k], nearest, found);
                 }
+                cell = cellEnd;
             }
+        }
     }
 
     // The min(K, size) nearest points to point i (itself among them), by distance, then index.
@@ -311,16 +356,20 @@ class NearestGrid {
                     const float by = gapTo(cy - home.y, inCell.y), bxy = bx * bx + by * by;
                     if (farther(bxy)) continue;
                     const bool shellRow = std::abs(cx - home.x) == reach || std::abs(cy - home.y) == reach;
-                    const std::size_t row = cellIndex({cx, cy, 0});
-                    for (int cz = first.z; cz <= last.z; ++cz) {
+                    const std::size_t column = columnIndex(cx, cy);
+                    const auto cells = cellZ_.begin();
+                    std::uint32_t k = static_cast<std::uint32_t>(
+                        std::lower_bound(cells + columnStart_[column], cells + columnStart_[column + 1],
+                                         first.z) -
+                        cells);
+                    for (; k < columnStart_[column + 1] && cellZ_[k] <= last.z; ++k) {
+                        const int cz = cellZ_[k];
                         if (!shellRow && std::abs(cz - home.z) != reach) continue; // before: seen
                         const float bz = gapTo(cz - home.z, inCell.z);
                         if (farther(bxy + bz * bz)) continue;
-                        for (std::uint32_t k = start_[row + cz]; k < start_[row + cz + 1]; ++k) {
-                            const glm::vec3 d = glm::vec3(x_[k], y_[k], z_[k]) - x;
-                            const float d2 = glm::dot(d, d);
-                            if (found < K || d2 <= kept[K - 1]) keep(d2, sorted_[k], kept, out, found);
-                        }
+                        const glm::vec3 d = glm::vec3(x_[k], y_[k], z_[k]) - x;
+                        const float d2 = glm::dot(d, d);
+                        if (found < K || d2 <= kept[K - 1]) keep(d2, sorted_[k], kept, out, found);
                     }
                 }
             }
@@ -355,9 +404,7 @@ class NearestGrid {
     glm::ivec3 cellAt(glm::vec3 p) const {
         return glm::ivec3(glm::clamp((glm::dvec3(p) - lo_) * scale_, glm::dvec3(0.0), glm::dvec3(dims_ - 1)));
     }
-    std::size_t cellIndex(glm::ivec3 c) const {
-        return (static_cast<std::size_t>(c.x) * dims_.y + c.y) * dims_.z + c.z;
-    }
+    std::size_t columnIndex(int x, int y) const { return static_cast<std::size_t>(x) * dims_.y + y; }
     // Inserts (d2, j) among the `found` kept nearest, sorted by distance then index, keeping K.
     // (A shift loop of its own: written as a search and then a shift, the compiler made the shift
     // two calls of memmove, which took most of the search's time.)
@@ -384,8 +431,10 @@ class NearestGrid {
     glm::dvec3 lo_{0.0};
     double scale_ = 1.0; // cell coordinates: (position - lo_) · scale_
     glm::ivec3 dims_{1};
-    std::vector<std::uint32_t> start_, sorted_; // cell starts into sorted_, the points by cell
-    std::vector<float> x_, y_, z_;              // their positions, in the same order
+    std::vector<std::uint32_t> columnStart_,
+        sorted_;                      // column starts into sorted_, the points by column and z
+    std::vector<float> x_, y_, z_;    // their positions, in the same order
+    std::vector<std::int32_t> cellZ_; // and their cells along z
 };
 
 // The distance from a point to the farthest corner of its Voronoi cell among `offsets` (its

@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include <fmt/format.h>
+
 #include "pnsplat/refine/io/pcd.h"
 #include "pnsplat/refine/io/point_text.h"
 #include "point_rows.h"
@@ -45,7 +47,17 @@ Result<PointFileData> parsePointFile(std::string_view bytes, std::string_view na
         data = parsePointText(bytes, name, options);
         break;
     }
-    if (!data) return data.error();
+    if (!data) {
+        // Read as text for want of a kind (a name such as notes.log, or standard input): say so, so
+        // that "line 4: a second header line" does not read as the fault of a point file.
+        const std::string prefix = fmt::format("{}: ", name);
+        if (kind || out.kind != PointFileKind::Text || !data.error().message.starts_with(prefix))
+            return data.error();
+        return Error{
+            fmt::format("{}: read as a text point file (neither its name nor its first bytes say PLY "
+                        "or PCD), and it is not one: {}",
+                        name, data.error().message.substr(prefix.size()))};
+    }
     out.data = std::move(*data);
     return out;
 }

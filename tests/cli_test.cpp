@@ -1498,7 +1498,7 @@ TEST(CliExit, UsageErrorsExitWithTwoAndSuggestTheCommand) {
         {"xyz", "(commands: refine, eval, render, view, diff, bench)"},
         {"", "subcommand is required"},
         {"render --bogus", "--bogus"},
-        {"diff only-one.png", "is required"},
+        {"diff only-one.png", "B.png is required"},
         {"render --up w", "--up"},
         {"refine --levels 0", "--levels"},
     };

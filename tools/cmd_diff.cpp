@@ -42,8 +42,8 @@ void runDiff(const DiffArgs& args) {
 void addDiffCommand(CLI::App& app) {
     const auto [cmd, args] =
         addSubcommand(app, "diff", "Compare two images: PSNR, SSIM, RMSE, differing pixels (JSON)", runDiff);
-    cmd->add_option("a", args->a, "first PNG")->required();
-    cmd->add_option("b", args->b, "second PNG")->required();
+    cmd->add_option("A.png", args->a, "first PNG")->required();
+    cmd->add_option("B.png", args->b, "second PNG")->required();
     cmd->add_option("--heatmap", args->heatmap, "write the per-pixel difference as a heat map PNG");
     addForceFlag(*cmd, args->force);
     cmd->add_option("--max-rmse", args->maxRmse,

@@ -624,6 +624,18 @@ TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
     PointSet huge;
     for (const float x : {-3e38f, 3e38f, 0.0f, 1.0f, 2.0f})
         for (const float y : {-3e38f, 0.0f, 3e38f}) huge.position.push_back({x, y, 0.5f * x});
+    // Points on a line, in a grid a million cells long: the last point's nearest lie about 1,000 away
+    // on either side, 999,999.375 squared in single precision both ways, the 7 at +z first by index
+    // (and truly nearer). Searched with a margin of a thousandth of a cell alone, rounding hid them
+    // and the far side's 7 were taken (a review's case; its bend then π/2).
+    PointSet line;
+    for (int k = 0; k < 7; ++k) line.position.push_back({0.0f, 0.0f, 999.99939f});
+    for (int k = 0; k < 12000; ++k) line.position.push_back({0.0f, 0.0f, -1000.0f});
+    line.position.push_back({0.0f, 0.0f, -0.0003f});
+    line.normal.assign(line.size(), glm::vec3(0.0f, 0.0f, 1.0f));
+    std::fill_n(line.normal.begin(), 7, glm::vec3(1.0f, 0.0f, 0.0f));
+    line.normal.back() = glm::vec3(1.0f, 0.0f, 0.0f);
+    EXPECT_EQ(neighbourShapeOf(line).bend.back(), 0.0f); // the 7 at +z, whose normals are its own
     for (PointSet* set : {&plane, &clustered, &huge}) {
         set->normal.resize(set->position.size());
         for (glm::vec3& n : set->normal) n = randomNormal();

@@ -337,45 +337,57 @@ class NearestGrid {
     std::size_t nearest(std::uint32_t i, std::array<std::uint32_t, K>& out) const {
         const glm::vec3 x = positions_[i];
         const glm::ivec3 home = cellAt(x);
-        const glm::vec3 inCell((glm::dvec3(x) - lo_) * scale_ - glm::dvec3(home)); // [0, 1] per axis
+        const glm::dvec3 inCell = (glm::dvec3(x) - lo_) * scale_ - glm::dvec3(home); // [0, 1] per axis
         std::array<float, K> kept{};
         std::size_t found = 0;
-        // The cells at Chebyshev distance `reach` from x's, for reach = 0, 1, ...: each a shell
-        // around the cube searched so far. A cell nearer to x than the farthest point kept
-        // (distances in cell units, below) is read; the others cannot hold a nearer point.
+        // The cells within Chebyshev distance `reach` of x's that the cube read before (`seen`)
+        // does not hold, for reach = 0, 1, 2, 4, 8, ... while fewer than K points are found (a point
+        // far from the others crosses the empty cells in a few steps, not one shell each), then one
+        // more each time. A cell nearer to x than the farthest point kept (distances in cell units,
+        // below) is read; the others cannot hold a nearer point.
         const double unit2 = scale_ * scale_;
-        const auto farther = [&](float bound2) {
-            return found == K && double{bound2} > double{kept[K - 1]} * unit2;
+        const auto farther = [&](double bound2) {
+            return found == K && bound2 > double{kept[K - 1]} * unit2;
         };
-        for (int reach = 0;; ++reach) {
+        int seen = -1;
+        for (int reach = 0;;) {
             const glm::ivec3 first = glm::max(home - reach, glm::ivec3(0));
             const glm::ivec3 last = glm::min(home + reach, dims_ - 1);
             for (int cx = first.x; cx <= last.x; ++cx) {
-                const float bx = gapTo(cx - home.x, inCell.x);
+                const double bx = gapTo(cx - home.x, inCell.x);
                 for (int cy = first.y; cy <= last.y; ++cy) {
-                    const float by = gapTo(cy - home.y, inCell.y), bxy = bx * bx + by * by;
+                    const double by = gapTo(cy - home.y, inCell.y), bxy = bx * bx + by * by;
                     if (farther(bxy)) continue;
-                    const bool shellRow = std::abs(cx - home.x) == reach || std::abs(cy - home.y) == reach;
                     const std::size_t column = columnIndex(cx, cy);
-                    const auto cells = cellZ_.begin();
-                    std::uint32_t k = static_cast<std::uint32_t>(
-                        std::lower_bound(cells + columnStart_[column], cells + columnStart_[column + 1],
-                                         first.z) -
-                        cells);
-                    for (; k < columnStart_[column + 1] && cellZ_[k] <= last.z; ++k) {
-                        const int cz = cellZ_[k];
-                        if (!shellRow && std::abs(cz - home.z) != reach) continue; // before: seen
-                        const float bz = gapTo(cz - home.z, inCell.z);
-                        if (farther(bxy + bz * bz)) continue;
-                        const glm::vec3 d = glm::vec3(x_[k], y_[k], z_[k]) - x;
-                        const float d2 = glm::dot(d, d);
-                        if (found < K || d2 <= kept[K - 1]) keep(d2, sorted_[k], kept, out, found);
+                    // The points of this column's cells z0..z1.
+                    const auto read = [&](int z0, int z1) {
+                        if (z0 > z1) return;
+                        const auto cells = cellZ_.begin();
+                        auto k = static_cast<std::uint32_t>(std::lower_bound(cells + columnStart_[column],
+                                                                             cells + columnStart_[column + 1],
+                                                                             z0) -
+                                                            cells);
+                        for (; k < columnStart_[column + 1] && cellZ_[k] <= z1; ++k) {
+                            const double bz = gapTo(cellZ_[k] - home.z, inCell.z);
+                            if (farther(bxy + bz * bz)) continue;
+                            const glm::vec3 d = glm::vec3(x_[k], y_[k], z_[k]) - x;
+                            const float d2 = glm::dot(d, d);
+                            if (found < K || d2 <= kept[K - 1]) keep(d2, sorted_[k], kept, out, found);
+                        }
+                    };
+                    if (std::abs(cx - home.x) > seen || std::abs(cy - home.y) > seen) {
+                        read(first.z, last.z); // a column the cube read before did not reach
+                    } else {
+                        read(first.z, std::min(last.z, home.z - seen - 1));
+                        read(std::max(first.z, home.z + seen + 1), last.z);
                     }
                 }
             }
             if (first == glm::ivec3(0) && last == dims_ - 1) return found; // every point seen
             const double clear = clearance(first, last, reach, x, home);
             if (found == K && double{kept[K - 1]} < clear * clear) return found;
+            seen = reach;
+            reach = found < K ? std::max(1, 2 * reach) : reach + 1;
         }
     }
 
@@ -384,14 +396,16 @@ class NearestGrid {
     static constexpr double kOccupancy = 3.0;
 
     // The distance, in cell units, from x (at `t` in [0, 1] across its cell) to the cell `offset`
-    // cells away along one axis, less a little for rounding.
-    static float gapTo(int offset, float t) {
-        const float gap = offset > 0 ? float(offset) - t : offset < 0 ? float(-offset - 1) + t : 0.0f;
-        return std::max(gap - 1e-3f, 0.0f);
+    // cells away along one axis, less a little for rounding: a millionth of it (distances squared in
+    // single precision round by about 1e-7 of themselves, which a fixed margin does not cover a
+    // million cells away) and a thousandth of a cell.
+    static double gapTo(int offset, double t) {
+        const double gap = offset > 0 ? double(offset) - t : offset < 0 ? double(-offset - 1) + t : 0.0;
+        return std::max(gap * (1.0 - 1e-6) - 1e-3, 0.0);
     }
     // How far every point outside the cube of cells [first, last] (those within `reach` of `home`,
     // clamped to the grid) is at least from x, which lies in `home`: no point lies beyond a side at
-    // the grid's border; a little less, for rounding.
+    // the grid's border; less as gapTo, and never below 0.
     double clearance(glm::ivec3 first, glm::ivec3 last, int reach, glm::vec3 x, glm::ivec3 home) const {
         const glm::dvec3 inCell = (glm::dvec3(x) - lo_) * scale_ - glm::dvec3(home); // [0, 1] per axis
         double clear = std::numeric_limits<double>::max();
@@ -399,7 +413,7 @@ class NearestGrid {
             if (first[a] > 0) clear = std::min(clear, double(reach) + inCell[a]);
             if (last[a] < dims_[a] - 1) clear = std::min(clear, double(reach + 1) - inCell[a]);
         }
-        return (clear - 1e-3) / scale_;
+        return std::max(clear * (1.0 - 1e-6) - 1e-3, 0.0) / scale_;
     }
     glm::ivec3 cellAt(glm::vec3 p) const {
         return glm::ivec3(glm::clamp((glm::dvec3(p) - lo_) * scale_, glm::dvec3(0.0), glm::dvec3(dims_ - 1)));

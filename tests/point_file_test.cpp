@@ -457,14 +457,14 @@ TEST(PointFile, KindByExtensionThenContent) {
     const Result<PointFileData> wrong = readPointFile(dir / "text.ply");
     ASSERT_FALSE(wrong.ok());
     EXPECT_NE(wrong.error().message.find("not a PLY file"), std::string::npos) << wrong.error().message;
-    // A file of no point-file name that is not text of numbers either: its error says it was read
-    // by its content, with the line that failed; a point file's own errors stay as they were.
+    // A file of no point-file name is read by its content; where that fails, the error says how it
+    // was read, with the line that failed. A point file's own errors stay as they were.
     test::writeText(dir / "notes.log", "# Notes\nSome words here\nand more words\n");
     const Result<PointFileData> notes = readPointFile(dir / "notes.log");
     ASSERT_FALSE(notes.ok());
-    EXPECT_EQ(notes.error().message, (dir / "notes.log").string() +
-                                         ": read as a text point file (neither its name nor its first bytes "
-                                         "say PLY or PCD), and it is not one: line 3: a second header line");
+    EXPECT_EQ(notes.error().message,
+              (dir / "notes.log").string() +
+                  ": read by its content as a text point file: line 3: a second header line");
     test::writeText(dir / "notes.xyz", "Some words here\nand more words\n");
     const Result<PointFileData> named = readPointFile(dir / "notes.xyz");
     ASSERT_FALSE(named.ok());

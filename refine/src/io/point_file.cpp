@@ -53,10 +53,8 @@ Result<PointFileData> parsePointFile(std::string_view bytes, std::string_view na
         const std::string prefix = fmt::format("{}: ", name);
         if (kind || out.kind != PointFileKind::Text || !data.error().message.starts_with(prefix))
             return data.error();
-        return Error{
-            fmt::format("{}: read as a text point file (neither its name nor its first bytes say PLY "
-                        "or PCD), and it is not one: {}",
-                        name, data.error().message.substr(prefix.size()))};
+        return Error{fmt::format("{}: read by its content as a text point file: {}", name,
+                                 data.error().message.substr(prefix.size()))};
     }
     out.data = std::move(*data);
     return out;

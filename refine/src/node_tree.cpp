@@ -163,7 +163,7 @@ void describePoints(Node& node) {
 // cell: a dense array of at most kCellsPerPoint cells a point made cells of 3 to 4 spacings in a
 // node's box and of 5 over a whole level, so that a point's 3×3×3 cells held 115 to 190 points
 // (the sparse bunny's, lion's and nefertiti's levels 4 and 5); in columns they hold about 50, and
-// neighbourShapeOf takes 0.75–0.85 times the time on those levels and 0.8–0.9 on parts of them the
+// neighbourShapeOf takes 0.7–0.9 times the time on those levels and 0.8–0.9 on parts of them the
 // size of a job's, the same bits (its Voronoi cells, cellRadius, are now a third of it).
 class NearestGrid {
   public:

@@ -185,27 +185,26 @@ class NearestGrid {
         const double smallest = std::max(1e-6 * std::max({extent.x, extent.y, extent.z}),
                                          double{std::numeric_limits<float>::min()});
         double side = std::max(2.0 * std::sqrt(area / n), smallest);
-        {
+        // The cells per axis for `side`, grown by a quarter at a time until `cells` of them (every
+        // cell, or the columns) are at most kCellsPerPoint a point.
+        const auto sizeFor = [&](double (*cells)(glm::ivec3)) {
             for (;; side *= 1.25) {
                 dims_ = glm::ivec3(extent / side) + 1;
-                if (double(dims_.x) * double(dims_.y) * double(dims_.z) <= kCellsPerPoint * n) break;
+                if (cells(dims_) <= kCellsPerPoint * n) break;
             }
             scale_ = 1.0 / side;
-            std::vector<bool> occupied(static_cast<std::size_t>(dims_.x) * dims_.y * dims_.z, false);
-            std::size_t count = 0;
-            for (const glm::vec3 p : positions) {
-                const glm::ivec3 c = cellAt(p);
-                const std::size_t at = (static_cast<std::size_t>(c.x) * dims_.y + c.y) * dims_.z + c.z;
-                count += occupied[at] ? 0 : 1;
-                occupied[at] = true;
-            }
-            side = std::max(side * std::sqrt(kOccupancy * double(count) / n), smallest);
+        };
+        sizeFor([](glm::ivec3 d) { return double(d.x) * double(d.y) * double(d.z); });
+        std::vector<bool> occupied(static_cast<std::size_t>(dims_.x) * dims_.y * dims_.z, false);
+        std::size_t count = 0;
+        for (const glm::vec3 p : positions) {
+            const glm::ivec3 c = cellAt(p);
+            const std::size_t at = columnIndex(c.x, c.y) * dims_.z + c.z;
+            count += occupied[at] ? 0 : 1;
+            occupied[at] = true;
         }
-        for (;; side *= 1.25) {
-            dims_ = glm::ivec3(extent / side) + 1;
-            if (double(dims_.x) * double(dims_.y) <= kCellsPerPoint * n) break;
-        }
-        scale_ = 1.0 / side;
+        side = std::max(side * std::sqrt(kOccupancy * double(count) / n), smallest);
+        sizeFor([](glm::ivec3 d) { return double(d.x) * double(d.y); });
         // Counting sort by column, then each column's points by their cell along z (ties by index:
         // any order would do, this one is the same every time).
         columnStart_.assign(columns() + 1, 0);
@@ -445,10 +444,10 @@ class NearestGrid {
     glm::dvec3 lo_{0.0};
     double scale_ = 1.0; // cell coordinates: (position - lo_) · scale_
     glm::ivec3 dims_{1};
-    std::vector<std::uint32_t> columnStart_,
-        sorted_;                      // column starts into sorted_, the points by column and z
-    std::vector<float> x_, y_, z_;    // their positions, in the same order
-    std::vector<std::int32_t> cellZ_; // and their cells along z
+    std::vector<std::uint32_t> columnStart_; // where each column's points start in sorted_
+    std::vector<std::uint32_t> sorted_;      // the points by column, then by cell along z
+    std::vector<float> x_, y_, z_;           // their positions, in the same order
+    std::vector<std::int32_t> cellZ_;        // and their cells along z
 };
 
 // The distance from a point to the farthest corner of its Voronoi cell among `offsets` (its

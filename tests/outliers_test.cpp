@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <iostream>
+#include <numbers>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -114,6 +115,48 @@ TEST(Outliers, PointAboveAPlaneIsFoundByTheOffsetRule) {
     OutlierParams densityOnly;
     densityOnly.offset = 0.0;
     EXPECT_EQ(findOutliers(plane.position, 2, densityOnly).outliers, (std::vector<std::uint32_t>{901}));
+}
+
+// A terrestrial scan's far field is a sparse sheet, not outliers (rule 1's exception): a gently
+// rolling terrain seen from its centre, 20,000 points whose density falls with the square of the
+// range (ranges log-uniform from 0.5 to 200, so the spacing grows from about 0.01 to 6), and 20
+// stray points 40 to 80 above its far part. Rule 1 alone cuts the far field (every point past
+// about 14 times the median d_i); with the exception, every stray is found and of the terrain only
+// a few points of its outer rim, whose nearest all lie inwards, go.
+TEST(Outliers, AScansFarFieldIsASparseSheetAndItsStraysAreFound) {
+    std::mt19937_64 rng(2042);
+    PointSet scan;
+    const auto height = [](float x, float y) { return 0.5f * std::sin(0.3f * x) * std::cos(0.2f * y); };
+    for (int i = 0; i < 20000; ++i) {
+        const float range = std::exp(test::uniform(rng, std::log(0.5), std::log(200.0)));
+        const float angle = test::uniform(rng, 0.0, 2.0 * std::numbers::pi);
+        const float x = range * std::cos(angle), y = range * std::sin(angle);
+        scan.position.emplace_back(x, y, height(x, y));
+    }
+    for (int i = 0; i < 20; ++i) {
+        const float range = test::uniform(rng, 100.0, 190.0);
+        const float angle = test::uniform(rng, 0.0, 2.0 * std::numbers::pi);
+        const float x = range * std::cos(angle), y = range * std::sin(angle);
+        scan.position.emplace_back(x, y, height(x, y) + test::uniform(rng, 40.0, 80.0));
+    }
+    OutlierParams ruleOneAlone;
+    ruleOneAlone.localRatio = 0.0;
+    const OutlierSearch alone = findOutliers(scan.position, 2, ruleOneAlone);
+    EXPECT_GT(alone.outliers.size(), 1000u); // 5 % of the terrain
+
+    const OutlierSearch search = findOutliers(scan.position, 2);
+    const auto stray = [](std::uint32_t i) { return i >= 20000; };
+    EXPECT_EQ(std::ranges::count_if(search.outliers, stray), 20);
+    std::size_t terrain = 0;
+    for (const std::uint32_t i : search.outliers) {
+        if (stray(i)) continue;
+        ++terrain;
+        EXPECT_GT(glm::length(glm::vec2(scan.position[i])), 180.0f) << i; // the rim, a spacing or two wide
+    }
+    std::cout << "[far field] rule 1 alone: " << alone.outliers.size()
+              << " points; with the exception: " << terrain << " of the terrain\n";
+    EXPECT_LE(terrain, 20u); // 0.1 %
+    EXPECT_EQ(findOutliers(scan.position, 1).outliers, search.outliers);
 }
 
 // Stray points shield each other: a point 2.5 spacings above a plane is found by the offset rule

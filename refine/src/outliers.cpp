@@ -32,18 +32,19 @@ double median(std::vector<double>& values) {
 constexpr std::size_t kBatch = 256; // points per task
 
 // What a pass measured of each point, by its index in the positions given: d_i (infinity where
-// not measured), its offset from its neighbours' plane (rule 2; NaN where rule 2 does not measure
-// it), its k + 1 nearest (indices into the positions given), and whether the next pass may keep
-// all of it (`reusable`).
+// not measured), its offset from its neighbours' plane and that plane's flatness (the smallest
+// eigenvalue of their spread over the middle one; both NaN where rule 2 does not measure them), its
+// k + 1 nearest (indices into the positions given), and whether the next pass may keep all of it
+// (`reusable`).
 struct Measures {
-    std::vector<double> distance, height;
+    std::vector<double> distance, height, flatness;
     std::vector<std::uint32_t> nearest;
     std::vector<std::uint8_t> reusable;
 };
 
 Measures measuresFor(std::size_t n, unsigned k) {
-    return {std::vector<double>(n), std::vector<double>(n), std::vector<std::uint32_t>(n * (k + 1)),
-            std::vector<std::uint8_t>(n, 0)};
+    return {std::vector<double>(n), std::vector<double>(n), std::vector<double>(n),
+            std::vector<std::uint32_t>(n * (k + 1)), std::vector<std::uint8_t>(n, 0)};
 }
 
 // Measures the points `which` (indices into `positions`) among the points `left` (the tree is over
@@ -72,7 +73,7 @@ void measure(const KdTree& tree, std::span<const glm::vec3> positions, std::span
             // not depend on how the search orders ties, so neither does d_i. The search finds fewer
             // where squared distances overflow single precision (spacings above about 1e19): such
             // a point is not measured (infinity), and its `nearest` are not read.
-            m.height[i] = std::numeric_limits<double>::quiet_NaN();
+            m.height[i] = m.flatness[i] = std::numeric_limits<double>::quiet_NaN();
             if (found < k + 1) {
                 m.distance[i] = std::numeric_limits<double>::infinity();
                 m.reusable[i] = 0;
@@ -100,10 +101,32 @@ void measure(const KdTree& tree, std::span<const glm::vec3> positions, std::span
                 for (int r = 0; r < 3; ++r)
                     for (int c = r; c < 3; ++c) covariance[r][c] += e[r] * e[c];
             }
-            const glm::dvec3 normal = smallestEigenvector(covariance).vector;
-            m.height[i] = std::abs(glm::dot(glm::dvec3(x) - centre, normal));
+            const SmallestEigen plane = smallestEigenvector(covariance);
+            m.height[i] = std::abs(glm::dot(glm::dvec3(x) - centre, plane.vector));
+            m.flatness[i] = plane.values[0] / plane.values[1];
         }
     });
+}
+
+// Whether point i, which rule 1 finds sparse against the whole set, lies in a patch as sparse as
+// itself: the median of its k nearest's own d_j is at least d_i / localRatio, their plane is flat
+// (flatness below `flatness`) and i lies on it (within `onPlane` · d_i). A scan's far field is
+// such a patch (a terrestrial scanner's density falls with the square of the range), where a stray
+// point's nearest are surface points much nearer each other than to it. The neighbours are all
+// among the points left (a removal among them has them measured again), so their d_j are this
+// pass's. NaN measures (rule 2 off, collinear neighbours) spare nothing.
+bool inSparseSheet(std::uint32_t i, const OutlierParams& params, const Measures& m) {
+    const double d = m.distance[i];
+    if (!(m.flatness[i] < params.flatness) || !(m.height[i] <= params.onPlane * d)) return false;
+    const unsigned k = params.nearest;
+    const std::uint32_t* nearest = &m.nearest[std::size_t{i} * (k + 1)];
+    std::array<double, kOutlierMaxNearest + 1> theirs;
+    std::size_t used = 0;
+    for (std::size_t j = 0; j < k + 1 && used < k; ++j)
+        if (nearest[j] != i) theirs[used++] = m.distance[nearest[j]];
+    const auto middle = theirs.begin() + static_cast<std::ptrdiff_t>(used / 2);
+    std::nth_element(theirs.begin(), middle, theirs.begin() + static_cast<std::ptrdiff_t>(used));
+    return d <= params.localRatio * *middle;
 }
 
 // One pass of rules 1 and 2 over the points `left` (indices into `positions`), measuring again
@@ -149,8 +172,10 @@ OutlierSearch searchOnce(std::span<const glm::vec3> positions, std::span<const s
     for (const std::uint32_t i : left) {
         const double d = m.distance[i];
         if (!std::isfinite(d)) continue;
-        // Rule 1, or rule 2 where it measured the point (a NaN height fails the comparison).
-        if (d > search.threshold || m.height[i] > params.offset * std::max(d, search.median))
+        // Rule 1 but where the point is part of a sparse sheet, or rule 2 where it measured the
+        // point (a NaN height fails the comparison).
+        if ((d > search.threshold && !inSparseSheet(i, params, m)) ||
+            m.height[i] > params.offset * std::max(d, search.median))
             search.outliers.push_back(i);
     }
     return search;

@@ -31,6 +31,11 @@ double median(std::vector<double>& values) {
 
 constexpr std::size_t kBatch = 256; // points per task
 
+// A sheet's points spread in two directions: the middle eigenvalue of their spread is above this
+// share of the largest. Neighbours on a line leave it at 0 up to rounding (tiny, or negative: the
+// eigenvalues of a rank-one spread), far below the sparse terrains' 0.058 (ALGORITHM.md §9.7).
+constexpr double kSheetSpread = 0.01;
+
 // What a pass measured of each point, by its index in the positions given: d_i (infinity where
 // not measured), its offset from its neighbours' plane and that plane's flatness (the smallest
 // eigenvalue of their spread over the middle one; both NaN where rule 2 does not measure them), its
@@ -103,18 +108,21 @@ void measure(const KdTree& tree, std::span<const glm::vec3> positions, std::span
             }
             const SmallestEigen plane = smallestEigenvector(covariance);
             m.height[i] = std::abs(glm::dot(glm::dvec3(x) - centre, plane.vector));
-            m.flatness[i] = plane.values[0] / plane.values[1];
+            // Neighbours on a line have no flatness to measure.
+            m.flatness[i] = plane.values[1] > kSheetSpread * plane.values[2]
+                                ? std::max(plane.values[0], 0.0) / plane.values[1]
+                                : std::numeric_limits<double>::quiet_NaN();
         }
     });
 }
 
-// Whether point i, which rule 1 finds sparse against the whole set, lies in a patch as sparse as
-// itself: the median of its k nearest's own d_j is at least d_i / localRatio, their plane is flat
-// (flatness below `flatness`) and i lies on it (within `onPlane` · d_i). A scan's far field is
-// such a patch (a terrestrial scanner's density falls with the square of the range), where a stray
-// point's nearest are surface points much nearer each other than to it. The neighbours are all
-// among the points left (a removal among them has them measured again), so their d_j are this
-// pass's. NaN measures (rule 2 off, collinear neighbours) spare nothing.
+// Whether point i, which rule 1 finds sparse against the whole set, lies in a sheet as sparse as
+// itself: the upper median of its k nearest's own d_j is finite and at least d_i / localRatio,
+// their plane is flat (flatness below `flatness`) and i lies on it (within `onPlane` · d_i). A
+// scan's far field is such a sheet (a terrestrial scanner's density falls with the square of the
+// range), where a stray point's nearest are surface points much nearer each other than to it. The
+// neighbours are all among the points left (a removal among them has them measured again), so
+// their d_j are this pass's. A NaN flatness (rule 2 off, neighbours on a line) spares nothing.
 bool inSparseSheet(std::uint32_t i, const OutlierParams& params, const Measures& m) {
     const double d = m.distance[i];
     if (!(m.flatness[i] < params.flatness) || !(m.height[i] <= params.onPlane * d)) return false;
@@ -126,7 +134,7 @@ bool inSparseSheet(std::uint32_t i, const OutlierParams& params, const Measures&
         if (nearest[j] != i) theirs[used++] = m.distance[nearest[j]];
     const auto middle = theirs.begin() + static_cast<std::ptrdiff_t>(used / 2);
     std::nth_element(theirs.begin(), middle, theirs.begin() + static_cast<std::ptrdiff_t>(used));
-    return d <= params.localRatio * *middle;
+    return std::isfinite(*middle) && d <= params.localRatio * *middle;
 }
 
 // One pass of rules 1 and 2 over the points `left` (indices into `positions`), measuring again

@@ -1241,6 +1241,38 @@ TEST(RefinerDeterminism, ColouredDefaultModelIdenticalFor1To8Threads) {
     expectSameForThreadCounts(input, 4, "default model");
 }
 
+// A point much smaller than its cell's sub-cells finds its surroundings through the hierarchy
+// (kFineReach): the same points within reach, so the same bits. A terrain seen from its centre,
+// 6,000 points at ranges log-uniform from 0.5 to 50 (its radii spread over two orders of
+// magnitude within a cell), 3 levels with every such point searched through the hierarchy, none,
+// and as by default.
+TEST(RefinerDeterminism, NearFieldSearchedThroughTheHierarchyGivesTheSameBits) {
+    std::mt19937_64 rng(31);
+    PointSet scan;
+    for (int i = 0; i < 6000; ++i) {
+        const double range = std::exp(test::uniform(rng, std::log(0.5), std::log(50.0)));
+        const double angle = test::uniform(rng, 0.0, 2.0 * kPi);
+        const double x = range * std::cos(angle), y = range * std::sin(angle);
+        const double gx = 0.15 * std::cos(0.3 * x) * std::cos(0.2 * y),
+                     gy = -0.1 * std::sin(0.3 * x) * std::sin(0.2 * y);
+        scan.position.emplace_back(x, y, 0.5 * std::sin(0.3 * x) * std::cos(0.2 * y));
+        scan.normal.push_back(glm::normalize(glm::vec3(glm::dvec3(-gx, -gy, 1.0))));
+    }
+    const PointSet input = withRadii(std::move(scan));
+    std::vector<PointSet> outputs;
+    for (const float fineReach : {kFineReach, 0.0f, 1e30f}) {
+        RefineOptions o = options();
+        o.fineReach = fineReach;
+        Refiner refiner(input, o);
+        refineLevels(refiner, 3);
+        outputs.push_back(refiner.points());
+    }
+    ASSERT_GT(outputs[0].size(), 20 * input.size());
+    EXPECT_TRUE(samePointSets(outputs[0], outputs[1]))
+        << "by default against every point through the hierarchy";
+    EXPECT_TRUE(samePointSets(outputs[0], outputs[2])) << "by default against none";
+}
+
 // The arithmetic is exactly scale-invariant (refiner.cpp, scaleExponent): a point set scaled by a
 // power of two refines to the same points scaled by it, bit for bit, also where squared distances
 // and their squares leave single precision (radii 1e-18 to 1e16), the levels then running

@@ -587,9 +587,19 @@ void PointStep::findOneRing(std::uint32_t p, const TangentFrame& frame, Clock::t
     const glm::vec3 x = level_.points.position[p], n = frame.n;
     const FuzzyParams fuzzy =
         fuzzyParams(level_.options.smoothing && !level_.options.centroidCandidates); // PN-centre candidates
+    // A point far smaller than its cell's sub-cells finds its surroundings through the hierarchy,
+    // as a large point does (kFineReach): the same points within reach (only their order differs,
+    // which nothing downstream reads), without scanning the sub-cells' far denser crowd.
+    const std::optional<std::uint64_t> cell =
+        s.groupCell && level_.options.fineReach * level_.levelRadius[p] < s.nearbyGrid.side() ? std::nullopt
+                                                                                              : s.groupCell;
     std::span<const NearbyPoint> nearby = s.nearby;
-    if (s.groupCell) {
+    if (cell) {
         s.nearbyGrid.select(x, level_.levelRadius[p], s.pointNearby);
+        nearby = s.pointNearby;
+    } else if (s.groupCell) {
+        gatherNearby(std::span(&p, 1), std::nullopt, 1.0f, s.pointNearby, s);
+        if (profile) t0 = Clock::now(); // gatherNearby counted its own time
         nearby = s.pointNearby;
     }
     const bool cut = gatherNeighbourhood(p, frame, level_.levelRadius[p], nearby, s);
@@ -603,7 +613,7 @@ void PointStep::findOneRing(std::uint32_t p, const TangentFrame& frame, Clock::t
         // within kRetryReach·r before treating it as a boundary; the new one-ring then reaches
         // across, and the gap is filled at this level instead of staying a hole.
         ++s.retried;
-        gatherNearby(std::span(&p, 1), s.groupCell, kRetryReach, s.wideNearby, s);
+        gatherNearby(std::span(&p, 1), cell, kRetryReach, s.wideNearby, s);
         if (profile) t0 = Clock::now(); // gatherNearby counted its own time
         gatherNeighbourhood(p, frame, kRetryReach * level_.levelRadius[p], s.wideNearby, s);
         neighbours = s.fan.size();

@@ -174,6 +174,10 @@ class CandidateGrid {
         }
     }
 
+    // The longest side of a sub-cell: a point whose reach is a small part of it reads whole
+    // sub-cells of points it cannot reach (a scan's near field, in a cell sized for its far field).
+    float side() const { return 1.0f / std::max(std::min({scale_.x, scale_.y, scale_.z}), 1e-30f); }
+
   private:
     static constexpr float kSubdivision = 2.0f;
     static constexpr int kMaxSide = 16;

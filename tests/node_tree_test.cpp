@@ -601,7 +601,8 @@ TEST(NodeDetail, NeighboursNearlyOnThePointKeepItsSplat) {
 // brute-force search's, ties in distance to the lower index: random normals make the widest
 // angle depend on which points are taken. A plane grid (every distance tied many times over), and
 // a sphere with a dense cluster and far, isolated points (their nearest lie beyond the cells
-// around them, which the search must widen to, up to the whole grid), and points spread past the
+// around them, which the search must widen to, up to the whole grid), a crowd in one cell of a
+// sparse sphere, with ties (searched in a finer grid), and points spread past the
 // largest float (render of such a model failed with "cannot create std::vector larger than
 // max_size()" before its one-line error).
 TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
@@ -636,7 +637,33 @@ TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
     std::fill_n(line.normal.begin(), 7, glm::vec3(1.0f, 0.0f, 0.0f));
     line.normal.back() = glm::vec3(1.0f, 0.0f, 0.0f);
     EXPECT_EQ(neighbourShapeOf(line).bend.back(), 0.0f); // the 7 at +z, whose normals are its own
-    for (PointSet* set : {&plane, &clustered, &huge}) {
+    // A crowd in one cell amid a sparse sphere (a scan's near field): 2,500 random points and a
+    // lattice of 8 × 8 × 8 (distances tied) within 0.002 of the pole, the cell's points searched in
+    // a finer grid of their own.
+    PointSet crowded = sampleSphereRandom(1000, 1.0f, 9);
+    for (int k = 0; k < 2500; ++k)
+        crowded.position.push_back(glm::vec3(0.0f, 0.0f, 1.0f) +
+                                   0.001f * glm::vec3(unit(random), unit(random), 0.1f * unit(random)));
+    for (int z = 0; z < 8; ++z)
+        for (int y = 0; y < 8; ++y)
+            for (int x = 0; x < 8; ++x)
+                crowded.position.push_back(glm::vec3(0.0f, 0.0f, 1.0f) +
+                                           0.0002f * glm::vec3(float(x), float(y), float(z)));
+    // Four crowds of 1,100 points within 1e-4, each with 60 points 0.02 to 0.1 away, amid sparse
+    // points: each crowd's cell, with the points about it that share it, searched in a finer grid.
+    for (int c = 0; c < 4; ++c) {
+        const glm::vec3 centre(unit(random), unit(random), unit(random));
+        for (int k = 0; k < 1100; ++k)
+            crowded.position.push_back(centre + 1e-4f * glm::vec3(unit(random), unit(random), unit(random)));
+        for (int k = 0; k < 60; ++k) {
+            const glm::vec3 away(unit(random), unit(random), unit(random));
+            crowded.position.push_back(centre + (0.02f + 0.08f * std::abs(unit(random))) *
+                                                    glm::normalize(away + glm::vec3(1e-6f)));
+        }
+    }
+    for (int k = 0; k < 400; ++k)
+        crowded.position.push_back(glm::vec3(unit(random), unit(random), unit(random)));
+    for (PointSet* set : {&plane, &clustered, &huge, &crowded}) {
         set->normal.resize(set->position.size());
         for (glm::vec3& n : set->normal) n = randomNormal();
         const std::vector<float> bend = neighbourShapeOf(*set).bend;

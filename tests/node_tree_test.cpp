@@ -663,7 +663,29 @@ TEST(NodeDetail, BendTakesExactlyTheNearestPointsTiesByIndex) {
     }
     for (int k = 0; k < 400; ++k)
         crowded.position.push_back(glm::vec3(unit(random), unit(random), unit(random)));
-    for (PointSet* set : {&plane, &clustered, &huge, &crowded}) {
+    // A crowd whose cell holds a point nearer to 7 points beyond its cell's 3×3×3 than to the crowd
+    // (a review's construction): an 11³ lattice at spacing 0.1 hollowed inside (0.2, 0.8)³ sizes the
+    // grid's cells (0.09), a crowd of 1,100 points at spacing 1e-4 from 0.455 and the point at
+    // 0.536 share a cell, and the 7 lie 0.1 from the point in the cell two over. The finer grid of
+    // the crowd's cells finds the crowd; the search must widen.
+    PointSet hollow;
+    for (int z = 0; z <= 10; ++z)
+        for (int y = 0; y <= 10; ++y)
+            for (int x = 0; x <= 10; ++x) {
+                const glm::vec3 q = 0.1f * glm::vec3(float(x), float(y), float(z));
+                if (glm::all(glm::greaterThan(q, glm::vec3(0.2001f))) &&
+                    glm::all(glm::lessThan(q, glm::vec3(0.7999f))))
+                    continue;
+                hollow.position.push_back(q);
+            }
+    for (int z = 0; z < 10; ++z)
+        for (int y = 0; y < 10; ++y)
+            for (int x = 0; x < 11; ++x)
+                hollow.position.push_back(glm::vec3(0.455f) +
+                                          1e-4f * glm::vec3(float(x), float(y), float(z)));
+    hollow.position.push_back(glm::vec3(0.536f));
+    for (int k = 0; k < 7; ++k) hollow.position.push_back({0.636f, 0.536f + 1e-4f * float(k), 0.536f});
+    for (PointSet* set : {&plane, &clustered, &huge, &crowded, &hollow}) {
         set->normal.resize(set->position.size());
         for (glm::vec3& n : set->normal) n = randomNormal();
         const std::vector<float> bend = neighbourShapeOf(*set).bend;

@@ -1260,7 +1260,7 @@ TEST(RefinerDeterminism, NearFieldSearchedThroughTheHierarchyGivesTheSameBits) {
     }
     const PointSet input = withRadii(std::move(scan));
     std::vector<PointSet> outputs;
-    for (const float fineReach : {kFineReach, 0.0f, 1e30f}) {
+    for (const float fineReach : {kFineReach, 0.0f, std::numeric_limits<float>::infinity()}) {
         RefineOptions o = options();
         o.fineReach = fineReach;
         Refiner refiner(input, o);

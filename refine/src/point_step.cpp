@@ -157,7 +157,11 @@ void PointStep::gatherNearby(std::span<const std::uint32_t> group, std::optional
     if (level_.options.profile) t0 = Clock::now();
     nearby.clear();
     if (!cell) {
-        level_.hierarchy.queryBox(lo, hi, margin, s.stack, [&](std::uint32_t i, float d2) {
+        // The hierarchy rounds its bounds up relative to themselves, not to the margin: a sphere of
+        // a small bound at the margin's distance could round out of reach. Asked a hair wider, it
+        // visits every point within the margin; the exact test below keeps those.
+        constexpr float kQueryRoundUp = 1.0f + 1.0f / (1u << 18);
+        level_.hierarchy.queryBox(lo, hi, margin * kQueryRoundUp, s.stack, [&](std::uint32_t i, float d2) {
             if (d2 <= margin * margin) nearby.push_back(NearbyPoint{points.position[i], i, points.normal[i]});
         });
     } else {

@@ -174,9 +174,16 @@ class CandidateGrid {
         }
     }
 
-    // The longest side of a sub-cell: a point whose reach is a small part of it reads whole
-    // sub-cells of points it cannot reach (a scan's near field, in a cell sized for its far field).
-    float side() const { return 1.0f / std::max(std::min({scale_.x, scale_.y, scale_.z}), 1e-30f); }
+    // The longest side of a sub-cell along an axis the candidates spread over (0 where they spread
+    // over none): a point whose reach is a small part of it reads whole sub-cells of points it
+    // cannot reach (a scan's near field, in a cell sized for its far field). An axis of no extent
+    // (a flat, axis-aligned set) has one sub-cell and no side.
+    float side() const {
+        float widest = 0.0f;
+        for (int a = 0; a < 3; ++a)
+            if (scale_[a] > 0.0f) widest = std::max(widest, 1.0f / scale_[a]);
+        return widest;
+    }
 
   private:
     static constexpr float kSubdivision = 2.0f;

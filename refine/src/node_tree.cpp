@@ -230,6 +230,10 @@ class NearestGrid {
                       [&](std::uint32_t a, std::uint32_t b) {
                           return cellZ[a] != cellZ[b] ? cellZ[a] < cellZ[b] : a < b;
                       });
+        // A block's squared distances (at most 12 cell sides squared) stay finite in single
+        // precision: where they do not (coordinates near 1e37), a finer grid cannot tell its points
+        // apart and its search would be wasted before the widening one.
+        blockFits_ = 12.0 / (scale_ * scale_) < double{std::numeric_limits<float>::max()};
         x_.resize(positions.size());
         y_.resize(positions.size());
         z_.resize(positions.size());
@@ -290,7 +294,7 @@ class NearestGrid {
                         blockSize += to[r] - from[r];
                     }
                 const bool whole = first == glm::ivec3(0) && last == dims_ - 1;
-                if (cellEnd - cell >= kDenseCell && blockSize >= kDenseBlock) {
+                if (cellEnd - cell >= kDenseCell && blockSize >= kDenseBlock && blockFits_) {
                     // A crowded cell amid sparser ones (a scan's near field): its points search a
                     // finer grid of the block's points instead of every one of them.
                     block.clear();
@@ -486,6 +490,7 @@ class NearestGrid {
     glm::dvec3 lo_{0.0};
     double scale_ = 1.0; // cell coordinates: (position - lo_) · scale_
     glm::ivec3 dims_{1};
+    bool blockFits_ = true; // a block's squared distances are finite (kDenseCell's finer grids)
     std::vector<std::uint32_t> columnStart_; // where each column's points start in sorted_
     std::vector<std::uint32_t> sorted_;      // the points by column, then by cell along z
     std::vector<float> x_, y_, z_;           // their positions, in the same order

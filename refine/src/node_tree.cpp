@@ -257,12 +257,7 @@ class NearestGrid {
     // fewer than K do, nearest() widens the search. Calls over disjoint columns may run concurrently.
     template <std::size_t K, typename Visit>
     void forEachNearest(std::size_t begin, std::size_t end, Visit&& visit) const {
-        // A point's candidates nearer than the block's sides: their distances and positions in the
-        // sorted order, appended without a branch.
-        std::vector<float> near2;
-        std::vector<std::uint32_t> nearAt, block;
-        std::vector<glm::vec3> blockPositions;
-        std::array<std::uint32_t, K> nearest{};
+        Candidates candidates;
         // The block's runs of points, one per column around the cell's: [from, to) in the sorted
         // order. The cells of a column are visited by rising z, so each run only moves forward.
         std::array<std::uint32_t, 9> from{}, to{};
@@ -293,76 +288,17 @@ class NearestGrid {
                         while (to[r] < columnEnd && cellZ_[to[r]] <= last.z) ++to[r];
                         blockSize += to[r] - from[r];
                     }
-                const bool whole = first == glm::ivec3(0) && last == dims_ - 1;
-                if (cellEnd - cell >= kDenseCell && blockSize >= kDenseBlock && blockFits_) {
-                    // A crowded cell amid sparser ones (a scan's near field): its points search a
-                    // finer grid of the block's points instead of every one of them.
-                    block.clear();
-                    for (std::size_t run = 0; run < runs; ++run)
-                        for (std::uint32_t j = from[run]; j < to[run]; ++j) block.push_back(sorted_[j]);
-                    std::ranges::sort(block); // local order = global order: the same ties
-                    blockPositions.resize(block.size());
-                    for (std::size_t b = 0; b < block.size(); ++b) blockPositions[b] = positions_[block[b]];
-                    const NearestGrid finer(blockPositions);
-                    for (std::uint32_t k = cell; k < cellEnd; ++k) {
-                        const std::uint32_t i = sorted_[k];
-                        const auto local =
-                            static_cast<std::uint32_t>(std::ranges::lower_bound(block, i) - block.begin());
-                        float farthest2 = 0.0f;
-                        std::size_t found = finer.nearest(local, nearest, &farthest2);
-                        const double clear = clearance(first, last, 1, positions_[i], home);
-                        // Exact when K of the block's points lie nearer than every point outside it.
-                        if (whole || (found == K && farthest2 < static_cast<float>(clear * clear))) {
-                            for (std::size_t m = 0; m < found; ++m) nearest[m] = block[nearest[m]];
-                        } else {
-                            found = this->nearest(i, nearest);
-                        }
-                        visit(i, nearest, found);
-                    }
-                    cell = cellEnd;
-                    continue;
-                }
-                near2.resize(blockSize + 1);
-                nearAt.resize(blockSize + 1);
-                // The previous point's K-th nearest distance, squared and doubled: a first,
-                // narrower bound (the points of one cell lie at like spacings), which leaves fewer
-                // candidates to sort; where fewer than K lie within it, the block's bound.
-                float guess2 = std::numeric_limits<float>::infinity();
-                for (std::uint32_t k = cell; k < cellEnd; ++k) {
-                    const float px = x_[k], py = y_[k], pz = z_[k];
-                    // Every point outside the block is farther than `clear`: the K nearest are
-                    // among those nearer than it, if K of them are.
-                    const double clear = clearance(first, last, 1, {px, py, pz}, home);
-                    const auto limit2 =
-                        whole ? std::numeric_limits<float>::infinity() : static_cast<float>(clear * clear);
-                    std::size_t count = 0;
-                    const auto gather = [&](float bound2, bool all) {
-                        count = 0;
-                        for (std::size_t run = 0; run < runs; ++run)
-                            for (std::uint32_t j = from[run]; j < to[run]; ++j) {
-                                const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
-                                const float d2 = dx * dx + dy * dy + dz * dz;
-                                near2[count] = d2;
-                                nearAt[count] = j;
-                                count += static_cast<std::size_t>(d2 < bound2 || all);
-                            }
-                    };
-                    if (guess2 < limit2) gather(guess2, false);
-                    const bool narrowed = guess2 < limit2 && count >= K;
-                    if (!narrowed) gather(limit2, whole);
-                    std::size_t found = 0;
-                    guess2 = std::numeric_limits<float>::infinity(); // unless the block gives one
-                    if (narrowed || count >= K || whole) {
-                        std::array<float, K> kept{};
-                        for (std::size_t m = 0; m < count; ++m)
-                            if (found < K || near2[m] <= kept[K - 1])
-                                keep(near2[m], sorted_[nearAt[m]], kept, nearest, found);
-                        if (found == K) guess2 = 2.0f * kept[K - 1];
-                    } else {
-                        found = this->nearest(sorted_[k], nearest);
-                    }
-                    visit(sorted_[k], nearest, found);
-                }
+                const Block block{std::span(from).first(runs),
+                                  std::span(to).first(runs),
+                                  first,
+                                  last,
+                                  home,
+                                  first == glm::ivec3(0) && last == dims_ - 1};
+                // A crowded cell amid sparser ones (a scan's near field) searches a finer grid.
+                if (cellEnd - cell >= kDenseCell && blockSize >= kDenseBlock && blockFits_)
+                    visitCrowdedCell<K>(cell, cellEnd, block, visit);
+                else
+                    visitCell<K>(cell, cellEnd, block, blockSize, candidates, visit);
                 cell = cellEnd;
             }
         }
@@ -433,6 +369,101 @@ class NearestGrid {
     }
 
   private:
+    // The cells [first, last] about a cell `home`, their points the runs [from, to) of sorted_, and
+    // whether they are the whole grid.
+    struct Block {
+        std::span<const std::uint32_t> from, to;
+        glm::ivec3 first, last, home;
+        bool whole;
+    };
+
+    // A point's candidates nearer than its block's sides: their squared distances and places in the
+    // sorted order, appended without a branch.
+    struct Candidates {
+        std::vector<float> near2;
+        std::vector<std::uint32_t> nearAt;
+    };
+
+    // visit(i, nearest, found) for the points [cell, cellEnd) of sorted_, of one cell, `blockSize`
+    // points in its block: a point's nearest are among the block's points nearer than every point
+    // outside it, where K of them are; else the widening search finds them.
+    template <std::size_t K, typename Visit>
+    void visitCell(std::uint32_t cell, std::uint32_t cellEnd, const Block& block, std::size_t blockSize,
+                   Candidates& c, Visit&& visit) const {
+        c.near2.resize(blockSize + 1);
+        c.nearAt.resize(blockSize + 1);
+        std::array<std::uint32_t, K> nearest{};
+        // The previous point's K-th nearest distance, squared and doubled: a first, narrower bound
+        // (the points of one cell lie at like spacings), which leaves fewer candidates to sort;
+        // where fewer than K lie within it, the block's bound.
+        float guess2 = std::numeric_limits<float>::infinity();
+        for (std::uint32_t k = cell; k < cellEnd; ++k) {
+            const float px = x_[k], py = y_[k], pz = z_[k];
+            // Every point outside the block is farther than `clear`: the K nearest are among those
+            // nearer than it, if K of them are.
+            const double clear = clearance(block.first, block.last, 1, {px, py, pz}, block.home);
+            const auto limit2 =
+                block.whole ? std::numeric_limits<float>::infinity() : static_cast<float>(clear * clear);
+            std::size_t count = 0;
+            const auto gather = [&](float bound2, bool all) {
+                count = 0;
+                for (std::size_t run = 0; run < block.from.size(); ++run)
+                    for (std::uint32_t j = block.from[run]; j < block.to[run]; ++j) {
+                        const float dx = x_[j] - px, dy = y_[j] - py, dz = z_[j] - pz;
+                        const float d2 = dx * dx + dy * dy + dz * dz;
+                        c.near2[count] = d2;
+                        c.nearAt[count] = j;
+                        count += static_cast<std::size_t>(d2 < bound2 || all);
+                    }
+            };
+            if (guess2 < limit2) gather(guess2, false);
+            const bool narrowed = guess2 < limit2 && count >= K;
+            if (!narrowed) gather(limit2, block.whole);
+            std::size_t found = 0;
+            guess2 = std::numeric_limits<float>::infinity(); // unless the block gives one
+            if (narrowed || count >= K || block.whole) {
+                std::array<float, K> kept{};
+                for (std::size_t m = 0; m < count; ++m)
+                    if (found < K || c.near2[m] <= kept[K - 1])
+                        keep(c.near2[m], sorted_[c.nearAt[m]], kept, nearest, found);
+                if (found == K) guess2 = 2.0f * kept[K - 1];
+            } else {
+                found = this->nearest(sorted_[k], nearest);
+            }
+            visit(sorted_[k], nearest, found);
+        }
+    }
+
+    // visit(i, nearest, found) for the points [cell, cellEnd) of sorted_, of a crowded cell: each
+    // searches a finer grid of its block's points instead of every one of them, and the widening
+    // search where K of them do not lie nearer than every point outside the block.
+    template <std::size_t K, typename Visit>
+    void visitCrowdedCell(std::uint32_t cell, std::uint32_t cellEnd, const Block& block,
+                          Visit&& visit) const {
+        std::vector<std::uint32_t> points; // the block's, by index: local order = global order, the same ties
+        for (std::size_t run = 0; run < block.from.size(); ++run)
+            for (std::uint32_t j = block.from[run]; j < block.to[run]; ++j) points.push_back(sorted_[j]);
+        std::ranges::sort(points);
+        std::vector<glm::vec3> positions(points.size());
+        for (std::size_t b = 0; b < points.size(); ++b) positions[b] = positions_[points[b]];
+        const NearestGrid finer(positions);
+        std::array<std::uint32_t, K> nearest{};
+        for (std::uint32_t k = cell; k < cellEnd; ++k) {
+            const std::uint32_t i = sorted_[k];
+            const auto local =
+                static_cast<std::uint32_t>(std::ranges::lower_bound(points, i) - points.begin());
+            float farthest2 = 0.0f;
+            std::size_t found = finer.nearest(local, nearest, &farthest2);
+            const double clear = clearance(block.first, block.last, 1, positions_[i], block.home);
+            if (block.whole || (found == K && farthest2 < static_cast<float>(clear * clear))) {
+                for (std::size_t m = 0; m < found; ++m) nearest[m] = points[nearest[m]];
+            } else {
+                found = this->nearest(i, nearest);
+            }
+            visit(i, nearest, found);
+        }
+    }
+
     static constexpr double kCellsPerPoint = 4.0;
     static constexpr double kOccupancy = 3.0;
     // A cell of at least kDenseCell points whose 3×3×3 cells hold at least kDenseBlock (about 20

@@ -1501,6 +1501,10 @@ TEST(CliExit, UsageErrorsExitWithTwoAndSuggestTheCommand) {
         {"diff only-one.png", "B.png is required"},
         {"render --up w", "--up"},
         {"refine --levels 0", "--levels"},
+        {"refine in.ply --levle 3", "'--levle' is not an option of pnsplat refine; did you mean '--levels'?"},
+        {"bench view --camera-pth orbit",
+         "'--camera-pth' is not an option of pnsplat bench view; did you mean '--camera-path'?"},
+        {"render --threshold=2 --widht 640", "did you mean '--width'?"},
     };
     for (const Case& c : cases) {
         const RunResult r = run(c.args);

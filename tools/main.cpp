@@ -28,16 +28,54 @@ std::size_t editDistance(std::string_view a, std::string_view b) {
     return d[a.size()][b.size()];
 }
 
+// The nearest of `names` to `word`, where it is near enough to be a slip of the keys (at most 2
+// edits, or a third of the name); empty otherwise.
+std::string nearestName(std::string_view word, const std::vector<std::string>& names) {
+    const auto nearest = std::min_element(names.begin(), names.end(), [&](const auto& a, const auto& b) {
+        return editDistance(word, a) < editDistance(word, b);
+    });
+    if (nearest == names.end() ||
+        editDistance(word, *nearest) > std::max<std::size_t>(2, nearest->size() / 3))
+        return {};
+    return *nearest;
+}
+
+// The long options words[from...] name at `level` (or above it, as --help) must be options there: an
+// unknown one near an option's name is reported with it ("did you mean '--levels'?"), where CLI11
+// alone would say "The following arguments were not expected: 3 --levle". Values never start with
+// "--"; "--" alone ends the options.
+void checkOptionWords(const CLI::App& level, int from, int argc, char** argv) {
+    std::vector<std::string> names;
+    for (const CLI::App* at = &level; at != nullptr; at = at->get_parent())
+        for (const CLI::Option* option : at->get_options())
+            for (const std::string& name : option->get_lnames()) names.push_back("--" + name);
+    for (int i = from; i < argc; ++i) {
+        const std::string_view word = argv[i];
+        if (word == "--") return;
+        if (!word.starts_with("--")) continue;
+        const std::string_view name = word.substr(0, word.find('='));
+        if (std::ranges::find(names, name) != names.end()) continue;
+        const std::string nearest = nearestName(name, names);
+        if (nearest.empty()) continue;
+        std::string command;
+        for (const CLI::App* at = &level; at->get_parent() != nullptr; at = at->get_parent())
+            command = " " + at->get_name() + command;
+        throw CLI::ValidationError(
+            fmt::format("'{}' is not an option of pnsplat{}; did you mean '{}'?", name, command, nearest));
+    }
+}
+
 // The words of the command line that select subcommands must name them: the first word that is
 // not an option, at a level that has subcommands, and is none of them, is reported with the
 // nearest name ("did you mean 'render'?") or the list of names. CLI11 alone would say
-// "A subcommand is required" or "arguments were not expected".
+// "A subcommand is required" or "arguments were not expected". Then the long options
+// (checkOptionWords).
 void checkSubcommandWords(const CLI::App& app, int argc, char** argv) {
     const CLI::App* level = &app;
     for (int i = 1; i < argc; ++i) {
         const std::string word = argv[i];
         const std::vector<const CLI::App*> subcommands = level->get_subcommands(nullptr);
-        if (word.starts_with('-') || subcommands.empty()) return;
+        if (word.starts_with('-') || subcommands.empty()) return checkOptionWords(*level, i, argc, argv);
         const auto named = std::find_if(subcommands.begin(), subcommands.end(),
                                         [&](const CLI::App* sub) { return sub->check_name(word); });
         if (named != subcommands.end()) {
@@ -46,13 +84,10 @@ void checkSubcommandWords(const CLI::App& app, int argc, char** argv) {
         }
         std::vector<std::string> names;
         for (const CLI::App* sub : subcommands) names.push_back(sub->get_name());
-        const auto nearest = std::min_element(names.begin(), names.end(), [&](const auto& a, const auto& b) {
-            return editDistance(word, a) < editDistance(word, b);
-        });
         const std::string where = level == &app ? "pnsplat" : "pnsplat " + level->get_name();
-        if (editDistance(word, *nearest) <= std::max<std::size_t>(2, nearest->size() / 3))
+        if (const std::string nearest = nearestName(word, names); !nearest.empty())
             throw CLI::ValidationError(
-                fmt::format("'{}' is not a {} command; did you mean '{}'?", word, where, *nearest));
+                fmt::format("'{}' is not a {} command; did you mean '{}'?", word, where, nearest));
         throw CLI::ValidationError(fmt::format(
             "'{}' is not a {} command (commands: {})", word, where,
             std::accumulate(std::next(names.begin()), names.end(), names.front(),

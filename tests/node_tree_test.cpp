@@ -20,6 +20,7 @@
 #include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/node_tree.h"
 #include "pnsplat/refine/node_workers.h"
+#include "pnsplat/refine/quantile.h"
 #include "pnsplat/refine/shapes/shapes.h"
 #include "pnsplat/refine/worker_pool.h"
 #include "test_data.h"
@@ -172,6 +173,36 @@ TEST(NodeTree, RootsPartitionTheInput) {
     }
     EXPECT_EQ(total, input.size());
     EXPECT_EQ(tree->pointCount(), input.size());
+}
+
+// The roots hold one density each (kRootSpread): a terrestrial scan's density falls with the
+// square of the range, and roots cut by count alone ran from its near field to its far field (the
+// 90th percentile of their radii up to 13 times the 10th at 10,000 points). Its roots are split
+// until their radii spread at most kRootSpread, or they hold fewer than kRootSpreadPoints; a
+// uniform random sphere's spread less (about 2.3) and are split by count alone.
+TEST(NodeTree, RootsHoldOneDensityEach) {
+    const auto spreadOf = [](const Node& node) {
+        std::vector<float> r(node.points.radius.begin(), node.points.radius.end());
+        std::sort(r.begin(), r.end());
+        return r[quantileIndex(r.size(), 0.9f)] / r[quantileIndex(r.size(), 0.1f)];
+    };
+    const PointSet scan = withRadii(sampleTerrainScan(10000, 0.5, 200.0, 8));
+    const NodeTree scanTree = NodeTree::create(scan, NodeSettings{}, false).value();
+    std::size_t total = 0;
+    for (const NodeId root : scanTree.roots()) {
+        const Node& node = scanTree.node(root);
+        total += node.points.size();
+        if (node.points.size() >= kRootSpreadPoints) {
+            EXPECT_LE(spreadOf(node), kRootSpread);
+        }
+    }
+    EXPECT_EQ(total, scan.size());
+    // By count alone: 16 roots of 625 points.
+    EXPECT_GT(scanTree.roots().size(), 16u);
+
+    const NodeTree sphereTree =
+        NodeTree::create(withRadii(sampleSphereRandom(10000, 1.0f, 8)), NodeSettings{}, false).value();
+    EXPECT_EQ(sphereTree.roots().size(), 16u);
 }
 
 TEST(NodeTree, RefiningEverywhereApproachesTheUniformLevels) {

@@ -125,15 +125,9 @@ TEST(Outliers, PointAboveAPlaneIsFoundByTheOffsetRule) {
 // terrain goes (none at seeds 1 to 40 either; the points of its outer rim, whose nearest all lie
 // inwards, have the largest d_i over their neighbours').
 TEST(Outliers, AScansFarFieldIsASparseSheetAndItsStraysAreFound) {
+    PointSet scan = sampleTerrainScan(20000, 0.5, 200.0, 2042);
     std::mt19937_64 rng(2042);
-    PointSet scan;
     const auto height = [](float x, float y) { return 0.5f * std::sin(0.3f * x) * std::cos(0.2f * y); };
-    for (int i = 0; i < 20000; ++i) {
-        const float range = std::exp(test::uniform(rng, std::log(0.5), std::log(200.0)));
-        const float angle = test::uniform(rng, 0.0, 2.0 * std::numbers::pi);
-        const float x = range * std::cos(angle), y = range * std::sin(angle);
-        scan.position.emplace_back(x, y, height(x, y));
-    }
     for (int i = 0; i < 20; ++i) {
         const float range = test::uniform(rng, 100.0, 190.0);
         const float angle = test::uniform(rng, 0.0, 2.0 * std::numbers::pi);

@@ -1247,18 +1247,7 @@ TEST(RefinerDeterminism, ColouredDefaultModelIdenticalFor1To8Threads) {
 // magnitude within a cell), 3 levels with every such point searched through the hierarchy, none,
 // and as by default.
 TEST(RefinerDeterminism, NearFieldSearchedThroughTheHierarchyGivesTheSameBits) {
-    std::mt19937_64 rng(31);
-    PointSet scan;
-    for (int i = 0; i < 6000; ++i) {
-        const double range = std::exp(test::uniform(rng, std::log(0.5), std::log(50.0)));
-        const double angle = test::uniform(rng, 0.0, 2.0 * kPi);
-        const double x = range * std::cos(angle), y = range * std::sin(angle);
-        const double gx = 0.15 * std::cos(0.3 * x) * std::cos(0.2 * y),
-                     gy = -0.1 * std::sin(0.3 * x) * std::sin(0.2 * y);
-        scan.position.emplace_back(x, y, 0.5 * std::sin(0.3 * x) * std::cos(0.2 * y));
-        scan.normal.push_back(glm::normalize(glm::vec3(glm::dvec3(-gx, -gy, 1.0))));
-    }
-    const PointSet input = withRadii(std::move(scan));
+    const PointSet input = withRadii(sampleTerrainScan(6000, 0.5, 50.0, 31));
     std::vector<PointSet> outputs;
     for (const float fineReach : {kFineReach, 0.0f, std::numeric_limits<float>::infinity()}) {
         RefineOptions o = options();

@@ -86,6 +86,16 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
     return parts;
 }
 
+// Whether the radii of `indices` spread more than kRootSpread (a root split further, node_tree.h).
+bool spreadsTooWide(std::span<const float> radius, std::span<const std::uint32_t> indices) {
+    if (radius.empty() || indices.size() < kRootSpreadPoints) return false;
+    std::vector<float> sorted(indices.size());
+    for (std::size_t j = 0; j < indices.size(); ++j) sorted[j] = radius[indices[j]];
+    std::sort(sorted.begin(), sorted.end());
+    return sorted[quantileIndex(sorted.size(), 0.9f)] >
+           kRootSpread * sorted[quantileIndex(sorted.size(), 0.1f)];
+}
+
 // The whole levels of NodeSettings::wholeLevelPoints: P(0) (in the refiner's order) to P(W), each
 // with the radii of its level, and the segments of P(W) into `segments`.
 std::vector<PointSet> refineWholeLevels(PointSet input, const NodeSettings& settings,
@@ -700,7 +710,8 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         segments = findSegments(input, settings.refine);
     }
 
-    // Roots: halves at the median along the longest axis until each holds at most maxNodePoints.
+    // Roots: halves at the median along the longest axis until each holds at most maxNodePoints
+    // and its radii spread at most kRootSpread.
     std::vector<SplitPart> pending{SplitPart{Region{}, std::vector<std::uint32_t>(input.size())}};
     std::iota(pending[0].indices.begin(), pending[0].indices.end(), 0u);
     std::vector<SplitPart> roots;
@@ -708,7 +719,7 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     while (!pending.empty()) {
         SplitPart part = std::move(pending.back());
         pending.pop_back();
-        if (part.indices.size() <= settings.maxNodePoints) {
+        if (part.indices.size() <= settings.maxNodePoints && !spreadsTooWide(input.radius, part.indices)) {
             roots.push_back(std::move(part));
             continue;
         }

@@ -317,6 +317,26 @@ PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H) {
     return set;
 }
 
+PointSet sampleTerrainScan(std::size_t n, double nearest, double farthest, std::uint64_t seed) {
+    assert(nearest > 0.0 && nearest < farthest);
+    std::mt19937_64 rng(seed);
+    PointSet set;
+    set.position.reserve(n);
+    set.normal.reserve(n);
+    const double logNearest = std::log(nearest), logSpan = std::log(farthest) - logNearest;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double range = std::exp(logNearest + logSpan * uniform01(rng));
+        const double angle = kTwoPi * uniform01(rng);
+        const double x = range * std::cos(angle), y = range * std::sin(angle);
+        // The gradient of the height: the normal is (-dz/dx, -dz/dy, 1), normalised.
+        const double dx = 0.15 * std::cos(0.3 * x) * std::cos(0.2 * y);
+        const double dy = -0.1 * std::sin(0.3 * x) * std::sin(0.2 * y);
+        append(set, DVec3(x, y, 0.5 * std::sin(0.3 * x) * std::cos(0.2 * y)),
+               glm::normalize(DVec3(-dx, -dy, 1.0)));
+    }
+    return set;
+}
+
 PointSet makeBumpySphere() {
     return sampleJittered(2000, 0x5EED2005u, [](DVec3 d, PointSet& set) {
         const SurfacePoint s = bumpySpherePoint(d);

@@ -606,6 +606,68 @@ TEST(NodeDetail, SplatsOfALatticeCoverTheirCells) {
     }
 }
 
+// With a region, the cells are cut to it as well (a root's shapes, NodeTree::create): the splats of
+// the points in a region cover it up to its faces whatever lies beyond. A square lattice of spacing h
+// whose region ends 0.99 h past its last column: measured among the whole lattice, the last
+// column's cells end at the bisector 0.5 h past it, their splats reach about kCellMargin · h / √2
+// (1.06 h) from their centre, and the slivers beyond, between the rows, in the region, are left to
+// the points across the face (which a root drawn beside nodes drawn deeper does not have: holes);
+// measured among the region's points with the region, it is covered, the last column's splats
+// reaching past the face by the margin only (open, their cells would reach the 6th nearest), and
+// the points whose cells do not reach the face keep their splats.
+TEST(NodeDetail, SplatsOfARegionCoverItUpToItsFaces) {
+    constexpr float h = 0.1f;
+    constexpr int n = 16;
+    PointSet plane;
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            plane.position.push_back({h * float(x), h * float(y), 0.0f});
+            plane.normal.push_back({0.0f, 0.0f, 1.0f});
+        }
+    plane.radius.assign(plane.size(), 1.0f); // beyond every neighbour
+    constexpr int inside = 8;                // the columns x < 8 lie in the region
+    Region region;
+    region.hi.x = h * (float(inside - 1) + 0.99f);
+    PointSet own;
+    std::vector<std::size_t> ownIndex;
+    for (std::size_t i = 0; i < plane.size(); ++i)
+        if (region.contains(plane.position[i])) {
+            own.appendFrom(plane, i);
+            ownIndex.push_back(i);
+        }
+    const NeighbourShape whole = neighbourShapeOf(plane);
+    const NeighbourShape cut = neighbourShapeOf(own, nullptr, &region);
+    // The uncovered samples of the region's inner rows, x from 2 h to its face.
+    const auto uncovered = [&](const std::vector<float>& radius) {
+        std::size_t count = 0;
+        for (float y = 3.0f * h; y <= 12.0f * h; y += 0.05f * h)
+            for (float x = 2.0f * h; x < region.hi.x; x += 0.05f * h) {
+                bool covered = false;
+                for (std::size_t k = 0; k < own.size() && !covered; ++k)
+                    covered = glm::distance(glm::vec3(x, y, 0.0f), own.position[k]) <= radius[k];
+                count += covered ? 0 : 1;
+            }
+        return count;
+    };
+    std::vector<float> wholeOfOwn;
+    for (const std::size_t i : ownIndex) wholeOfOwn.push_back(whole.splatRadius[i]);
+    EXPECT_GT(uncovered(wholeOfOwn), 0u) << "the lattice shows nothing: its splats reach the face";
+    EXPECT_EQ(uncovered(cut.splatRadius), 0u);
+    // Among the region's points alone, the last column's cells would be open, their splats the
+    // distance to their 6th nearest (2 h); cut to the face, kCellMargin times √(0.99² + 0.5²) h.
+    const NeighbourShape open = neighbourShapeOf(own);
+    for (std::size_t k = 0; k < own.size(); ++k) {
+        const glm::vec3 p = own.position[k];
+        if (p.y < 2.0f * h || p.y > 13.0f * h) continue;
+        if (p.x > 6.5f * h) {
+            EXPECT_NEAR(cut.splatRadius[k], kCellMargin * std::hypot(0.99f, 0.5f) * h, 1e-4f * h);
+            EXPECT_NEAR(open.splatRadius[k], 2.0f * h, 1e-4f * h);
+        } else if (p.x >= 2.0f * h && p.x <= 5.0f * h) {
+            EXPECT_FLOAT_EQ(cut.splatRadius[k], wholeOfOwn[k]) << "an inner point at " << p.x << ", " << p.y;
+        }
+    }
+}
+
 // Neighbours within about 2e-7 times the 6th nearest's distance of a point can cut its cell to
 // nothing in float (its true cell holds it strictly; these do, found by a random search): its splat
 // keeps the distance to the 6th nearest, and no later cut reads a corner of the empty cell (a read

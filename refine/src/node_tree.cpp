@@ -546,12 +546,15 @@ class NearestGrid {
 // least `limit`. The cell of a few neighbours holds the cell of all the points, so the radius is at least the
 // true one. The cell starts as the square and is cut by the bisector of each neighbour (Sutherland-Hodgman on
 // a convex polygon). Where rounding would leave no corner (neighbours within about 2e-7 times `limit` of the
-// point) or more corners than a convex cut can, it gives `limit`.
-float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float limit) {
+// point) or more corners than a convex cut can, it gives `limit`. With `region` (which holds the
+// point), the cell is cut by the region's faces too: the part of the plane nearer to the point than
+// to those neighbours and within the region.
+float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float limit, glm::vec3 point = {},
+                 const Region* region = nullptr) {
     const TangentFrame frame(normal);
-    // Each of at most kBendNeighbours cuts adds at most one corner to the square's 4; one more for
-    // a corner that rounding puts on both sides of a bisector.
-    constexpr std::size_t kCorners = 4 + kBendNeighbours + 2;
+    // Each of at most kBendNeighbours cuts, and of a region's 6 faces, adds at most one corner to
+    // the square's 4; one more for a corner that rounding puts on both sides of a bisector.
+    constexpr std::size_t kCorners = 4 + kBendNeighbours + 6 + 2;
     std::array<std::array<glm::vec2, kCorners>, 2> buffers;
     glm::vec2* corners = buffers[0].data();
     glm::vec2* cut = buffers[1].data();
@@ -560,9 +563,20 @@ float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float lim
     corners[2] = {limit, limit};
     corners[3] = {-limit, limit};
     std::size_t count = 4;
+    const std::size_t cornerLimit = region == nullptr ? kCorners - 6 : kCorners;
+    // The cuts x · q <= half: each neighbour's bisector, then the region's faces.
+    std::array<std::pair<glm::vec2, float>, kBendNeighbours + 6> cuts;
+    std::size_t cutCount = 0;
     for (const glm::vec3& offset : offsets) {
         const glm::vec2 q(glm::dot(offset, frame.u), glm::dot(offset, frame.v));
-        const float half = 0.5f * glm::dot(q, q); // the bisector: x · q = |q|² / 2
+        cuts[cutCount++] = {q, 0.5f * glm::dot(q, q)}; // the bisector: x · q = |q|² / 2
+    }
+    for (int a = 0; region != nullptr && a < 3; ++a) {
+        const glm::vec2 q(frame.u[a], frame.v[a]); // the face's normal in the plane
+        if (std::isfinite(region->hi[a])) cuts[cutCount++] = {q, region->hi[a] - point[a]};
+        if (std::isfinite(region->lo[a])) cuts[cutCount++] = {-q, point[a] - region->lo[a]};
+    }
+    for (const auto& [q, half] : std::span(cuts).first(cutCount)) {
         if (!(half > 0.0f)) continue;
         float reach = glm::dot(corners[0], q);
         for (std::size_t c = 1; c < count; ++c) reach = std::max(reach, glm::dot(corners[c], q));
@@ -573,7 +587,7 @@ float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float lim
         for (std::size_t c = 0; c < count; ++c) {
             const glm::vec2 to = corners[c];
             const float toSide = glm::dot(to, q) - half;
-            if (kept + 2 > kCorners) return limit; // only where rounding breaks convexity
+            if (kept + 2 > cornerLimit) return limit; // only where rounding breaks convexity
             if ((fromSide < 0.0f && toSide > 0.0f) || (fromSide > 0.0f && toSide < 0.0f))
                 cut[kept++] = from + (fromSide / (fromSide - toSide)) * (to - from);
             if (toSide <= 0.0f) cut[kept++] = to;
@@ -610,7 +624,7 @@ void NeighbourShape::appendFrom(const NeighbourShape& from, std::size_t i) {
     splatRadius.push_back(from.splatRadius[i]);
 }
 
-NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool) {
+NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool, const Region* region) {
     NeighbourShape shape;
     shape.bend.assign(points.size(), 0.0f);
     shape.splatRadius.assign(points.radius.begin(), points.radius.end()); // none without radii
@@ -627,7 +641,7 @@ NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool) {
         if (!(farthest > 0.0f)) return;
         std::array<glm::vec3, kBendNeighbours + 1> offsets;
         for (std::size_t k = 0; k < found; ++k) offsets[k] = points.position[nearest[k]] - p;
-        const float cell = cellRadius(points.normal[i], std::span(offsets).first(found), farthest);
+        const float cell = cellRadius(points.normal[i], std::span(offsets).first(found), farthest, p, region);
         shape.splatRadius[i] = std::min({shape.splatRadius[i], farthest, kCellMargin * cell});
     };
     const std::size_t columns = grid.columns();
@@ -744,23 +758,39 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     }
     // A tree only drawn measures nothing and refines no whole level (below): a pool of one, no thread.
     WorkerPool pool(forRefinement ? settings.refine.threads : 1u);
-    NeighbourShape shape;
+    // With whole levels, the segments go to the last one's nodes.
+    const std::span<const SegmentEnds> rootSegments =
+        whole.size() <= 1 ? std::span<const SegmentEnds>(segments) : std::span<const SegmentEnds>();
+    std::vector<NodeChild> parts(roots.size());
     if (forRefinement) {
-        shape = neighbourShapeOf(input, &pool);
+        // Each root's splats are measured among its own points, their cells cut to its region: a
+        // root drawn beside nodes drawn levels deeper covers its region up to its faces (a choice,
+        // docs/REALTIME.md, "Roots of one density": measured among all of P0, its cells stopped
+        // short of its faces where P0's points beyond them were nearer, and those points' nodes,
+        // drawn finer, do not reach that far).
+        pool.parallelFor(roots.size(), [&](std::size_t r, unsigned) {
+            PointSet own;
+            own.reserve(roots[r].indices.size());
+            for (const std::uint32_t i : roots[r].indices) own.appendFrom(input, i);
+            const NeighbourShape ownShape = neighbourShapeOf(own, nullptr, &roots[r].region);
+            SplitPart all{roots[r].region, std::vector<std::uint32_t>(own.size())};
+            std::iota(all.indices.begin(), all.indices.end(), 0u);
+            parts[r] = partOf(own, ownShape, {}, all, rootSegments);
+        });
     } else {
         // A tree only drawn draws the radii it was given, and no node of it is refined or drawn
         // through children, the only decisions that read the bends: nothing to measure (its
         // points' nearest and cells took about 1 us a point).
+        NeighbourShape shape;
         shape.bend.assign(input.size(), 0.0f);
         shape.splatRadius.assign(input.radius.begin(), input.radius.end());
+        for (std::size_t r = 0; r < roots.size(); ++r)
+            parts[r] = partOf(input, shape, {}, roots[r], rootSegments);
     }
     std::vector<NodeId> level; // the nodes of the level being built, in tree order
-    for (SplitPart& part : roots) {
+    for (NodeChild& part : parts) {
         const NodeId id = tree.allocate();
-        // With whole levels, the segments go to the last one's nodes.
-        tree.place(id, partOf(input, shape, {}, part,
-                              whole.size() <= 1 ? std::span<const SegmentEnds>(segments)
-                                                : std::span<const SegmentEnds>()));
+        tree.place(id, std::move(part));
         tree.roots_.push_back(id);
         level.push_back(id);
     }

@@ -80,8 +80,11 @@ struct NeighbourShape {
     void reserve(std::size_t count);
     void appendFrom(const NeighbourShape& from, std::size_t i); // point i of `from`
 };
-// With a pool, on its workers (the same bits as without).
-NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool = nullptr);
+// With a pool, on its workers (the same bits as without). With a region that holds the points,
+// their cells are cut to it too: the splats cover the region up to its faces, whatever covers the
+// space beyond (a root's shapes, NodeTree::create).
+NeighbourShape neighbourShapeOf(const PointSet& points, WorkerPool* pool = nullptr,
+                                const Region* region = nullptr);
 // The cone of `normals` (unit): axis their normalised sum, half-angle the largest angle to it (π
 // when the sum is too short to be an axis).
 void normalConeOf(std::span<const glm::vec3> normals, glm::vec3& axis, float& angle);
@@ -130,8 +133,9 @@ struct Node {
     std::uint32_t childCount = 0; // 0: a leaf (not refined, or its children released)
     std::uint32_t generation = 0; // counts the uses of this slot: jobs check it
     PointSet points;              // its points (normals, radii, colours, creases as P0's)
-    // Per point, neighbourShapeOf over its level's points of its parent's region (a root: of the
-    // input; a node of the whole levels: of its whole level); a tree only drawn draws points.radius.
+    // Per point, neighbourShapeOf over its level's points of its parent's region (a root: over its
+    // own points, cut to its region; a node of the whole levels: of its whole level); a tree only
+    // drawn draws points.radius.
     // Selection measures shape.splatRadius, and the cache's splats are drawn with it.
     NeighbourShape shape;
     std::vector<SegmentEnds> segments; // boundary and crease segments whose first point is its own

@@ -75,7 +75,8 @@ EngineSettings adaptive(std::uint32_t width, std::uint32_t height,
 
 class EngineTest : public test::GpuTest {
   protected:
-    // `psnr`: the settled picture's against the offline one (0 under the sanitizers).
+    // `psnr`: the settled picture's against the offline one (0 under the sanitizers); an out
+    // parameter, since ASSERT_* returns from a function that returns nothing.
     void expectNoHoleTheOfflineRefinementLacks(const PointSet& input, std::uint32_t width,
                                                std::uint32_t height, bool fillPinholes,
                                                const std::string& name, double& psnr);

@@ -24,6 +24,7 @@
 #include "pnsplat/refine/shapes/shapes.h"
 #include "pnsplat/refine/worker_pool.h"
 #include "test_data.h"
+#include "test_random.h"
 
 namespace pnsplat {
 namespace {
@@ -179,7 +180,8 @@ TEST(NodeTree, RootsPartitionTheInput) {
 // square of the range, and roots cut by count alone ran from its near field to its far field (the
 // 90th percentile of their radii up to 13 times the 10th at 10,000 points). Its roots are split
 // until their radii spread at most kRootSpread, or they hold fewer than kRootSpreadPoints; a
-// uniform random sphere's spread less (about 2.3) and are split by count alone.
+// uniform random sphere's spread less (about 2.3) and are split by count alone, as is a tree only
+// drawn.
 TEST(NodeTree, RootsHoldOneDensityEach) {
     const auto spreadOf = [](const Node& node) {
         std::vector<float> r(node.points.radius.begin(), node.points.radius.end());
@@ -187,7 +189,7 @@ TEST(NodeTree, RootsHoldOneDensityEach) {
         return r[quantileIndex(r.size(), 0.9f)] / r[quantileIndex(r.size(), 0.1f)];
     };
     const PointSet scan = withRadii(sampleTerrainScan(10000, 0.5, 200.0, 8));
-    const NodeTree scanTree = NodeTree::create(scan, NodeSettings{}, false).value();
+    const NodeTree scanTree = NodeTree::create(scan, NodeSettings{}).value();
     std::size_t total = 0;
     for (const NodeId root : scanTree.roots()) {
         const Node& node = scanTree.node(root);
@@ -201,8 +203,43 @@ TEST(NodeTree, RootsHoldOneDensityEach) {
     EXPECT_GT(scanTree.roots().size(), 16u);
 
     const NodeTree sphereTree =
-        NodeTree::create(withRadii(sampleSphereRandom(10000, 1.0f, 8)), NodeSettings{}, false).value();
+        NodeTree::create(withRadii(sampleSphereRandom(10000, 1.0f, 8)), NodeSettings{}).value();
     EXPECT_EQ(sphereTree.roots().size(), 16u);
+    // A tree only drawn decides no level of detail: cut by count alone.
+    EXPECT_EQ(NodeTree::create(scan, NodeSettings{}, false).value().roots().size(), 16u);
+}
+
+// A part whose median along its longest axis is its smallest coordinate there (more than half of
+// its points on one plane) is cut just above that coordinate: it used to be left whole and cut
+// into roots of consecutive points sharing one region, and the whole levels' points of that region
+// all went to the first of them, the others' children taking the whole level (an empty subset).
+TEST(NodeTree, RootsSplitWhereMostPointsShareACoordinate) {
+    std::mt19937_64 rng(12);
+    PointSet input;
+    for (int i = 0; i < 600; ++i) { // the plane x = 0
+        input.position.emplace_back(0.0f, test::uniform(rng, 0.0, 1.0), test::uniform(rng, 0.0, 1.0));
+        input.normal.emplace_back(1.0f, 0.0f, 0.0f);
+    }
+    for (int i = 0; i < 500; ++i) { // the plane z = 0, beside it
+        input.position.emplace_back(test::uniform(rng, 0.05, 1.0), test::uniform(rng, 0.0, 1.0), 0.0f);
+        input.normal.emplace_back(0.0f, 0.0f, 1.0f);
+    }
+    input = withRadii(std::move(input));
+    NodeSettings settings = smallNodes();
+    Refiner offline(input, RefineOptions{});
+    offline.refineLevel();
+    settings.wholeLevelPoints =
+        static_cast<std::size_t>(double(input.size()) * kLevelGrowth); // level 1, not 2
+    const NodeTree tree = NodeTree::create(input, settings).value();
+    ASSERT_EQ(tree.wholeLevels(), 1u);
+    for (const NodeId a : tree.roots())
+        for (const NodeId b : tree.roots())
+            if (a < b) {
+                EXPECT_FALSE(tree.node(a).region.lo == tree.node(b).region.lo &&
+                             tree.node(a).region.hi == tree.node(b).region.hi)
+                    << "roots " << a << " and " << b << " share a region";
+            }
+    EXPECT_EQ(pointsOfLevel(tree, 1).size(), offline.points().size()); // each point once
 }
 
 TEST(NodeTree, RefiningEverywhereApproachesTheUniformLevels) {

@@ -126,6 +126,7 @@ TEST(Outliers, PointAboveAPlaneIsFoundByTheOffsetRule) {
 // inwards, have the largest d_i over their neighbours').
 TEST(Outliers, AScansFarFieldIsASparseSheetAndItsStraysAreFound) {
     PointSet scan = sampleTerrainScan(20000, 0.5, 200.0, 2042);
+    scan.normal.clear(); // positions only, as a raw scan, and the strays below have none
     std::mt19937_64 rng(2042);
     const auto height = [](float x, float y) { return 0.5f * std::sin(0.3f * x) * std::cos(0.2f * y); };
     for (int i = 0; i < 20; ++i) {

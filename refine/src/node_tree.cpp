@@ -59,7 +59,9 @@ std::array<int, 3> axesByExtent(const Box& box) {
 // `indices` cut into at most k parts of about equal counts along `axis`, each part the points whose
 // coordinate lies between two cuts. A cut is the coordinate of the point at a count quantile, and
 // points on a cut go to the part above it, so equal coordinates never straddle two parts; cuts that
-// would leave a part empty are dropped.
+// would leave a part empty are dropped. Where that drops them all (more than a part's share of the
+// points at the smallest coordinate), the cut is the first coordinate above it: one part is left
+// only where every point has the same coordinate.
 std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<const std::uint32_t> indices,
                                   int axis, std::uint32_t k, const Region& region) {
     std::vector<float> sorted(indices.size());
@@ -71,6 +73,8 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
         const float cut = sorted[q * sorted.size() / k];
         if (cut > below) cuts.push_back(below = cut);
     }
+    if (cuts.empty() && !sorted.empty() && sorted.back() > sorted.front())
+        cuts.push_back(*std::upper_bound(sorted.begin(), sorted.end(), sorted.front()));
     std::vector<SplitPart> parts(cuts.size() + 1);
     for (std::size_t q = 0; q < parts.size(); ++q) {
         parts[q].region = region;
@@ -86,7 +90,8 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
     return parts;
 }
 
-// Whether the radii of `indices` spread more than kRootSpread (a root split further, node_tree.h).
+// Whether the radii of `indices` spread more than kRootSpread (a root split further, node_tree.h;
+// radii for refinement: positive and finite).
 bool spreadsTooWide(std::span<const float> radius, std::span<const std::uint32_t> indices) {
     if (radius.empty() || indices.size() < kRootSpreadPoints) return false;
     std::vector<float> sorted(indices.size());
@@ -725,7 +730,8 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     }
 
     // Roots: halves at the median along the longest axis until each holds at most maxNodePoints
-    // and its radii spread at most kRootSpread.
+    // and, for refinement, its radii spread at most kRootSpread (a tree only drawn decides no level
+    // of detail; its radii may be 0).
     std::vector<SplitPart> pending{SplitPart{Region{}, std::vector<std::uint32_t>(input.size())}};
     std::iota(pending[0].indices.begin(), pending[0].indices.end(), 0u);
     std::vector<SplitPart> roots;
@@ -733,7 +739,8 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
     while (!pending.empty()) {
         SplitPart part = std::move(pending.back());
         pending.pop_back();
-        if (part.indices.size() <= settings.maxNodePoints && !spreadsTooWide(input.radius, part.indices)) {
+        if (part.indices.size() <= settings.maxNodePoints &&
+            !(forRefinement && spreadsTooWide(input.radius, part.indices))) {
             roots.push_back(std::move(part));
             continue;
         }

@@ -174,20 +174,22 @@ struct NodeJobResult {
 // to the rim of its far field, its median splat the near field's: its far end was drawn levels
 // coarser than the nodes beside it, its splats stood out of the rim in lumps, and holes opened
 // along its border. The sparse inputs of ../shared/data spread by at most 3.5 within a root (the
-// nefertiti; 2.3-2.7 for most), and are not split further; a terrain of 10,000 points seen from its
-// centre spread by up to 13. Each split halves the range of densities a root holds, and the nodes
-// below a root inherit its spread. Below 32 points the percentiles tell little.
+// nefertiti; 1.4 to 2.4 for the others) and are not split further; a terrain of 10,000 points seen
+// from its centre spread by up to 13. Each split narrows the range of densities a root holds (cut
+// at the median count, near the middle of the ranges on a log scale for such a scan), and the
+// nodes below a root inherit its spread. Below 32 points the percentiles tell little.
 inline constexpr float kRootSpread = 4.0f;
 inline constexpr std::size_t kRootSpreadPoints = 32;
 
 class NodeTree {
   public:
     // The roots over `input`: split at medians along the longest axis until each holds at most
-    // settings.maxNodePoints and its radii spread at most kRootSpread. For refinement the input must pass
-    // validateForRefinement (else its error), the whole levels of settings.wholeLevelPoints are refined and
-    // split under the roots, and the segments of the leaves' level are found (findSegments on P0, or the
-    // whole levels' own; settings.refine.threads workers); otherwise (a tree only drawn) it needs normals and
-    // radii, and may be empty (no roots).
+    // settings.maxNodePoints and, for refinement, its radii spread at most kRootSpread. For
+    // refinement the input must pass validateForRefinement (else its error), the whole levels of
+    // settings.wholeLevelPoints are refined and split under the roots, and the segments of the
+    // leaves' level are found (findSegments on P0, or the whole levels' own;
+    // settings.refine.threads workers); otherwise (a tree only drawn) it needs normals and radii,
+    // and may be empty (no roots).
     static Result<NodeTree> create(PointSet input, const NodeSettings& settings, bool forRefinement = true);
 
     const NodeSettings& settings() const { return settings_; }

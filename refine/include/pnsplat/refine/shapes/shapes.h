@@ -55,8 +55,8 @@ PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H);
 
 // A terrestrial scan of a gently rolling terrain, z = 0.5 sin(0.3 x) cos(0.2 y), seen from above
 // its centre: n points at ranges log-uniform from `nearest` to `farthest` about the z axis and at
-// uniform angles, so that the density falls with the square of the range (a near field thousands
-// of times as dense as the far field), with exact upward normals. Precondition:
+// uniform angles, so that the density falls with the square of the range (a near field a hundred
+// thousand times as dense as the far field), with exact upward normals. Precondition:
 // 0 < nearest < farthest.
 PointSet sampleTerrainScan(std::size_t n, double nearest, double farthest, std::uint64_t seed);
 

@@ -704,34 +704,12 @@ std::vector<SplitPart> splitNode(std::span<const glm::vec3> points, const Region
     return parts;
 }
 
-Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, bool forRefinement) {
-    if (settings.maxNodePoints < 16)
-        return Error{"nodes must hold at least 16 points (got " + std::to_string(settings.maxNodePoints) +
-                     ")"};
-    if (forRefinement) {
-        if (auto valid = validateForRefinement(input); !valid) return valid.error();
-    } else if (input.normal.size() != input.size() || input.radius.size() != input.size()) {
-        return Error{"the point set lacks normals or radii"};
-    }
-    const auto start = std::chrono::steady_clock::now();
-    NodeTree tree;
-    tree.settings_ = settings;
-    tree.inputPoints_ = input.size();
-    // Whole levels first (P(0) to P(W) as the offline refinement builds them, and the segments of
-    // P(W)), or the segments of P0.
-    std::vector<PointSet> whole;
-    std::vector<SegmentEnds> segments;
-    if (forRefinement && double(input.size()) * kLevelGrowth <= double(settings.wholeLevelPoints)) {
-        whole = refineWholeLevels(std::move(input), settings, segments);
-        tree.wholeLevels_ = static_cast<std::uint32_t>(whole.size() - 1);
-        input = std::move(whole.front());
-    } else if (forRefinement) {
-        segments = findSegments(input, settings.refine);
-    }
+namespace {
 
-    // Roots: halves at the median along the longest axis until each holds at most maxNodePoints
-    // and, for refinement, its radii spread at most kRootSpread (a tree only drawn decides no level
-    // of detail; its radii may be 0).
+// The roots over `input`: halves at the median along the longest axis until each holds at most
+// maxNodePoints and, for refinement, its radii spread at most kRootSpread (a tree only drawn
+// decides no level of detail; its radii may be 0). In space order.
+std::vector<SplitPart> cutRoots(const PointSet& input, const NodeSettings& settings, bool forRefinement) {
     std::vector<SplitPart> pending{SplitPart{Region{}, std::vector<std::uint32_t>(input.size())}};
     std::iota(pending[0].indices.begin(), pending[0].indices.end(), 0u);
     std::vector<SplitPart> roots;
@@ -763,28 +741,15 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         pending.push_back(std::move(halves[1]));
         pending.push_back(std::move(halves[0]));
     }
-    // A tree only drawn measures nothing and refines no whole level (below): a pool of one, no thread.
-    WorkerPool pool(forRefinement ? settings.refine.threads : 1u);
-    // With whole levels, the segments go to the last one's nodes.
-    const std::span<const SegmentEnds> rootSegments =
-        whole.size() <= 1 ? std::span<const SegmentEnds>(segments) : std::span<const SegmentEnds>();
+    return roots;
+}
+
+// The roots' points and shapes, with the `segments` whose first point each holds.
+std::vector<NodeChild> rootParts(const PointSet& input, std::span<const SplitPart> roots,
+                                 std::span<const SegmentEnds> segments, bool forRefinement,
+                                 WorkerPool& pool) {
     std::vector<NodeChild> parts(roots.size());
-    if (forRefinement) {
-        // Each root's splats are measured among its own points, their cells cut to its region: a
-        // root drawn beside nodes drawn levels deeper covers its region up to its faces (a choice,
-        // docs/REALTIME.md, "Roots of one density": measured among all of P0, its cells stopped
-        // short of its faces where P0's points beyond them were nearer, and those points' nodes,
-        // drawn finer, do not reach that far).
-        pool.parallelFor(roots.size(), [&](std::size_t r, unsigned) {
-            PointSet own;
-            own.reserve(roots[r].indices.size());
-            for (const std::uint32_t i : roots[r].indices) own.appendFrom(input, i);
-            const NeighbourShape ownShape = neighbourShapeOf(own, nullptr, &roots[r].region);
-            SplitPart all{roots[r].region, std::vector<std::uint32_t>(own.size())};
-            std::iota(all.indices.begin(), all.indices.end(), 0u);
-            parts[r] = partOf(own, ownShape, {}, all, rootSegments);
-        });
-    } else {
+    if (!forRefinement) {
         // A tree only drawn draws the radii it was given, and no node of it is refined or drawn
         // through children, the only decisions that read the bends: nothing to measure (its
         // points' nearest and cells took about 1 us a point).
@@ -792,8 +757,61 @@ Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, 
         shape.bend.assign(input.size(), 0.0f);
         shape.splatRadius.assign(input.radius.begin(), input.radius.end());
         for (std::size_t r = 0; r < roots.size(); ++r)
-            parts[r] = partOf(input, shape, {}, roots[r], rootSegments);
+            parts[r] = partOf(input, shape, {}, roots[r], segments);
+        return parts;
     }
+    // Each root's splats are measured among its own points, their cells cut to its region: a root
+    // drawn beside nodes drawn levels deeper covers its region up to its faces (a choice,
+    // docs/REALTIME.md, "Roots of one density": measured among all of P0, its cells stopped short of
+    // its faces where P0's points beyond them were nearer, and those points' nodes, drawn finer, do
+    // not reach that far).
+    pool.parallelFor(roots.size(), [&](std::size_t r, unsigned) {
+        PointSet own;
+        own.reserve(roots[r].indices.size());
+        for (const std::uint32_t i : roots[r].indices) own.appendFrom(input, i);
+        const NeighbourShape ownShape = neighbourShapeOf(own, nullptr, &roots[r].region);
+        SplitPart all{roots[r].region, std::vector<std::uint32_t>(own.size())};
+        std::iota(all.indices.begin(), all.indices.end(), 0u);
+        parts[r] = partOf(own, ownShape, {}, all, segments);
+    });
+    return parts;
+}
+
+} // namespace
+
+Result<NodeTree> NodeTree::create(PointSet input, const NodeSettings& settings, bool forRefinement) {
+    if (settings.maxNodePoints < 16)
+        return Error{"nodes must hold at least 16 points (got " + std::to_string(settings.maxNodePoints) +
+                     ")"};
+    if (forRefinement) {
+        if (auto valid = validateForRefinement(input); !valid) return valid.error();
+    } else if (input.normal.size() != input.size() || input.radius.size() != input.size()) {
+        return Error{"the point set lacks normals or radii"};
+    }
+    const auto start = std::chrono::steady_clock::now();
+    NodeTree tree;
+    tree.settings_ = settings;
+    tree.inputPoints_ = input.size();
+    // Whole levels first (P(0) to P(W) as the offline refinement builds them, and the segments of
+    // P(W)), or the segments of P0.
+    std::vector<PointSet> whole;
+    std::vector<SegmentEnds> segments;
+    if (forRefinement && double(input.size()) * kLevelGrowth <= double(settings.wholeLevelPoints)) {
+        whole = refineWholeLevels(std::move(input), settings, segments);
+        tree.wholeLevels_ = static_cast<std::uint32_t>(whole.size() - 1);
+        input = std::move(whole.front());
+    } else if (forRefinement) {
+        segments = findSegments(input, settings.refine);
+    }
+
+    const std::vector<SplitPart> roots = cutRoots(input, settings, forRefinement);
+    // A tree only drawn measures nothing and refines no whole level (below): a pool of one, no thread.
+    WorkerPool pool(forRefinement ? settings.refine.threads : 1u);
+    // With whole levels, the segments go to the last one's nodes.
+    std::vector<NodeChild> parts =
+        rootParts(input, roots,
+                  whole.size() <= 1 ? std::span<const SegmentEnds>(segments) : std::span<const SegmentEnds>(),
+                  forRefinement, pool);
     std::vector<NodeId> level; // the nodes of the level being built, in tree order
     for (NodeChild& part : parts) {
         const NodeId id = tree.allocate();

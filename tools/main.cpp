@@ -1,5 +1,6 @@
 // pnsplat: refine, render, compare, evaluate and benchmark oriented point sets (see README.md).
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <exception>
 #include <numeric>
@@ -40,28 +41,36 @@ std::string nearestName(std::string_view word, const std::vector<std::string>& n
     return *nearest;
 }
 
-// The long options words[from...] name at `level` (or above it, as --help) must be options there: an
-// unknown one near an option's name is reported with it ("did you mean '--levels'?"), where CLI11
-// alone would say "The following arguments were not expected: 3 --levle". Values never start with
-// "--"; "--" alone ends the options.
+// The options words[from...] name at `level` (or above it, as --help) must be options there: an
+// unknown long one near an option's name is reported with it ("did you mean '--levels'?"), any other
+// unknown one by its name alone, where CLI11 would say "The following arguments were not expected:
+// 3 --levle" (or "x.json -o"). Values never start with "--", nor with "-" and a letter (negative
+// numbers start with a digit or a point); "--" alone ends the options.
 void checkOptionWords(const CLI::App& level, int from, int argc, char** argv) {
-    std::vector<std::string> names;
+    std::vector<std::string> names, shortNames;
     for (const CLI::App* at = &level; at != nullptr; at = at->get_parent())
-        for (const CLI::Option* option : at->get_options())
+        for (const CLI::Option* option : at->get_options()) {
             for (const std::string& name : option->get_lnames()) names.push_back("--" + name);
+            for (const std::string& name : option->get_snames()) shortNames.push_back("-" + name);
+        }
     for (int i = from; i < argc; ++i) {
         const std::string_view word = argv[i];
         if (word == "--") return;
-        if (!word.starts_with("--")) continue;
-        const std::string_view name = word.substr(0, word.find('='));
-        if (std::ranges::find(names, name) != names.end()) continue;
-        const std::string nearest = nearestName(name, names);
-        if (nearest.empty()) continue;
+        const bool isLong = word.starts_with("--");
+        if (!isLong &&
+            !(word.size() >= 2 && word[0] == '-' && std::isalpha(static_cast<unsigned char>(word[1]))))
+            continue;
+        // A short option's value may follow it in the same word ("-l3").
+        const std::string_view name = isLong ? word.substr(0, word.find('=')) : word.substr(0, 2);
+        if (std::ranges::find(isLong ? names : shortNames, name) != (isLong ? names : shortNames).end())
+            continue;
         std::string command;
         for (const CLI::App* at = &level; at->get_parent() != nullptr; at = at->get_parent())
             command = " " + at->get_name() + command;
+        const std::string nearest = isLong ? nearestName(name, names) : std::string();
         throw CLI::ValidationError(
-            fmt::format("'{}' is not an option of pnsplat{}; did you mean '{}'?", name, command, nearest));
+            fmt::format("'{}' is not an option of pnsplat{}{}", name, command,
+                        nearest.empty() ? "" : fmt::format("; did you mean '{}'?", nearest)));
     }
 }
 

@@ -62,8 +62,8 @@ void checkOptionWords(const CLI::App& level, int from, int argc, char** argv) {
             continue;
         // A short option's value may follow it in the same word ("-l3").
         const std::string_view name = isLong ? word.substr(0, word.find('=')) : word.substr(0, 2);
-        if (std::ranges::find(isLong ? names : shortNames, name) != (isLong ? names : shortNames).end())
-            continue;
+        const std::vector<std::string>& known = isLong ? names : shortNames;
+        if (std::ranges::find(known, name) != known.end()) continue;
         std::string command;
         for (const CLI::App* at = &level; at->get_parent() != nullptr; at = at->get_parent())
             command = " " + at->get_name() + command;

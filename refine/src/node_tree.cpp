@@ -116,6 +116,14 @@ std::vector<PointSet> refineWholeLevels(PointSet input, const NodeSettings& sett
     return whole;
 }
 
+// The `segments` whose first point `region` holds (a node's, ALGORITHM.md §8.2).
+std::vector<SegmentEnds> segmentsIn(const Region& region, std::span<const SegmentEnds> segments) {
+    std::vector<SegmentEnds> in;
+    for (const SegmentEnds& segment : segments)
+        if (region.contains(segment.a)) in.push_back(segment);
+    return in;
+}
+
 // A part of a split: the points `part.indices` of `points` (indices into `subset` when it is not
 // empty) with their shape, and the `segments` whose first point its region holds.
 NodeChild partOf(const PointSet& points, const NeighbourShape& shape, std::span<const std::uint32_t> subset,
@@ -129,8 +137,7 @@ NodeChild partOf(const PointSet& points, const NeighbourShape& shape, std::span<
         child.points.appendFrom(points, i);
         child.shape.appendFrom(shape, i);
     }
-    for (const SegmentEnds& segment : segments)
-        if (part.region.contains(segment.a)) child.segments.push_back(segment);
+    child.segments = segmentsIn(part.region, segments);
     return child;
 }
 
@@ -568,40 +575,40 @@ float cellRadius(glm::vec3 normal, std::span<const glm::vec3> offsets, float lim
     corners[2] = {limit, limit};
     corners[3] = {-limit, limit};
     std::size_t count = 4;
+    // Without a region, the bound of the bisectors alone (as before regions: the same results).
     const std::size_t cornerLimit = region == nullptr ? kCorners - 6 : kCorners;
-    // The cuts x · q <= half: each neighbour's bisector, then the region's faces.
-    std::array<std::pair<glm::vec2, float>, kBendNeighbours + 6> cuts;
-    std::size_t cutCount = 0;
-    for (const glm::vec3& offset : offsets) {
-        const glm::vec2 q(glm::dot(offset, frame.u), glm::dot(offset, frame.v));
-        cuts[cutCount++] = {q, 0.5f * glm::dot(q, q)}; // the bisector: x · q = |q|² / 2
-    }
-    for (int a = 0; region != nullptr && a < 3; ++a) {
-        const glm::vec2 q(frame.u[a], frame.v[a]); // the face's normal in the plane
-        if (std::isfinite(region->hi[a])) cuts[cutCount++] = {q, region->hi[a] - point[a]};
-        if (std::isfinite(region->lo[a])) cuts[cutCount++] = {-q, point[a] - region->lo[a]};
-    }
-    for (const auto& [q, half] : std::span(cuts).first(cutCount)) {
-        if (!(half > 0.0f)) continue;
+    // Cuts the cell to x · q <= half; false where rounding breaks it (the radius is then `limit`).
+    const auto cutTo = [&](glm::vec2 q, float half) {
+        if (!(half > 0.0f)) return true;
         float reach = glm::dot(corners[0], q);
         for (std::size_t c = 1; c < count; ++c) reach = std::max(reach, glm::dot(corners[c], q));
-        if (reach <= half) continue; // the bisector misses the cell (most of the farther neighbours)
+        if (reach <= half) return true; // the cut misses the cell (most of the farther neighbours)
         std::size_t kept = 0;
         glm::vec2 from = corners[count - 1];
         float fromSide = glm::dot(from, q) - half;
         for (std::size_t c = 0; c < count; ++c) {
             const glm::vec2 to = corners[c];
             const float toSide = glm::dot(to, q) - half;
-            if (kept + 2 > cornerLimit) return limit; // only where rounding breaks convexity
+            if (kept + 2 > cornerLimit) return false; // only where rounding breaks convexity
             if ((fromSide < 0.0f && toSide > 0.0f) || (fromSide > 0.0f && toSide < 0.0f))
                 cut[kept++] = from + (fromSide / (fromSide - toSide)) * (to - from);
             if (toSide <= 0.0f) cut[kept++] = to;
             from = to;
             fromSide = toSide;
         }
-        if (kept == 0) return limit; // the point lies inside its cell: only rounding empties it
+        if (kept == 0) return false; // the point lies inside its cell: only rounding empties it
         count = kept;
         std::swap(corners, cut);
+        return true;
+    };
+    for (const glm::vec3& offset : offsets) {
+        const glm::vec2 q(glm::dot(offset, frame.u), glm::dot(offset, frame.v));
+        if (!cutTo(q, 0.5f * glm::dot(q, q))) return limit; // the bisector: x · q = |q|² / 2
+    }
+    for (int a = 0; region != nullptr && a < 3; ++a) {
+        const glm::vec2 q(frame.u[a], frame.v[a]); // the face's normal in the plane
+        if (std::isfinite(region->hi[a]) && !cutTo(q, region->hi[a] - point[a])) return limit;
+        if (std::isfinite(region->lo[a]) && !cutTo(-q, point[a] - region->lo[a])) return limit;
     }
     float farthest = 0.0f;
     for (std::size_t c = 0; c < count; ++c) farthest = std::max(farthest, glm::dot(corners[c], corners[c]));
@@ -766,13 +773,12 @@ std::vector<NodeChild> rootParts(const PointSet& input, std::span<const SplitPar
     // its faces where P0's points beyond them were nearer, and those points' nodes, drawn finer, do
     // not reach that far).
     pool.parallelFor(roots.size(), [&](std::size_t r, unsigned) {
-        PointSet own;
-        own.reserve(roots[r].indices.size());
-        for (const std::uint32_t i : roots[r].indices) own.appendFrom(input, i);
-        const NeighbourShape ownShape = neighbourShapeOf(own, nullptr, &roots[r].region);
-        SplitPart all{roots[r].region, std::vector<std::uint32_t>(own.size())};
-        std::iota(all.indices.begin(), all.indices.end(), 0u);
-        parts[r] = partOf(own, ownShape, {}, all, segments);
+        NodeChild& root = parts[r];
+        root.region = roots[r].region;
+        root.points.reserve(roots[r].indices.size());
+        for (const std::uint32_t i : roots[r].indices) root.points.appendFrom(input, i);
+        root.shape = neighbourShapeOf(root.points, nullptr, &root.region);
+        root.segments = segmentsIn(root.region, segments);
     });
     return parts;
 }

@@ -993,7 +993,7 @@ TEST(CliOutput, TheInputIsNotOverwrittenWithoutForce) {
     for (const std::string& args :
          {"eval " + quote(in) + " --reference sphere:1 -o " + quote(dir / "soft.ply"),
           "eval " + quote(in) + " --reference sphere:1 --hole-map " + quote(in),
-          "render " + quote(in) + " -o " + quote(in),
+          "render " + quote(in) + " -o " + quote(in), "bench view " + quote(in) + " -o " + quote(in),
           "diff " + quote(in) + " " + quote(in) + " --heatmap " + quote(in)}) {
         SCOPED_TRACE(args);
         EXPECT_TRUE(failsCleanly(run(args)));
@@ -1505,7 +1505,7 @@ TEST(CliExit, UsageErrorsExitWithTwoAndSuggestTheCommand) {
         {"bench view --camera-pth orbit",
          "'--camera-pth' is not an option of pnsplat bench view; did you mean '--camera-path'?"},
         {"render --threshold=2 --widht 640", "did you mean '--width'?"},
-        {"bench view -o x.json", "'-o' is not an option of pnsplat bench view"},
+        {"bench settle -o x.json", "'-o' is not an option of pnsplat bench settle"},
         {"render --frobnicate", "'--frobnicate' is not an option of pnsplat render"},
         {"render --orbit -30 -q", "'-q' is not an option of pnsplat render"},
     };
@@ -1756,14 +1756,16 @@ TEST(CliBenchView, HardEdgesCoverTheSilhouetteWhole) {
 // every K-th frame with the lockstep settled picture of its camera, drawn after the run. In
 // lockstep the first frame is that picture (no history yet): PSNR 99, identical; the later ones
 // differ where hysteresis kept a node refined. Fails when the frames are not read back (no covered
-// pixels) or the reference is not the settled picture.
+// pixels) or the reference is not the settled picture. With -o, the file holds the same lines.
 TEST(CliBenchView, QualityFramesAgainstTheSettledPicture) {
+    const TempDir dir;
     const RunResult r =
-        run("bench view --frames 7 --width 64 --height 48 --lockstep --validation --quality-every 3" +
-            kFewWholeLevels);
+        run("bench view --frames 7 --width 64 --height 48 --lockstep --validation --quality-every 3 -o " +
+            quote(dir / "run.jsonl") + kFewWholeLevels);
     ASSERT_TRUE(r.exited && r.exitCode == 0) << r.err;
     const std::vector<std::string> out = lines(r.out);
     ASSERT_EQ(out.size(), 7u + 3u + 1u) << r.out; // frames, quality frames 0, 3 and 6, summary
+    EXPECT_EQ(readText(dir / "run.jsonl"), r.out);
     for (std::size_t k = 0; k < 7; ++k) {
         EXPECT_EQ(out[k].find("\"covered_px\": 0,"), std::string::npos) << out[k];
         EXPECT_NE(out[k].find("\"splats_per_covered_px\": "), std::string::npos) << out[k];

@@ -1,5 +1,5 @@
 // `pnsplat bench view`: the real-time engine offscreen along a camera path, one JSON object per
-// frame on standard output, then a summary line.
+// frame on standard output, then a summary line; with -o, the same lines in a file at the end.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,6 +17,7 @@
 #include "engine_setup.h"
 #include "frame_json.h"
 #include "pnsplat/engine/image.h"
+#include "pnsplat/refine/io/output_file.h"
 #include "refine_run.h"
 
 namespace pnsplat::tools {
@@ -28,6 +29,8 @@ struct BenchViewArgs {
     std::string cameraPath = "orbit";
     std::size_t frames = 0; // 0: the path's own (orbit and zoom: 240)
     std::string capture;
+    std::string output; // -o: every line again, written whole at the end
+    bool force = false;
     bool lockstep = false;
     bool measureSplats = false;
     std::size_t qualityEvery = 0; // 0: no quality frames
@@ -41,6 +44,13 @@ constexpr std::size_t kDefaultFrames = 240;
 
 void runBenchView(BenchViewArgs args) {
     using Clock = std::chrono::steady_clock;
+    refuseToOverwriteInput(args.output, {args.input, args.cameraPath}, args.force);
+    // Each line goes to standard output as it comes and, with -o, into the file's text.
+    std::string written;
+    const auto line = [&](const std::string& text) {
+        fmt::print("{}\n", text);
+        if (!args.output.empty()) written += text + '\n';
+    };
     std::string name;
     const HoleSize holes = parseHoleSize(args.fillHoles);
     glm::dvec3 origin(0.0);
@@ -118,7 +128,7 @@ void runBenchView(BenchViewArgs args) {
             if (k + 1 >= starts.size() && !last) break;
             const Clock::time_point end = k + 1 < starts.size() ? starts[k + 1] : finished;
             const double frameMs = std::chrono::duration<double, std::milli>(end - starts[k]).count();
-            fmt::print("{}\n", frameJson(pending[done], frameMs, origin));
+            line(frameJson(pending[done], frameMs, origin));
             series.add(pending[done], frameMs);
         }
         pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(done));
@@ -163,14 +173,14 @@ void runBenchView(BenchViewArgs args) {
             const engine::RgbaImage picture = unwrap((*settled)->image(r.frame));
             const engine::ImageDifference d = unwrap(engine::compareImages(q.picture, picture));
             series.addQuality(d.psnr, d.ssim);
-            fmt::print(
-                R"({{"quality_frame": {}, "psnr": {:.3f}, "ssim": {:.5f}, "settled_splats_drawn": {}}})"
-                "\n",
-                q.index, std::min(d.psnr, kIdenticalPsnr), d.ssim, r.splatsDrawn);
+            line(fmt::format(
+                R"({{"quality_frame": {}, "psnr": {:.3f}, "ssim": {:.5f}, "settled_splats_drawn": {}}})",
+                q.index, std::min(d.psnr, kIdenticalPsnr), d.ssim, r.splatsDrawn));
         }
     }
-    fmt::print("{}\n", series.summaryJson(seconds, settings, context->deviceName(), context->driverName()));
+    line(series.summaryJson(seconds, settings, context->deviceName(), context->driverName()));
     checkValidation(*context);
+    if (!args.output.empty()) unwrap(writeFile(args.output, written));
 }
 
 } // namespace
@@ -200,6 +210,9 @@ void addBenchViewCommand(CLI::App& bench) {
         ->check(CLI::Range(1u, 16384u))
         ->capture_default_str();
     view->add_option("--capture", args->capture, "write every frame as DIR/frame-NNNNN.png");
+    view->add_option("-o,--output", args->output,
+                     "also write every line here at the end, whole (standard output gets them as they come)");
+    addForceFlag(*view, args->force);
     view->add_flag("--lockstep", args->lockstep,
                    "each frame refines and uploads until settled before drawing (reproducible frames)");
     view->add_option(

@@ -128,12 +128,12 @@ TEST(Outliers, AScansFarFieldIsASparseSheetAndItsStraysAreFound) {
     PointSet scan = sampleTerrainScan(20000, 0.5, 200.0, 2042);
     scan.normal.clear(); // positions only, as a raw scan, and the strays below have none
     std::mt19937_64 rng(2042);
-    const auto height = [](float x, float y) { return 0.5f * std::sin(0.3f * x) * std::cos(0.2f * y); };
     for (int i = 0; i < 20; ++i) {
         const float range = test::uniform(rng, 100.0, 190.0);
         const float angle = test::uniform(rng, 0.0, 2.0 * std::numbers::pi);
         const float x = range * std::cos(angle), y = range * std::sin(angle);
-        scan.position.emplace_back(x, y, height(x, y) + test::uniform(rng, 40.0, 80.0));
+        scan.position.emplace_back(x, y,
+                                   static_cast<float>(terrainHeight(x, y)) + test::uniform(rng, 40.0, 80.0));
     }
     OutlierParams ruleOneAlone;
     ruleOneAlone.localRatio = 0.0;

@@ -94,11 +94,15 @@ std::vector<SplitPart> splitAlong(std::span<const glm::vec3> points, std::span<c
 // radii for refinement: positive and finite).
 bool spreadsTooWide(std::span<const float> radius, std::span<const std::uint32_t> indices) {
     if (radius.empty() || indices.size() < kRootSpreadPoints) return false;
-    std::vector<float> sorted(indices.size());
-    for (std::size_t j = 0; j < indices.size(); ++j) sorted[j] = radius[indices[j]];
-    std::sort(sorted.begin(), sorted.end());
-    return sorted[quantileIndex(sorted.size(), 0.9f)] >
-           kRootSpread * sorted[quantileIndex(sorted.size(), 0.1f)];
+    std::vector<float> values(indices.size());
+    for (std::size_t j = 0; j < indices.size(); ++j) values[j] = radius[indices[j]];
+    const auto at = [&](float quantile) {
+        const auto nth = values.begin() + static_cast<std::ptrdiff_t>(quantileIndex(values.size(), quantile));
+        std::nth_element(values.begin(), nth, values.end());
+        return *nth;
+    };
+    const float high = at(0.9f);
+    return high > kRootSpread * at(0.1f);
 }
 
 // The whole levels of NodeSettings::wholeLevelPoints: P(0) (in the refiner's order) to P(W), each

@@ -317,6 +317,10 @@ PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H) {
     return set;
 }
 
+double terrainHeight(double x, double y) {
+    return 0.5 * std::sin(0.3 * x) * std::cos(0.2 * y);
+}
+
 PointSet sampleTerrainScan(std::size_t n, double nearest, double farthest, std::uint64_t seed) {
     assert(nearest > 0.0 && nearest < farthest);
     std::mt19937_64 rng(seed);
@@ -331,8 +335,7 @@ PointSet sampleTerrainScan(std::size_t n, double nearest, double farthest, std::
         // The gradient of the height: the normal is (-dz/dx, -dz/dy, 1), normalised.
         const double dx = 0.15 * std::cos(0.3 * x) * std::cos(0.2 * y);
         const double dy = -0.1 * std::sin(0.3 * x) * std::sin(0.2 * y);
-        append(set, DVec3(x, y, 0.5 * std::sin(0.3 * x) * std::cos(0.2 * y)),
-               glm::normalize(DVec3(-dx, -dy, 1.0)));
+        append(set, DVec3(x, y, terrainHeight(x, y)), glm::normalize(DVec3(-dx, -dy, 1.0)));
     }
     return set;
 }

@@ -59,6 +59,8 @@ PointSet sampleCappedCylinder(std::size_t rimPoints, float R, float H);
 // thousand times as dense as the far field), with exact upward normals. Precondition:
 // 0 < nearest < farthest.
 PointSet sampleTerrainScan(std::size_t n, double nearest, double farthest, std::uint64_t seed);
+// That terrain's height at (x, y).
+double terrainHeight(double x, double y);
 
 // `count` equilateral triangles of side 1e14, 1e20 apart along x, normals +x: squared distances
 // past single precision, which the k-d searches of the input's completion do not find (the

@@ -65,7 +65,8 @@ constexpr auto kRestWait = std::chrono::milliseconds(100);
 // close-up at 640x480 on lavapipe: visibility 25.5 -> 21.6 ms). The compute path's sums are integers and its
 // depth a minimum, so its picture does not depend on the order (the graphics path's float blending does, in
 // the last bits).
-ClassStarts packSplats(const PointSet& points, std::span<const float> radius, gpu::Splat* splats) {
+ClassStarts packSplats(const PointSet& points, std::span<const float> radius, gpu::Splat* splats,
+                       std::vector<std::uint8_t>* pointClass = nullptr) {
     // Radii are positive: their bits order as the floats do.
     struct Key {
         std::uint32_t facing, radius, index;
@@ -79,6 +80,11 @@ ClassStarts packSplats(const PointSet& points, std::span<const float> radius, gp
         ++starts[facing + 1];
     }
     for (std::uint32_t c = 0; c < kFacingClasses; ++c) starts[c + 1] += starts[c];
+    if (pointClass != nullptr) {
+        pointClass->resize(points.size());
+        for (std::size_t i = 0; i < points.size(); ++i)
+            (*pointClass)[i] = static_cast<std::uint8_t>(order[i].facing);
+    }
     std::sort(order.begin(), order.end());
     for (std::size_t k = 0; k < points.size(); ++k) {
         const std::size_t i = order[k].index;
@@ -235,11 +241,10 @@ Result<std::unique_ptr<Engine>> Engine::create(Context& context, PointSet points
             const auto chunk = impl->cache->allocatePermanent(static_cast<std::uint32_t>(node.points.size()));
             assert(chunk);
             splats.resize(node.points.size());
-            const ClassStarts classes = packSplats(node.points, node.shape.splatRadius, splats.data());
-            impl->cache->write(*chunk, splats, *impl->frames, uploads);
             Impl::NodeState& s = impl->stateOf(root);
+            s.classes = packSplats(node.points, node.shape.splatRadius, splats.data(), &s.pointClass);
+            impl->cache->write(*chunk, splats, *impl->frames, uploads);
             s.chunk = *chunk;
-            s.classes = classes;
             s.resident = true;
         }
         if (uploads != VK_NULL_HANDLE) {
@@ -354,7 +359,10 @@ std::size_t Engine::Impl::upload(const std::vector<WantedNode>& wanted, bool loc
         const auto chunk =
             cache->allocate(static_cast<std::uint32_t>(node.points.size()), w.node, pinned, evicted);
         if (!chunk) continue; // the cache is full of what is drawn: this node waits
-        for (const std::uint32_t owner : evicted) state[owner].resident = false;
+        for (const std::uint32_t owner : evicted) {
+            state[owner].resident = false;
+            state[owner].pointClass = {};
+        }
         report.evictions += evicted.size();
         // Test check: nothing a frame in flight draws is overwritten.
         for (std::uint32_t k = 0; k < kFramesInFlight; ++k) {
@@ -363,7 +371,7 @@ std::size_t Engine::Impl::upload(const std::vector<WantedNode>& wanted, bool loc
                 if (d.first < chunk->first + chunk->count && chunk->first < d.first + d.count) ++overwrites;
         }
         splats.resize(node.points.size());
-        s.classes = packSplats(node.points, node.shape.splatRadius, splats.data());
+        s.classes = packSplats(node.points, node.shape.splatRadius, splats.data(), &s.pointClass);
         cache->write(*chunk, splats, *frames, uploads);
         s.chunk = *chunk;
         s.resident = true;

@@ -10,6 +10,7 @@
 #include <glm/vec4.hpp>
 
 #include "pnsplat/refine/quantile.h"
+#include "pnsplat/refine/simd_clone.h"
 
 namespace pnsplat::engine {
 
@@ -66,6 +67,63 @@ struct NodeView {
     bool inView = false;                   // the whole box in the frustum, beyond the near plane
     float nearest = 0.0f, farthest = 0.0f; // depths of the box's corners
 };
+
+// What Walk::exceeds measures splat by splat: the view, and the bounds over depth (each a size
+// over its limit, times depth).
+struct SplatTest {
+    glm::vec3 eye, forward, right, upward;
+    float near, tanX, tanY;
+    float k;       // the diameter over the limit
+    float coarseK; // the diameter over the limit over rimDeepest
+    float bulge;   // the bulge r · bend / 2 over its limit
+    float rimK;    // the diameter over kRimMinPx
+    // The squared cosine below which a splat is at the silhouette; 0 where the node has no rim.
+    float rimCosine2;
+};
+
+// The splats of a node counted for Walk::exceeds: those drawn (in view, facing the eye), those
+// wider than the limit and than the limit over rimDeepest, and those at the silhouette, with the
+// ones standing out. Without branches, so that the loop runs on SIMD lanes (eight with AVX2, the
+// same bits: no fused multiply-adds, the same order of operations in every lane): a splat out of
+// view or facing away counts nowhere. The squares avoid a square root (whose errno path is a
+// branch): facing > 0 where seen.
+struct SplatCounts {
+    std::uint32_t drawn = 0, over = 0, coarse = 0, rim = 0, rimOver = 0;
+};
+
+PNSPLAT_AVX2_CLONE SplatCounts countSplats(const SplatTest& t, const glm::vec3* position,
+                                           const glm::vec3* normal, const float* radius, const float* bend,
+                                           std::size_t n) {
+    SplatCounts c;
+    for (std::size_t i = 0; i < n; ++i) {
+        const glm::vec3 d = position[i] - t.eye;
+        const float depth = glm::dot(d, t.forward);
+        const float facing = -glm::dot(normal[i], d); // |d| times the cosine to the ray
+        const bool seen = (depth > t.near) & (facing > 0.0f) &
+                          (std::abs(glm::dot(d, t.right)) <= t.tanX * depth) &
+                          (std::abs(glm::dot(d, t.upward)) <= t.tanY * depth);
+        const float r = radius[i];
+        c.drawn += seen;
+        c.over += seen & (r * t.k > depth);
+        c.coarse += seen & (r * t.coarseK > depth);
+        const bool edgeOn = seen & (facing * facing < t.rimCosine2 * glm::dot(d, d));
+        c.rim += edgeOn;
+        c.rimOver += edgeOn & (r * bend[i] * t.bulge > depth) & (r * t.rimK > depth);
+    }
+    return c;
+}
+
+// The facing classes of the points [0, n) that hold a splat facing the eye, their classes given:
+// without branches, for SIMD lanes. Walk::draw asks a block of kFacingBlock points at a time, and
+// stops once every class the node holds is found.
+PNSPLAT_AVX2_CLONE FacingMask classesFacing(glm::vec3 eye, const glm::vec3* position, const glm::vec3* normal,
+                                            const std::uint8_t* pointClass, std::size_t n) {
+    FacingMask facing = 0;
+    for (std::size_t i = 0; i < n; ++i)
+        facing |= FacingMask{glm::dot(normal[i], position[i] - eye) < 0.0f} << pointClass[i];
+    return facing;
+}
+constexpr std::size_t kFacingBlock = 64;
 
 // One walk of the tree (selectNodes).
 class Walk {
@@ -168,39 +226,17 @@ bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
         // At most half wider (than the limit, or than the rim test's bound below).
         if (node.medianRadius[1] * k * (rimPossible ? rimDeepest : 1.0f) <= v.nearest) return false;
     }
-    const PointSet& points = node.points;
-    const glm::vec3 eye = v_.camera.eye;
     const Frustum& frustum = v_.frustum;
-    // Without branches, so that the loop runs on SIMD lanes: a splat out of view or facing away
-    // counts nowhere; one at the silhouette counts for the rim test when the node may have a rim.
-    std::uint32_t drawn = 0, over = 0, coarse = 0, rim = 0, rimOver = 0;
-    const float coarseK = k * rimDeepest; // wider than the limit over rimDeepest
-    const std::size_t n = points.size();
-    const glm::vec3* position = points.position.data();
-    const glm::vec3* normal = points.normal.data();
-    const float* radius = node.shape.splatRadius.data();
-    const float* bend = node.shape.bend.data();
-    const glm::vec3 forward = v_.forward, right = v_.right, upward = v_.upward;
-    const float near = frustum.range.near, tanX = frustum.tanX, tanY = frustum.tanY;
-    // Squared, without a square root (whose errno path is a branch): facing > 0 where seen.
-    const float rimCosine2 = rimPossible ? kRimCosine * kRimCosine : 0.0f; // 0: no splat at the silhouette
-    for (std::size_t i = 0; i < n; ++i) {
-        const glm::vec3 d = position[i] - eye;
-        const float depth = glm::dot(d, forward);
-        const float facing = -glm::dot(normal[i], d); // |d| times the cosine to the ray
-        const bool seen = (depth > near) & (facing > 0.0f) & (std::abs(glm::dot(d, right)) <= tanX * depth) &
-                          (std::abs(glm::dot(d, upward)) <= tanY * depth);
-        const float r = radius[i];
-        drawn += seen;
-        over += seen & (r * k > depth);
-        coarse += seen & (r * coarseK > depth);
-        const bool edgeOn = seen & (facing * facing < rimCosine2 * glm::dot(d, d));
-        rim += edgeOn;
-        rimOver += edgeOn & (r * bend[i] * bulge > depth) & (r * rimK > depth);
-    }
-    return double(over) > kOverShare * double(drawn) ||
-           (rim >= kRimPoints && double(rimOver) > kRimShare * double(rim) &&
-            double(coarse) > kOverShare * double(drawn));
+    const SplatTest test{
+        v_.camera.eye,      v_.forward,   v_.right,     v_.upward,
+        frustum.range.near, frustum.tanX, frustum.tanY, k,
+        k * rimDeepest,     bulge,        rimK,         rimPossible ? kRimCosine * kRimCosine : 0.0f};
+    const SplatCounts c =
+        countSplats(test, node.points.position.data(), node.points.normal.data(),
+                    node.shape.splatRadius.data(), node.shape.bend.data(), node.points.size());
+    return double(c.over) > kOverShare * double(c.drawn) ||
+           (c.rim >= kRimPoints && double(c.rimOver) > kRimShare * double(c.rim) &&
+            double(c.coarse) > kOverShare * double(c.drawn));
 }
 
 // The facing classes of a node that hold a splat facing the eye (the passes skip a splat seen from
@@ -209,15 +245,23 @@ bool Walk::exceeds(const Node& node, const NodeView& v, float factor) const {
 // eye whole; the others, beside the silhouette, are tested point by point until every class of the
 // node is found facing the eye.
 void Walk::draw(NodeId id, const Node& node, const NodeView& v) {
-    const ClassStarts& classes = stateOf_(id).classes;
+    const NodeSelection& s = stateOf_(id);
     FacingMask present = 0, facing = 0;
     for (std::uint32_t c = 0; c < kFacingClasses; ++c)
-        present |= FacingMask{classes[c + 1] > classes[c]} << c;
+        present |= FacingMask{s.classes[c + 1] > s.classes[c]} << c;
     if (!settings_.cullNodes || v.allFront) facing = present; // (a test switch: everything drawn)
     const PointSet& points = node.points;
-    for (std::size_t i = 0; i < points.size() && facing != present; ++i)
-        if (glm::dot(points.normal[i], points.position[i] - v_.camera.eye) < 0.0f)
-            facing |= FacingMask{1} << facingClass(points.normal[i]);
+    const std::size_t n = points.size();
+    if (s.pointClass.size() == n) { // resident: its points' classes are known
+        for (std::size_t begin = 0; begin < n && facing != present; begin += kFacingBlock)
+            facing |=
+                classesFacing(v_.camera.eye, points.position.data() + begin, points.normal.data() + begin,
+                              s.pointClass.data() + begin, std::min(kFacingBlock, n - begin));
+    } else {
+        for (std::size_t i = 0; i < n && facing != present; ++i)
+            if (glm::dot(points.normal[i], points.position[i] - v_.camera.eye) < 0.0f)
+                facing |= FacingMask{1} << facingClass(points.normal[i]);
+    }
     if (facing == 0 && present != 0) return;
     out_.draw.push_back(id);
     out_.facing.push_back(facing);

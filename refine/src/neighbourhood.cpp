@@ -9,7 +9,7 @@
 
 #include "pnsplat/refine/fast_math.h"
 #include "pnsplat/refine/pn_triangle.h"
-#include "simd_clone.h"
+#include "pnsplat/refine/simd_clone.h"
 
 namespace pnsplat {
 

@@ -22,8 +22,8 @@
 #include "pnsplat/refine/neighbourhood.h"
 #include "pnsplat/refine/point_set.h"
 #include "pnsplat/refine/refiner.h"
+#include "pnsplat/refine/simd_clone.h"
 #include "segments.h"
-#include "simd_clone.h"
 
 namespace pnsplat {
 

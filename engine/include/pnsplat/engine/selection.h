@@ -54,10 +54,11 @@ FrameView frameView(const Camera& camera, std::uint32_t width, std::uint32_t hei
 
 // What the selection keeps of a node slot between frames.
 struct NodeSelection {
-    ClassStarts classes{};              // where each facing class starts in its chunk
-    bool resident = false;              // its chunk is in the cache
-    bool descended = false;             // drawn through its children the last time it was visited
-    std::uint64_t lastVisited = kNever; // frame + 1 of the last selection that passed through it
+    ClassStarts classes{};                // where each facing class starts in its chunk
+    std::vector<std::uint8_t> pointClass; // while resident: each point's facing class (facingClass)
+    bool resident = false;                // its chunk is in the cache
+    bool descended = false;               // drawn through its children the last time it was visited
+    std::uint64_t lastVisited = kNever;   // frame + 1 of the last selection that passed through it
 };
 
 struct SelectionSettings {

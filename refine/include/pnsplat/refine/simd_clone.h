@@ -1,5 +1,5 @@
 // Functions built twice on x86-64 with GCC, for the baseline and for a newer instruction set; the
-// processor picks one when the program loads. Private to refine/src.
+// processor picks one when the program loads. For refine/ and engine/, not part of the API.
 // - PNSPLAT_AVX2_CLONE: loops over eight lanes at once (the fuzzy filter's pair loops).
 // - PNSPLAT_V3_CLONE: the per-point refinement (x86-64-v3: AVX2, BMI1/2, three-operand VEX code;
 //   1.03x on the faster variants of `pnsplat bench refine`, pinned A/B).

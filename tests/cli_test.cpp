@@ -1903,6 +1903,7 @@ TEST(CliBadInput, RealTimeEngineRefusesBadInputInOneLine) {
         {"bench view --threshold 0", "--threshold", Exit::Usage},
         {"bench view --threshold -2", "--threshold", Exit::Usage},
         {"bench view --cache-mb 0.001 --frames 1", "cannot hold the input's"},
+        {"bench view --frames 3 -o " + quote(dir / "no" / "x.jsonl"), "its folder does not exist"},
         {"render --adaptive --cache-mb 0.001 -o " + quote(dir / "x.png"), "cannot hold the input's"},
         {"render --adaptive --threshold 0 -o " + quote(dir / "x.png"), "--threshold", Exit::Usage},
     };

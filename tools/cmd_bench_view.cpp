@@ -29,7 +29,7 @@ struct BenchViewArgs {
     std::string cameraPath = "orbit";
     std::size_t frames = 0; // 0: the path's own (orbit and zoom: 240)
     std::string capture;
-    std::string output; // -o: every line again, written whole at the end
+    std::string output; // -o: every line again, the file whole at the end
     bool force = false;
     bool lockstep = false;
     bool measureSplats = false;
@@ -44,12 +44,17 @@ constexpr std::size_t kDefaultFrames = 240;
 
 void runBenchView(BenchViewArgs args) {
     using Clock = std::chrono::steady_clock;
-    refuseToOverwriteInput(args.output, {args.input, args.cameraPath}, args.force);
-    // Each line goes to standard output as it comes and, with -o, into the file's text.
-    std::string written;
+    const bool pathFile = args.cameraPath != "orbit" && args.cameraPath != "zoom";
+    refuseToOverwriteInput(args.output, {args.input, pathFile ? args.cameraPath : std::string()}, args.force);
+    // Each line goes to standard output as it comes and, with -o (not standard output itself), to
+    // the file, which appears whole once the run has ended well (opened first: a bad path fails at
+    // once).
+    std::optional<OutputFile> file;
+    if (!args.output.empty() && !isStandardOutput(args.output))
+        file.emplace(unwrap(OutputFile::open(args.output, OutputContent::Text)));
     const auto line = [&](const std::string& text) {
         fmt::print("{}\n", text);
-        if (!args.output.empty()) written += text + '\n';
+        if (file) unwrap(file->write(text + '\n'));
     };
     std::string name;
     const HoleSize holes = parseHoleSize(args.fillHoles);
@@ -61,8 +66,7 @@ void runBenchView(BenchViewArgs args) {
     // A path file is read before the engine is made: a bad one fails at once, not after the whole
     // levels' refinement.
     std::optional<CameraPath> loaded;
-    if (args.cameraPath != "orbit" && args.cameraPath != "zoom")
-        loaded = CameraPath::load(args.cameraPath, origin);
+    if (pathFile) loaded = CameraPath::load(args.cameraPath, origin);
     auto context = createContext(args.engine);
     const engine::EngineSettings settings = engineSettings(args.engine, *context, true);
     // The quality frames' reference engine draws the same points (standard input cannot be read twice).
@@ -180,7 +184,7 @@ void runBenchView(BenchViewArgs args) {
     }
     line(series.summaryJson(seconds, settings, context->deviceName(), context->driverName()));
     checkValidation(*context);
-    if (!args.output.empty()) unwrap(writeFile(args.output, written));
+    if (file) unwrap(file->commit());
 }
 
 } // namespace

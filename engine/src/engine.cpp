@@ -709,6 +709,7 @@ Result<std::size_t> Engine::verifyCache() {
         });
         const auto* gpu = static_cast<const gpu::Splat*>(readback.mapped);
         std::vector<gpu::Splat> expected;
+        std::vector<std::uint8_t> classes;
         std::size_t compared = 0;
         for (NodeId id = 0; id < m.tree.slotCount(); ++id) {
             if (!m.tree.isLive(id) || id >= m.state.size() || !m.state[id].resident) continue;
@@ -718,10 +719,14 @@ Result<std::size_t> Engine::verifyCache() {
                 return Error{fmt::format("node {}: chunk of {} splats for {} points", id, chunk.count,
                                          node.points.size())};
             expected.resize(chunk.count);
-            packSplats(node.points, node.shape.splatRadius, expected.data());
+            packSplats(node.points, node.shape.splatRadius, expected.data(), &classes);
             if (std::memcmp(expected.data(), gpu + chunk.first, chunk.count * sizeof(gpu::Splat)) != 0)
                 return Error{fmt::format("node {} (level {}): its chunk at splat {} differs from its points",
                                          id, node.level, chunk.first)};
+            if (classes != m.state[id].pointClass)
+                return Error{fmt::format("node {} (level {}): the facing classes kept for the selection "
+                                         "differ from its points'",
+                                         id, node.level)};
             ++compared;
         }
         return compared;

@@ -523,31 +523,33 @@ std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::s
 // centroid). In a concave spot the point lies inward of the centroid and the choice would be
 // wrong: where every such ray meets the surface, i lies in a hollow (an ear's, a fold's), and the
 // neighbours' vote, weak as it is, decides. All points are decided from the same normals, in
-// rounds, until none turns or kAgreementRounds have run.
+// rounds, until none turns or kAgreementRounds have run: each point's vote reads only the normals
+// of the round's start, so the pool's workers share a round's points (the same bits).
 void agreeWithNeighbours(const NeighbourGraph& graph, std::span<const glm::vec3> position,
                          std::span<const glm::vec3> centroid, std::span<const std::uint8_t> tip,
-                         std::span<glm::vec3> normal) {
+                         std::span<glm::vec3> normal, WorkerPool& pool) {
     const std::size_t m = position.size();
     std::vector<std::uint8_t> turn(m);
     for (unsigned round = 0; round < kAgreementRounds; ++round) {
-        bool any = false;
-        for (std::size_t i = 0; i < m; ++i) {
-            const glm::dvec3 x(position[i]), n(normal[i]);
-            double vote = 0.0, weight = 0.0;
-            graph.forEach(static_cast<std::uint32_t>(i), [&](std::uint32_t j) {
-                if (j == i) return;
-                const glm::dvec3 d = glm::normalize(glm::dvec3(position[j]) - x), nj(normal[j]);
-                const double flat = 1.0 - std::abs(glm::dot(d, nj));
-                const double sign = acrossSheets(position[i], normal[i], position[j], normal[j]) ? -1.0 : 1.0;
-                vote += sign * flat * glm::dot(n, nj);
-                weight += flat;
-            });
-            if (std::abs(vote) < kWeakAgreement * weight && tip[i])
-                vote = glm::dot(n, x - glm::dvec3(centroid[i]));
-            turn[i] = vote < 0.0 ? 1 : 0;
-            any = any || turn[i];
-        }
-        if (!any) break;
+        parallelForRanges(pool, m, 1024, [&](std::size_t begin, std::size_t end, unsigned) {
+            for (std::size_t i = begin; i < end; ++i) {
+                const glm::dvec3 x(position[i]), n(normal[i]);
+                double vote = 0.0, weight = 0.0;
+                graph.forEach(static_cast<std::uint32_t>(i), [&](std::uint32_t j) {
+                    if (j == i) return;
+                    const glm::dvec3 d = glm::normalize(glm::dvec3(position[j]) - x), nj(normal[j]);
+                    const double flat = 1.0 - std::abs(glm::dot(d, nj));
+                    const double sign =
+                        acrossSheets(position[i], normal[i], position[j], normal[j]) ? -1.0 : 1.0;
+                    vote += sign * flat * glm::dot(n, nj);
+                    weight += flat;
+                });
+                if (std::abs(vote) < kWeakAgreement * weight && tip[i])
+                    vote = glm::dot(n, x - glm::dvec3(centroid[i]));
+                turn[i] = vote < 0.0 ? 1 : 0;
+            }
+        });
+        if (std::ranges::find(turn, std::uint8_t{1}) == turn.end()) break;
         for (std::size_t i = 0; i < m; ++i)
             if (turn[i]) normal[i] = -normal[i];
     }
@@ -771,7 +773,7 @@ Result<NormalEstimate> estimateNormals(PointSet& points, unsigned threads) {
     estimate.components = orientComponents(graph, distinct.position, normal, spanning);
     const std::vector<std::uint8_t> tip = orientByVisibility(
         graph, distinct.position, fits.centroid, fits.across, normal, splatRadius, spanning, pool);
-    agreeWithNeighbours(graph, distinct.position, fits.centroid, tip, normal);
+    agreeWithNeighbours(graph, distinct.position, fits.centroid, tip, normal, pool);
     points.normal.resize(count);
     for (std::size_t i = 0; i < count; ++i) points.normal[i] = normal[distinct.of[i]];
     points.crease.clear();

@@ -229,11 +229,13 @@ void propagateOrientation(const NeighbourGraph& graph, std::span<const glm::vec3
 }
 
 // The points' disks (centre, unit normal, radius) in a bounding-volume hierarchy, for the rays of
-// the orientation's visibility vote. Built once; escapes() may then be called from any thread.
+// the orientation's visibility vote. Built once, the root's two halves on the pool's workers (the
+// same nodes in the same places for any thread count); escaping() may then be called from any
+// thread.
 class SplatRays {
   public:
     SplatRays(std::span<const glm::vec3> centre, std::span<const glm::vec3> normal,
-              std::span<const float> radius)
+              std::span<const float> radius, WorkerPool& pool)
         : centre_(centre), order_(centre.size()) {
         // A disk's box: along axis a it reaches r·sqrt(1 - m_a²) from its centre (the largest a
         // component of a unit vector across m), so that its slabs hold less empty space around
@@ -255,7 +257,29 @@ class SplatRays {
                 }
             std::iota(order_.begin(), order_.end(), 0u);
             nodes_.emplace_back();
-            build(0, 0, static_cast<std::uint32_t>(order_.size()), extent);
+            const std::uint32_t middle =
+                split(nodes_[0], 0, static_cast<std::uint32_t>(order_.size()), extent);
+            if (nodes_[0].count == 0) { // the halves, each in a list of its own, then after the root
+                std::array<std::vector<Node>, 2> halves;
+                const std::array<std::uint32_t, 3> ends{0, middle, static_cast<std::uint32_t>(order_.size())};
+                parallelForRanges(pool, 2, 1, [&](std::size_t begin, std::size_t end, unsigned) {
+                    for (std::size_t h = begin; h < end; ++h) {
+                        halves[h].emplace_back();
+                        build(halves[h], 0, ends[h], ends[h + 1], extent);
+                    }
+                });
+                // As one build in a row would place them: the halves' roots at 1 and 2, then the
+                // first half's other nodes, then the second's.
+                nodes_[0].first = 1;
+                nodes_.resize(1 + halves[0].size() + halves[1].size());
+                const std::array<std::uint32_t, 2> rest{3, static_cast<std::uint32_t>(2 + halves[0].size())};
+                for (std::size_t h = 0; h < 2; ++h)
+                    for (std::size_t e = 0; e < halves[h].size(); ++e) {
+                        Node node = halves[h][e];
+                        if (node.count == 0) node.first += rest[h] - 1; // local index 1 is at rest[h]
+                        nodes_[e == 0 ? 1 + h : rest[h] + e - 1] = node;
+                    }
+            }
         } // the extents go before the disks come
         // The disks in the leaves' order, each whole in one place: a leaf reads them in a row.
         disks_.resize(order_.size());
@@ -347,10 +371,11 @@ class SplatRays {
         std::uint32_t first, count;
     };
 
-    // Fills node `index` with order_[begin, end), in the box of their disks' boxes (`extent` from
-    // each centre), split at the median of the centres along their box's longest side.
-    void build(std::uint32_t index, std::uint32_t begin, std::uint32_t end,
-               std::span<const glm::vec3> extent) {
+    // Sets `node` to order_[begin, end) in the box of their disks' boxes (`extent` from each
+    // centre): a leaf where they are few, else split at the median of the centres along their box's
+    // longest side (returned; its children are not placed yet).
+    std::uint32_t split(Node& node, std::uint32_t begin, std::uint32_t end,
+                        std::span<const glm::vec3> extent) {
         glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-lo), centreLo = lo, centreHi = hi;
         for (std::uint32_t e = begin; e < end; ++e) {
             const glm::vec3 c = centre_[order_[e]];
@@ -359,13 +384,11 @@ class SplatRays {
             centreLo = glm::min(centreLo, c);
             centreHi = glm::max(centreHi, c);
         }
-        nodes_[index].lo = lo;
-        nodes_[index].hi = hi;
-        if (end - begin <= kLeafSize) {
-            nodes_[index].first = begin;
-            nodes_[index].count = end - begin;
-            return;
-        }
+        node.lo = lo;
+        node.hi = hi;
+        node.first = begin;
+        node.count = end - begin;
+        if (end - begin <= kLeafSize) return end;
         const glm::vec3 side = centreHi - centreLo;
         const int axis = side.x >= side.y && side.x >= side.z ? 0 : side.y >= side.z ? 1 : 2;
         const std::uint32_t middle = begin + (end - begin) / 2;
@@ -374,12 +397,21 @@ class SplatRays {
                              const float ca = centre_[a][axis], cb = centre_[b][axis];
                              return ca != cb ? ca < cb : a < b;
                          });
-        const auto children = static_cast<std::uint32_t>(nodes_.size());
-        nodes_[index].first = children;
-        nodes_[index].count = 0;
-        nodes_.resize(nodes_.size() + 2);
-        build(children, begin, middle, extent);
-        build(children + 1, middle, end, extent);
+        node.count = 0;
+        return middle;
+    }
+
+    // Fills nodes[index] and its subtree with order_[begin, end) (split), children pairs appended
+    // to `nodes` as they are made.
+    void build(std::vector<Node>& nodes, std::uint32_t index, std::uint32_t begin, std::uint32_t end,
+               std::span<const glm::vec3> extent) {
+        const std::uint32_t middle = split(nodes[index], begin, end, extent);
+        if (nodes[index].count != 0) return;
+        const auto children = static_cast<std::uint32_t>(nodes.size());
+        nodes[index].first = children;
+        nodes.resize(nodes.size() + 2);
+        build(nodes, children, begin, middle, extent);
+        build(nodes, children + 1, middle, end, extent);
     }
 
     struct Disk {
@@ -458,7 +490,7 @@ std::vector<std::uint8_t> orientByVisibility(const NeighbourGraph& graph, std::s
     std::vector<std::int8_t> vote(m);
     std::vector<std::uint8_t> tip(m);
     {
-        const SplatRays rays(position, normal, splatRadius);
+        const SplatRays rays(position, normal, splatRadius, pool);
         // The points in the hierarchy's order: one after the other, rays start near each other
         // and walk the same nodes, which stay in cache (a 1.3 million point scan written level
         // after level by a refinement: the rays 1.3 times faster than in the file's order).

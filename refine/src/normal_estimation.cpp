@@ -259,7 +259,9 @@ class SplatRays {
             nodes_.emplace_back();
             const std::uint32_t middle =
                 split(nodes_[0], 0, static_cast<std::uint32_t>(order_.size()), extent);
-            if (nodes_[0].count == 0) { // the halves, each in a list of its own, then after the root
+            // An inner root (more than a leaf's points): the halves, each in a list of its own, then
+            // after the root.
+            if (order_.size() > kLeafSize) {
                 std::array<std::vector<Node>, 2> halves;
                 const std::array<std::uint32_t, 3> ends{0, middle, static_cast<std::uint32_t>(order_.size())};
                 parallelForRanges(pool, 2, 1, [&](std::size_t begin, std::size_t end, unsigned) {

@@ -1,5 +1,6 @@
 // `pnsplat bench view`: the real-time engine offscreen along a camera path, one JSON object per
-// frame on standard output, then a summary line; with -o, the same lines in a file at the end.
+// frame on standard output, then a summary line; with -o, the same lines in a file that appears
+// whole at the end.
 #include <algorithm>
 #include <chrono>
 #include <cmath>

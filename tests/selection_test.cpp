@@ -41,14 +41,14 @@ NodeTree sphereTree(std::uint32_t levels) {
 }
 
 // Every live node resident, its facing classes counted from its points (as the engine packs them).
-std::vector<NodeSelection> allResident(const NodeTree& tree, bool pointClasses = true) {
+std::vector<NodeSelection> allResident(const NodeTree& tree) {
     std::vector<NodeSelection> states(tree.slotCount());
     for (NodeId id = 0; id < tree.slotCount(); ++id) {
         if (!tree.isLive(id)) continue;
         ClassStarts& classes = states[id].classes;
         for (const glm::vec3 n : tree.node(id).points.normal) {
             ++classes[facingClass(n) + 1];
-            if (pointClasses) states[id].pointClass.push_back(static_cast<std::uint8_t>(facingClass(n)));
+            states[id].pointClass.push_back(static_cast<std::uint8_t>(facingClass(n)));
         }
         for (std::uint32_t c = 0; c < kFacingClasses; ++c) classes[c + 1] += classes[c];
         states[id].resident = true;
@@ -256,13 +256,10 @@ TEST(Selection, FacingClassesCutEachFaceIntoCells) {
 
 // A node draws exactly the facing classes that hold a splat facing the eye (brute force). Seen from
 // +z, far, no splat whose normal is nearest -z faces the eye: no node draws a class of that face.
-// With each point's class kept (NodeSelection::pointClass, as the engine keeps them for resident
-// nodes) and without.
-class SelectionFacing : public ::testing::TestWithParam<bool> {};
-
-TEST_P(SelectionFacing, FacingClassesLeaveOutTheClassesThatFaceAway) {
+// Each point's class is kept (NodeSelection::pointClass), as the engine keeps them for resident nodes.
+TEST(SelectionFacing, FacingClassesLeaveOutTheClassesThatFaceAway) {
     const NodeTree tree = sphereTree(0);
-    std::vector<NodeSelection> states = allResident(tree, GetParam());
+    std::vector<NodeSelection> states = allResident(tree);
     const FrameView view = viewFrom(200.0f);
     const Selection s = run(tree, view, thresholdOf(3.0f), 1, states);
     ASSERT_EQ(s.draw.size(), s.facing.size());
@@ -293,8 +290,6 @@ TEST_P(SelectionFacing, FacingClassesLeaveOutTheClassesThatFaceAway) {
     const Selection all = run(tree, viewFrom(200.0f), everything, 2, states);
     EXPECT_EQ(all.draw.size(), tree.roots().size());
 }
-
-INSTANTIATE_TEST_SUITE_P(PointClasses, SelectionFacing, ::testing::Bool());
 
 // The median, 99th-percentile and largest splat drawn (at 1.5 times their radii) and the share over the
 // threshold, against the quantiles of camera.h's splatDiameterQuantile over the same points and radii.

@@ -2,6 +2,7 @@
 #include "pnsplat/engine/selection.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 
@@ -252,16 +253,10 @@ void Walk::draw(NodeId id, const Node& node, const NodeView& v) {
     if (!settings_.cullNodes || v.allFront) facing = present; // (a test switch: everything drawn)
     const PointSet& points = node.points;
     const std::size_t n = points.size();
-    if (s.pointClass.size() == n) { // resident: its points' classes are known
-        for (std::size_t begin = 0; begin < n && facing != present; begin += kFacingBlock)
-            facing |=
-                classesFacing(v_.camera.eye, points.position.data() + begin, points.normal.data() + begin,
-                              s.pointClass.data() + begin, std::min(kFacingBlock, n - begin));
-    } else {
-        for (std::size_t i = 0; i < n && facing != present; ++i)
-            if (glm::dot(points.normal[i], points.position[i] - v_.camera.eye) < 0.0f)
-                facing |= FacingMask{1} << facingClass(points.normal[i]);
-    }
+    assert(s.pointClass.size() == n); // a drawn node is resident: its points' classes are kept
+    for (std::size_t begin = 0; begin < n && facing != present; begin += kFacingBlock)
+        facing |= classesFacing(v_.camera.eye, points.position.data() + begin, points.normal.data() + begin,
+                                s.pointClass.data() + begin, std::min(kFacingBlock, n - begin));
     if (facing == 0 && present != 0) return;
     out_.draw.push_back(id);
     out_.facing.push_back(facing);

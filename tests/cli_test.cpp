@@ -344,8 +344,9 @@ TEST(CliRefine, GeoreferencedCoordinatesAreRefinedLessAnOrigin) {
 }
 
 // What a new user tried (thirty-fifth session): --columns takes one argument (its names split at
-// commas), so a file after it is not taken for a column; bench refine refuses a sphere of fewer
-// than 3 points and to write its JSON over its input.
+// commas), so a file after it is not taken for a column; --ascii for a text output says it is not
+// used (forty-fifth session: it was ignored silently); bench refine refuses a sphere of fewer than
+// 3 points and to write its JSON over its input.
 TEST(CliRefine, ListsAndOutputsOfANewUsersPass) {
     const TempDir dir;
     const fs::path in = dir / "scan.xyz", out = dir / "out.ply";
@@ -356,6 +357,14 @@ TEST(CliRefine, ListsAndOutputsOfANewUsersPass) {
     const RunResult named = run("refine --columns x,y,z " + quote(in) + " -l 1 -o " + quote(out));
     EXPECT_TRUE(named.exited && named.exitCode == 0) << named.err;
     EXPECT_NE(named.out.find("5 points in"), std::string::npos) << named.out;
+    EXPECT_EQ(named.err.find("--ascii"), std::string::npos) << named.err;
+    const fs::path text = dir / "out.xyz";
+    const RunResult ascii = run("refine --ascii " + quote(in) + " -l 1 -o " + quote(text));
+    EXPECT_TRUE(ascii.exited && ascii.exitCode == 0) << ascii.err;
+    EXPECT_NE(ascii.err.find(text.string() + ": a text point file is ascii already: --ascii not used"),
+              std::string::npos)
+        << ascii.err;
+    EXPECT_TRUE(fs::exists(text));
     EXPECT_TRUE(failsCleanly(run("bench refine --sphere-points 2 --repeat 1"), Exit::Usage));
     const std::string before = "0 0 0\n";
     const fs::path victim = dir / "victim.xyz";

@@ -63,6 +63,8 @@ void runRefine(const RefineArgs& args) {
                                            : std::filesystem::path(args.input).stem().string()) +
                            "-refined.ply";
     refuseToOverwriteInput(output, {args.input}, args.force);
+    if (args.ascii && pointFileKindOf(output) == PointFileKind::Text)
+        fmt::print(stderr, "pnsplat: {}: a text point file is ascii already: --ascii not used\n", output);
     // Standard output carries the file: the summary goes to standard error.
     std::FILE* summary = isStandardOutput(output) ? stderr : stdout;
 

@@ -9,9 +9,11 @@
 #include <cstdint>
 #include <iostream>
 #include <limits>
+#include <numeric>
 #include <random>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -182,6 +184,73 @@ TEST(FlippedNormals, CompletionReportsItsSteps) {
             });
         ASSERT_TRUE(done.ok()) << done.error().message;
         EXPECT_EQ(steps, (std::vector<std::size_t>{0, 1, 2, 3, 4})) << withRadii;
+    }
+}
+
+// completeInput estimates on a copy of the points along a Morton curve and puts the results back in
+// the input's order (input.cpp, SpatialCopy): a shuffled input completes to the same points,
+// normals and radii, bit for bit, and reports the same outliers and turned normals, the first of
+// each by its own order. Random points of a sphere (no two distances tie) with 12 strays in its box,
+// positions only and with normals, 5 of them flipped.
+TEST(CompletedInput, TheSameForAnyOrderOfThePoints) {
+    PointSet sphere = sampleSphereRandom(2000, 1.0f, 17);
+    std::mt19937_64 rng(5);
+    for (int k = 0; k < 12; ++k) {
+        sphere.appendFrom(sphere, 0);
+        sphere.position.back() = glm::vec3(test::uniform(rng, -1.5, 1.5), test::uniform(rng, -1.5, 1.5),
+                                           test::uniform(rng, -1.5, 1.5));
+    }
+    const std::vector<std::uint32_t> flipped = flipAtRandom(sphere, 5, 3);
+    for (const bool withNormals : {false, true}) {
+        PointSet given = sphere, shuffled;
+        std::vector<std::uint32_t> shuffle(given.size());
+        std::iota(shuffle.begin(), shuffle.end(), 0u);
+        std::shuffle(shuffle.begin(), shuffle.end(), rng);
+        for (const std::uint32_t i : shuffle) shuffled.appendFrom(given, i);
+        if (!withNormals) {
+            given.normal.clear();
+            shuffled.normal.clear();
+        }
+        const Result<InputCompletion> a = completeInput(given, kThreads);
+        const Result<InputCompletion> b = completeInput(shuffled, kThreads);
+        ASSERT_TRUE(a.ok() && b.ok());
+        EXPECT_EQ(a->outliers, 12u) << withNormals;
+        EXPECT_EQ(b->outliers, a->outliers);
+        EXPECT_EQ(a->turnedNormals, withNormals ? flipped.size() : 0u);
+        EXPECT_EQ(b->turnedNormals, a->turnedNormals);
+        ASSERT_EQ(shuffled.size(), given.size());
+        // Each point of the shuffled set at its place in the given one.
+        std::vector<std::uint32_t> byPosition(given.size());
+        std::iota(byPosition.begin(), byPosition.end(), 0u);
+        const auto before = [&](glm::vec3 p, glm::vec3 q) {
+            return std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z);
+        };
+        std::sort(byPosition.begin(), byPosition.end(), [&](std::uint32_t i, std::uint32_t j) {
+            return before(given.position[i], given.position[j]);
+        });
+        std::size_t firstTurned = shuffled.size();
+        for (std::uint32_t k = 0; k < shuffled.size(); ++k) {
+            const auto at =
+                std::lower_bound(byPosition.begin(), byPosition.end(), shuffled.position[k],
+                                 [&](std::uint32_t i, glm::vec3 p) { return before(given.position[i], p); });
+            ASSERT_TRUE(at != byPosition.end() && given.position[*at] == shuffled.position[k]) << k;
+            EXPECT_EQ(shuffled.normal[k], given.normal[*at]) << k;
+            EXPECT_EQ(shuffled.radius[k], given.radius[*at]) << k;
+            const bool turned = std::ranges::any_of(
+                flipped, [&](std::uint32_t f) { return sphere.position[f] == shuffled.position[k]; });
+            if (withNormals && turned) firstTurned = std::min<std::size_t>(firstTurned, k);
+        }
+        if (withNormals) {
+            EXPECT_EQ(b->firstTurned, firstTurned);
+        }
+        // The first stray left out in the shuffled order.
+        glm::vec3 firstOutlier(0.0f);
+        for (const std::uint32_t i : shuffle)
+            if (i >= 2000) {
+                firstOutlier = sphere.position[i];
+                break;
+            }
+        EXPECT_EQ(b->firstOutlier, firstOutlier) << withNormals;
     }
 }
 

@@ -6,7 +6,10 @@
 #include <cstring>
 #include <limits>
 #include <numeric>
+#include <utility>
 #include <vector>
+
+#include "pnsplat/refine/morton.h"
 
 namespace pnsplat {
 
@@ -131,6 +134,23 @@ std::vector<std::uint32_t> orderByPosition(const PointSet& points) {
         if (pa.z != pb.z) return pa.z < pb.z;
         return a < b;
     });
+    return order;
+}
+
+std::vector<std::uint32_t> mortonOrder(std::span<const glm::vec3> positions) {
+    const auto count = static_cast<std::uint32_t>(positions.size());
+    const Bounds bounds = boundsOf(positions);
+    const glm::vec3 lo = bounds.lo;
+    const float extent = std::max(bounds.extent(), std::numeric_limits<float>::min());
+    const float scale = float((1u << kMortonBits) - 1) / extent;
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const glm::uvec3 q((positions[i] - lo) * scale);
+        keyed[i] = {mortonCode(q.x, q.y, q.z), i};
+    }
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::uint32_t> order(count);
+    for (std::uint32_t k = 0; k < count; ++k) order[k] = keyed[k].second;
     return order;
 }
 

@@ -48,7 +48,6 @@
 #include "level_cells.h"
 #include "pnsplat/refine/hierarchy.h"
 #include "pnsplat/refine/huge_pages.h"
-#include "pnsplat/refine/morton.h"
 #include "pnsplat/refine/worker_pool.h"
 #include "point_step.h"
 #include "segments.h"
@@ -84,17 +83,7 @@ inline double sourcedValue(const Attribute& attribute, const PointSource& source
 // and neighbourhood gathers touch few cache lines. Ties keep the input order.
 PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     const auto count = static_cast<std::uint32_t>(input.size());
-    const Bounds bounds = boundsOf(input.position);
-    const glm::vec3 lo = bounds.lo;
-    const float extent = std::max(bounds.extent(), std::numeric_limits<float>::min());
-    const float scale = float((1u << kMortonBits) - 1) / extent;
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const glm::uvec3 q((input.position[i] - lo) * scale);
-        keyed[i] = {mortonCode(q.x, q.y, q.z), i};
-    }
-    std::sort(keyed.begin(), keyed.end());
-    order.resize(count);
+    order = mortonOrder(input.position);
     PointSet sorted;
     sorted.position.resize(count);
     sorted.normal.resize(count);
@@ -104,8 +93,7 @@ PointSet spatialOrder(PointSet input, std::vector<std::uint32_t>& order) {
     sorted.attributes = emptyAttributesLike(input);
     for (Attribute& a : sorted.attributes) a.values.resize(count);
     for (std::uint32_t k = 0; k < count; ++k) {
-        const std::uint32_t i = keyed[k].second;
-        order[k] = i;
+        const std::uint32_t i = order[k];
         sorted.position[k] = input.position[i];
         sorted.normal[k] = input.normal[i];
         sorted.radius[k] = input.radius[i];

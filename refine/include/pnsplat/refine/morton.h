@@ -1,7 +1,7 @@
 // Morton (Z-order) codes: the bits of three integer cell coordinates interleaved, so that sorting
 // points by the code of their cell orders them along a space-filling curve on which points close in
-// space are mostly close in the order. The refinement stores P0 in this order (refiner.cpp,
-// spatialOrder) and the renderer its splats (engine/src/splat_scene.cpp).
+// space are mostly close in the order (mortonOrder, point_set.h). The refinement stores P0 in this
+// order (refiner.cpp, spatialOrder), and completeInput estimates in it (input.cpp).
 // Pure constexpr functions; any thread.
 #pragma once
 

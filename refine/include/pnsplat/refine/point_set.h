@@ -106,6 +106,10 @@ void removePoints(PointSet& points, std::span<const std::uint32_t> drop);
 // index: coincident points are adjacent, the first of each group its smallest index.
 std::vector<std::uint32_t> orderByPosition(const PointSet& points);
 
+// The indices of `positions` in order along a Morton curve over their box (morton.h): points close
+// in space are mostly close in the order. Ties (one cell) keep the given order.
+std::vector<std::uint32_t> mortonOrder(std::span<const glm::vec3> positions);
+
 // Removes every point whose position equals (==) an earlier one's (a scan's repeated samples),
 // keeping the first of each with all its attributes, in input order. The refinement needs
 // distinct positions (validateForRefinement): two coincident points would each insert the same

@@ -23,8 +23,10 @@ void estimateRadii(PointSet& points, unsigned threads) {
     KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     tree.buildIndex();
 
-    // Survivors per point, for the symmetric pass: at most kMaxCandidates each.
-    std::vector<std::uint32_t> survivors(count * kMaxCandidates);
+    // Survivors for the symmetric pass, of each range of kBatch points in a row: at most
+    // kMaxCandidates a point, about six (a slot for every candidate took 192 bytes a point).
+    constexpr std::size_t kBatch = 256;
+    std::vector<std::vector<std::uint32_t>> survivors((count + kBatch - 1) / kBatch);
     std::vector<std::uint8_t> survivorCount(count);
     WorkerPool pool(threads);
     struct Scratch {
@@ -32,9 +34,9 @@ void estimateRadii(PointSet& points, unsigned threads) {
         NeighbourhoodScratch neighbourhood;
     };
     std::vector<Scratch> scratch(pool.size());
-    constexpr std::size_t kBatch = 256;
     parallelForRanges(pool, count, kBatch, [&](std::size_t begin, std::size_t end, unsigned worker) {
         Scratch& s = scratch[worker];
+        std::vector<std::uint32_t>& kept = survivors[begin / kBatch];
         std::array<std::uint32_t, kMaxCandidates + 1> index;
         std::array<float, kMaxCandidates + 1> distance2;
         for (std::size_t i = begin; i < end; ++i) {
@@ -76,7 +78,7 @@ void estimateRadii(PointSet& points, unsigned threads) {
             float radius = 0.0f;
             for (std::size_t k = 0; k < s.set.size(); ++k) {
                 radius = std::max(radius, glm::length(s.set.position[k] - x));
-                survivors[i * kMaxCandidates + k] = s.set.index[k];
+                kept.push_back(s.set.index[k]);
             }
             survivorCount[i] = static_cast<std::uint8_t>(s.set.size());
             // Choice: a point with no valid neighbour (its normal fits none of theirs, eq. 6; one
@@ -91,9 +93,11 @@ void estimateRadii(PointSet& points, unsigned threads) {
         }
     });
     // Symmetric pass, sequential so that the result is independent of the threads.
-    for (std::size_t i = 0; i < count; ++i) {
+    for (std::size_t i = 0, next = 0; i < count; ++i) {
+        if (i % kBatch == 0) next = 0;
+        const std::vector<std::uint32_t>& kept = survivors[i / kBatch];
         for (std::size_t k = 0; k < survivorCount[i]; ++k) {
-            const std::uint32_t j = survivors[i * kMaxCandidates + k];
+            const std::uint32_t j = kept[next++];
             const float reach = std::nextafter(glm::length(points.position[i] - points.position[j]),
                                                std::numeric_limits<float>::max());
             points.radius[j] = std::max(points.radius[j], reach);

@@ -67,10 +67,11 @@ void PointSet::appendAttributesFrom(const PointSet& other, std::size_t i) {
 }
 
 void PointSet::appendCoreFrom(const PointSet& other, std::size_t i) {
+    assert(hasNormal() == other.hasNormal() || empty());
     assert(hasRadius() == other.hasRadius() || empty());
     assert(other.hasAttributes() || !hasAttributes());
     position.push_back(other.position[i]);
-    normal.push_back(other.normal[i]);
+    if (other.hasNormal()) normal.push_back(other.normal[i]); // positions only: before estimateNormals
     if (other.hasRadius()) radius.push_back(other.radius[i]);
     if (other.hasColour()) colour.push_back(other.colour[i]);
     if (other.hasCrease()) crease.push_back(other.crease[i]);

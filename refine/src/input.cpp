@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -68,6 +69,25 @@ struct SpatialCopy {
         of.resize(kept);
     }
 };
+
+// The error for the first point whose estimated radius is not a positive finite float: the k-d
+// tree's squared distances under- or overflowed. It says which, measuring in double.
+std::optional<Error> unmeasuredRadius(const PointSet& points) {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const float r = points.radius[i];
+        if (r > 0.0f && std::isfinite(r)) continue;
+        const glm::dvec3 x(points.position[i]);
+        double nearest = std::numeric_limits<double>::infinity();
+        for (std::size_t j = 0; j < points.size(); ++j)
+            if (j != i) nearest = std::min(nearest, glm::distance(x, glm::dvec3(points.position[j])));
+        const bool far = nearest > 1.0; // (the failures lie below 1e-19 or above 1e19)
+        return Error{fmt::format("point {} (at {:.6g} {:.6g} {:.6g}) lies {:.3g} from its nearest point, too "
+                                 "{} to measure its radius (spacings from about 1e-19 to 1e19 can be): "
+                                 "scale the model {}",
+                                 i, x.x, x.y, x.z, nearest, far ? "far" : "close", far ? "down" : "up")};
+    }
+    return std::nullopt;
+}
 
 } // namespace
 
@@ -142,20 +162,7 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
     points.radius.resize(n);
     for (std::size_t k = 0; k < n; ++k) points.radius[copy.of[k]] = copy.points.radius[k];
     done.radiiEstimated = true;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const float r = points.radius[i];
-        if (r > 0.0f && std::isfinite(r)) continue;
-        // The k-d tree's squared distances under- or overflowed: say which, measuring in double.
-        const glm::dvec3 x(points.position[i]);
-        double nearest = std::numeric_limits<double>::infinity();
-        for (std::size_t j = 0; j < points.size(); ++j)
-            if (j != i) nearest = std::min(nearest, glm::distance(x, glm::dvec3(points.position[j])));
-        const bool far = nearest > 1.0; // (the failures lie below 1e-19 or above 1e19)
-        return Error{fmt::format("point {} (at {:.6g} {:.6g} {:.6g}) lies {:.3g} from its nearest point, too "
-                                 "{} to measure its radius (spacings from about 1e-19 to 1e19 can be): "
-                                 "scale the model {}",
-                                 i, x.x, x.y, x.z, nearest, far ? "far" : "close", far ? "down" : "up")};
-    }
+    if (std::optional<Error> error = unmeasuredRadius(points)) return *error;
     step(kCompletionSteps);
     return done;
 }

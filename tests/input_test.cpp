@@ -24,6 +24,7 @@
 #include "pnsplat/refine/input.h"
 #include "pnsplat/refine/io/ply.h"
 #include "pnsplat/refine/normal_estimation.h"
+#include "pnsplat/refine/outliers.h"
 #include "pnsplat/refine/radius_estimation.h"
 #include "pnsplat/refine/refiner.h"
 #include "pnsplat/refine/shapes/shapes.h"
@@ -188,10 +189,12 @@ TEST(FlippedNormals, CompletionReportsItsSteps) {
 }
 
 // completeInput estimates on a copy of the points along a Morton curve and puts the results back in
-// the input's order (input.cpp, SpatialCopy): a shuffled input completes to the same points,
-// normals and radii, bit for bit, and reports the same outliers and turned normals, the first of
-// each by its own order. Random points of a sphere (no two distances tie) with 12 strays in its box,
-// positions only and with normals, 5 of them flipped.
+// the input's order (input.cpp, SpatialCopy). Random points of a sphere with 12 strays in its box,
+// positions only and with normals, 5 of them flipped:
+//  - they complete to the normals and radii, bit for bit, of the steps run on the points in their
+//    own order (as before the copy; the order breaks only ties, which these points do not have);
+//  - a shuffled input completes to the same points, normals and radii, and reports the same
+//    outliers and turned normals, the first of each by its own order (the copy's bookkeeping).
 TEST(CompletedInput, TheSameForAnyOrderOfThePoints) {
     PointSet sphere = sampleSphereRandom(2000, 1.0f, 17);
     std::mt19937_64 rng(5);
@@ -211,6 +214,15 @@ TEST(CompletedInput, TheSameForAnyOrderOfThePoints) {
             given.normal.clear();
             shuffled.normal.clear();
         }
+        PointSet inOrder = given; // the steps in the points' own order
+        removePoints(inOrder, findOutliers(inOrder.position, kThreads).outliers);
+        if (withNormals) {
+            for (const std::uint32_t i : findFlippedNormals(inOrder, kThreads))
+                inOrder.normal[i] = -inOrder.normal[i];
+        } else {
+            ASSERT_TRUE(estimateNormals(inOrder, kThreads).ok());
+        }
+        estimateRadii(inOrder, kThreads);
         const Result<InputCompletion> a = completeInput(given, kThreads);
         const Result<InputCompletion> b = completeInput(shuffled, kThreads);
         ASSERT_TRUE(a.ok() && b.ok());
@@ -219,6 +231,11 @@ TEST(CompletedInput, TheSameForAnyOrderOfThePoints) {
         EXPECT_EQ(a->turnedNormals, withNormals ? flipped.size() : 0u);
         EXPECT_EQ(b->turnedNormals, a->turnedNormals);
         ASSERT_EQ(shuffled.size(), given.size());
+        ASSERT_EQ(inOrder.size(), given.size());
+        EXPECT_TRUE(std::equal(given.normal.begin(), given.normal.end(), inOrder.normal.begin()))
+            << withNormals;
+        EXPECT_TRUE(std::equal(given.radius.begin(), given.radius.end(), inOrder.radius.begin()))
+            << withNormals;
         // Each point of the shuffled set at its place in the given one.
         std::vector<std::uint32_t> byPosition(given.size());
         std::iota(byPosition.begin(), byPosition.end(), 0u);

@@ -24,21 +24,16 @@ namespace {
 // every search read memory far apart. The results are those of the input's order wherever the
 // order decides nothing: it only breaks ties between equal distances or weights.
 struct SpatialCopy {
-    PointSet points; // positions, and the normals, radii and crease normals the input has
+    PointSet points; // positions, and normals where the input has them (the estimations read no more)
     std::vector<std::uint32_t> of;
 
     explicit SpatialCopy(const PointSet& input) : of(mortonOrder(input.position)) {
         const std::size_t n = of.size();
         points.position.resize(n);
         if (input.hasNormal()) points.normal.resize(n);
-        if (input.hasRadius()) points.radius.resize(n);
-        if (input.hasCrease()) points.crease.resize(n);
         for (std::size_t k = 0; k < n; ++k) {
-            const std::uint32_t i = of[k];
-            points.position[k] = input.position[i];
-            if (input.hasNormal()) points.normal[k] = input.normal[i];
-            if (input.hasRadius()) points.radius[k] = input.radius[i];
-            if (input.hasCrease()) points.crease[k] = input.crease[i];
+            points.position[k] = input.position[of[k]];
+            if (input.hasNormal()) points.normal[k] = input.normal[of[k]];
         }
     }
 
@@ -129,7 +124,11 @@ Result<InputCompletion> completeInput(PointSet& points, unsigned threads, const 
     const std::size_t n = points.size();
     if (!points.hasNormal()) {
         const Result<NormalEstimate> estimate = estimateNormals(copy.points, threads);
-        if (!estimate) return estimate.error();
+        if (!estimate) {
+            // Its errors name a point by its index: the same failure on the input names it there.
+            const Result<NormalEstimate> named = estimateNormals(points, threads);
+            return named ? estimate.error() : named.error();
+        }
         done.normalComponents = estimate->components;
         points.normal.resize(n);
         for (std::size_t k = 0; k < n; ++k) points.normal[copy.of[k]] = copy.points.normal[k];

@@ -144,10 +144,17 @@ std::vector<std::uint32_t> mortonOrder(std::span<const glm::vec3> positions) {
     const glm::vec3 lo = bounds.lo;
     const float extent = std::max(bounds.extent(), std::numeric_limits<float>::min());
     const float scale = float((1u << kMortonBits) - 1) / extent;
+    // A cell coordinate from [0, 2^kMortonBits - 1]: the same as an unchecked conversion for a set
+    // the refinement accepts; completeInput orders sets not yet checked, whose extent may pass the
+    // largest float (a scale of 0, and ∞ · 0), or whose positions may not be finite (NaN: cell 0).
+    static constexpr float kLast = float((1u << kMortonBits) - 1);
+    const auto cell = [](float v) {
+        return static_cast<std::uint32_t>(v >= 0.0f ? std::min(v, kLast) : 0.0f);
+    };
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
     for (std::uint32_t i = 0; i < count; ++i) {
-        const glm::uvec3 q((positions[i] - lo) * scale);
-        keyed[i] = {mortonCode(q.x, q.y, q.z), i};
+        const glm::vec3 q = (positions[i] - lo) * scale;
+        keyed[i] = {mortonCode(cell(q.x), cell(q.y), cell(q.z)), i};
     }
     std::sort(keyed.begin(), keyed.end());
     std::vector<std::uint32_t> order(count);

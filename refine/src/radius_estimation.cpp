@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <limits>
 
@@ -102,6 +103,7 @@ void estimateRadii(PointSet& points, unsigned threads) {
                                                std::numeric_limits<float>::max());
             points.radius[j] = std::max(points.radius[j], reach);
         }
+        assert(((i + 1) % kBatch != 0 && i + 1 != count) || next == kept.size()); // each list read whole
     }
 }
 

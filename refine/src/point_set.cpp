@@ -142,12 +142,12 @@ std::vector<std::uint32_t> mortonOrder(std::span<const glm::vec3> positions) {
     const auto count = static_cast<std::uint32_t>(positions.size());
     const Bounds bounds = boundsOf(positions);
     const glm::vec3 lo = bounds.lo;
+    static constexpr float kLast = float((1u << kMortonBits) - 1); // the last cell along an axis
     const float extent = std::max(bounds.extent(), std::numeric_limits<float>::min());
-    const float scale = float((1u << kMortonBits) - 1) / extent;
-    // A cell coordinate from [0, 2^kMortonBits - 1]: the same as an unchecked conversion for a set
-    // the refinement accepts; completeInput orders sets not yet checked, whose extent may pass the
+    const float scale = kLast / extent;
+    // A cell coordinate from [0, kLast]: the same as an unchecked conversion for a set the
+    // refinement accepts; completeInput orders sets not yet checked, whose extent may pass the
     // largest float (a scale of 0, and ∞ · 0), or whose positions may not be finite (NaN: cell 0).
-    static constexpr float kLast = float((1u << kMortonBits) - 1);
     const auto cell = [](float v) {
         return static_cast<std::uint32_t>(v >= 0.0f ? std::min(v, kLast) : 0.0f);
     };

@@ -94,16 +94,17 @@ void estimateRadii(PointSet& points, unsigned threads) {
         }
     });
     // Symmetric pass, sequential so that the result is independent of the threads.
-    for (std::size_t i = 0, next = 0; i < count; ++i) {
-        if (i % kBatch == 0) next = 0;
-        const std::vector<std::uint32_t>& kept = survivors[i / kBatch];
-        for (std::size_t k = 0; k < survivorCount[i]; ++k) {
-            const std::uint32_t j = kept[next++];
-            const float reach = std::nextafter(glm::length(points.position[i] - points.position[j]),
-                                               std::numeric_limits<float>::max());
-            points.radius[j] = std::max(points.radius[j], reach);
-        }
-        assert(((i + 1) % kBatch != 0 && i + 1 != count) || next == kept.size()); // each list read whole
+    for (std::size_t range = 0; range < survivors.size(); ++range) {
+        const std::vector<std::uint32_t>& kept = survivors[range];
+        std::size_t next = 0;
+        for (std::size_t i = range * kBatch; i < std::min(count, (range + 1) * kBatch); ++i)
+            for (std::size_t k = 0; k < survivorCount[i]; ++k) {
+                const std::uint32_t j = kept[next++];
+                const float reach = std::nextafter(glm::length(points.position[i] - points.position[j]),
+                                                   std::numeric_limits<float>::max());
+                points.radius[j] = std::max(points.radius[j], reach);
+            }
+        assert(next == kept.size()); // each list read whole
     }
 }
 

@@ -261,6 +261,65 @@ TEST(FilterFuzzy, IndependentOfInputOrder) {
     }
 }
 
+// The filter computes its per-entry terms in flat arrays, eight lanes at a time. Oracle: the vector
+// formulas of ALGORITHM.md §2.2, §2.7 and §3.3 in glm, entry by entry, which must give the same
+// bits: the positions the badness is measured on (q'_i = p + tangent · (G / |tangent|), q_i itself
+// for Nf or where the tangent is 0), their unit directions from p (glm::normalize), and the fan's
+// edge control points (edgeControlPoints), for Nf, Ng and variant 1, on random sets of 1 to 40
+// entries with random normals (some along the edge, where the control point is the edge's third,
+// and some entries straight above p).
+TEST(FilterFuzzy, PerEntryTermsAreTheVectorFormulasBitForBit) {
+    std::mt19937_64 rng(212);
+    enum class Measure { Points, Geodesic, Euclidean };
+    NeighbourhoodScratch scratch;
+    std::size_t checked = 0, straight = 0, above = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        const Measure measure = static_cast<Measure>(trial % 3);
+        FuzzyParams params;
+        params.geodesicProjection = measure != Measure::Points;
+        params.euclideanGeodesic = measure == Measure::Euclidean;
+        const glm::vec3 p(uniform(rng, -1, 1), uniform(rng, -1, 1), uniform(rng, -1, 1));
+        const glm::vec3 n = randomUnit(rng);
+        NeighbourSet set;
+        const auto count = static_cast<std::uint32_t>(1 + rng() % 40);
+        for (std::uint32_t k = 0; k < count; ++k) {
+            const glm::vec3 d = k % 11 == 5 ? n * static_cast<float>(uniform(rng, 0.1, 1.0))
+                                            : static_cast<float>(uniform(rng, 0.1, 1.0)) * randomUnit(rng);
+            const glm::vec3 m = k % 7 == 3 ? glm::normalize(d) : randomUnit(rng);
+            set.push(k, p + d, m);
+        }
+        const NeighbourSet input = set;
+        filterFuzzy(p, n, params, set, scratch);
+        for (std::uint32_t k = 0; k < count; ++k) {
+            const glm::vec3 q = input.position[k], d = q - p;
+            glm::vec3 y = q;
+            if (params.geodesicProjection) {
+                const glm::vec3 tangent = d - glm::dot(d, n) * n;
+                const float tangentLength = glm::length(tangent);
+                const float g =
+                    params.euclideanGeodesic ? glm::length(d) : geodesicDistance(p, n, q, input.normal[k]);
+                if (tangentLength > 0.0f) y = p + tangent * (g / tangentLength);
+                above += tangentLength > 0.0f ? 0 : 1;
+            }
+            const glm::vec3 direction = glm::normalize(y - p);
+            ASSERT_EQ(projected(scratch, k), y) << "trial " << trial << ", entry " << k;
+            ASSERT_EQ(glm::vec3(scratch.dx[k], scratch.dy[k], scratch.dz[k]), direction)
+                << "trial " << trial << ", entry " << k;
+            ++checked;
+        }
+        for (std::size_t k = 0; k < set.size(); ++k) {
+            const EdgeControls e = edgeControlPoints(p, n, set.position[k], set.normal[k]);
+            ASSERT_EQ(set.nearControl[k], e.ab) << "trial " << trial << ", fan member " << k;
+            ASSERT_EQ(set.farControl[k], e.ba) << "trial " << trial << ", fan member " << k;
+            const glm::vec3 third = (set.position[k] - p) * (1.0f / 3.0f);
+            straight += set.farControl[k] == set.position[k] - third ? 1 : 0;
+        }
+    }
+    EXPECT_GT(checked, 5000u);
+    EXPECT_GT(straight, 0u); // a normal along the edge: the control point is the edge's third
+    EXPECT_GT(above, 0u);    // an entry straight above p: measured where it is
+}
+
 // Sets of more than 64 entries take the filter's blocked path (entries by distance, each test ended
 // once it fails); the small sets after them reuse the scratch arrays, whose padding lanes (past a
 // set's size, up to a multiple of 8) then hold the earlier sets' leftovers, which must not count.

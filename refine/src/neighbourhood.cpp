@@ -8,7 +8,6 @@
 #include <glm/geometric.hpp>
 
 #include "pnsplat/refine/fast_math.h"
-#include "pnsplat/refine/pn_triangle.h"
 #include "pnsplat/refine/simd_clone.h"
 
 namespace pnsplat {
@@ -54,35 +53,95 @@ float* scratchArray(std::vector<float>& v, std::size_t count) {
     return v.data();
 }
 
-// Angles around n (and tangent-plane coordinates in scratch.su/sv) of every entry, and the edge
-// control points when asked for.
-void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool withControls, NeighbourhoodScratch& scratch) {
+// Grows the three arrays of v to at least `count` entries (they only grow, as scratchArray's).
+void grow(FlatVec3& v, std::size_t count) {
+    scratchArray(v.x, count);
+    scratchArray(v.y, count);
+    scratchArray(v.z, count);
+}
+
+// The set's positions and normals as flat arrays (scratch.position, scratch.normal), for the
+// loops below, which the compiler runs in SIMD lanes.
+void splitCoordinates(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
+    const std::size_t count = set.size();
+    FlatVec3 &q = scratch.position, &m = scratch.normal;
+    grow(q, count);
+    grow(m, count);
+    for (std::size_t k = 0; k < count; ++k) {
+        q.x[k] = set.position[k].x, q.y[k] = set.position[k].y, q.z[k] = set.position[k].z;
+        m.x[k] = set.normal[k].x, m.y[k] = set.normal[k].y, m.z[k] = set.normal[k].z;
+    }
+}
+
+// The edge control point of edgeControlPointFromThird (pn_triangle.h) at (ax, ay, az), normal
+// (nx, ny, nz), from the edge's third (tx, ty, tz), bit for bit: the same operations in the same
+// order, its branch a select, so that loops of it run in SIMD lanes.
+[[gnu::always_inline]] inline void controlFromThird(float ax, float ay, float az, float nx, float ny,
+                                                    float nz, float tx, float ty, float tz,
+                                                    float thirdLength2, float& x, float& y, float& z) {
+    const float along = tx * nx + ty * ny + tz * nz;
+    const float ux = tx - along * nx, uy = ty - along * ny, uz = tz - along * nz;
+    const float tangentLength2 = ux * ux + uy * uy + uz * uz;
+    const float scale = std::sqrt(thirdLength2 / tangentLength2);
+    const bool straight = (tangentLength2 <= 1e-12f * thirdLength2) | (tangentLength2 == 0.0f);
+    x = straight ? ax + tx : ax + ux * scale;
+    y = straight ? ay + ty : ay + uy * scale;
+    z = straight ? az + tz : az + uz * scale;
+}
+
+// The edge control points of the PN curves from (p, n) to the `count` points q with normals m
+// (edgeControlPoints, pn_triangle.h, bit for bit): near p into near..., near q into far....
+[[gnu::always_inline]] inline void edgeControls(glm::vec3 p, glm::vec3 n, std::size_t count,
+                                                const float* __restrict qx, const float* __restrict qy,
+                                                const float* __restrict qz, const float* __restrict mx,
+                                                const float* __restrict my, const float* __restrict mz,
+                                                float* __restrict nearX, float* __restrict nearY,
+                                                float* __restrict nearZ, float* __restrict farX,
+                                                float* __restrict farY, float* __restrict farZ) {
+    for (std::size_t k = 0; k < count; ++k) {
+        const float tx = (qx[k] - p.x) * (1.0f / 3.0f), ty = (qy[k] - p.y) * (1.0f / 3.0f),
+                    tz = (qz[k] - p.z) * (1.0f / 3.0f);
+        const float thirdLength2 = tx * tx + ty * ty + tz * tz;
+        controlFromThird(p.x, p.y, p.z, n.x, n.y, n.z, tx, ty, tz, thirdLength2, nearX[k], nearY[k],
+                         nearZ[k]);
+        controlFromThird(qx[k], qy[k], qz[k], mx[k], my[k], mz[k], -tx, -ty, -tz, thirdLength2, farX[k],
+                         farY[k], farZ[k]);
+    }
+}
+
+// For every entry (splitCoordinates first): the tangent-plane coordinates around the frame of n
+// (scratch.su/sv), the angles around n (set.angle) and, with `controls`, the edge control points
+// of the PN curve from p (scratch.nearControl, scratch.farControl).
+PNSPLAT_AVX2_CLONE void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, bool controls,
+                                NeighbourhoodScratch& scratch) {
     const TangentFrame frame(n);
     const std::size_t count = set.size();
     set.angle.resize(count);
     float* su = scratchArray(scratch.su, count);
     float* sv = scratchArray(scratch.sv, count);
+    const float *qx = scratch.position.x.data(), *qy = scratch.position.y.data(),
+                *qz = scratch.position.z.data();
     for (std::size_t k = 0; k < count; ++k) {
-        const glm::vec3 d = set.position[k] - p;
-        su[k] = glm::dot(d, frame.u);
-        sv[k] = glm::dot(d, frame.v);
+        const float dx = qx[k] - p.x, dy = qy[k] - p.y, dz = qz[k] - p.z;
+        su[k] = dx * frame.u.x + dy * frame.u.y + dz * frame.u.z;
+        sv[k] = dx * frame.v.x + dy * frame.v.y + dz * frame.v.z;
     }
     fastAtan2s(sv, su, set.angle.data(), count);
-    set.nearControl.resize(withControls ? count : 0);
-    set.farControl.resize(withControls ? count : 0);
-    if (!withControls) return;
-    for (std::size_t k = 0; k < count; ++k) {
-        const EdgeControls e = edgeControlPoints(p, n, set.position[k], set.normal[k]);
-        set.nearControl[k] = e.ab;
-        set.farControl[k] = e.ba;
-    }
+    if (!controls) return;
+    FlatVec3 &near = scratch.nearControl, &far = scratch.farControl;
+    grow(near, count);
+    grow(far, count);
+    edgeControls(p, n, count, qx, qy, qz, scratch.normal.x.data(), scratch.normal.y.data(),
+                 scratch.normal.z.data(), near.x.data(), near.y.data(), near.z.data(), far.x.data(),
+                 far.y.data(), far.z.data());
 }
 
-// Rewrites `set` as its entries order[0..count) (a gather through scratch.sorted).
-void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, NeighbourhoodScratch& scratch) {
+// Rewrites `set` as its entries order[0..count) (a gather through scratch.sorted), with the edge
+// control points that measure() left in scratch when `controls`.
+void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, bool controls,
+            NeighbourhoodScratch& scratch) {
     NeighbourSet& out = scratch.sorted;
     const std::size_t count = order.size();
-    const bool controls = !set.nearControl.empty();
     out.index.resize(count);
     out.position.resize(count);
     out.normal.resize(count);
@@ -98,8 +157,10 @@ void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, Neighbou
     }
     if (controls) {
         for (std::size_t k = 0; k < count; ++k) {
-            out.nearControl[k] = set.nearControl[order[k]];
-            out.farControl[k] = set.farControl[order[k]];
+            const std::uint32_t from = order[k];
+            const FlatVec3 &near = scratch.nearControl, &far = scratch.farControl;
+            out.nearControl[k] = {near.x[from], near.y[from], near.z[from]};
+            out.farControl[k] = {far.x[from], far.y[from], far.z[from]};
         }
     }
     std::swap(set, out);
@@ -162,9 +223,8 @@ constexpr std::size_t kBlock = 8 * kLanes;
     float w = 0.5f * (sinIJ * inverseSin + 1.0f);
     w = sinIJ >= -sinThetaF ? w : 0.0f;
     w = length2 > 0.0f ? w : 0.0f;
-    const float successor = cross > 0.0f ? w : 0.0f;
-    const float sameDirection = ahead > 0.0f ? w : 0.0f;
-    const float succ = cross == 0.0f ? sameDirection : successor;
+    // One mask for Succ_i (a select chain of the same result compiled to three blends).
+    const float succ = (cross > 0.0f) | ((cross == 0.0f) & (ahead > 0.0f)) ? w : 0.0f;
     const float pred = cross < 0.0f ? w : 0.0f;
     worstSucc = succ > worstSucc ? succ : worstSucc;
     worstPred = pred > worstPred ? pred : worstPred;
@@ -281,21 +341,82 @@ FilterArrays sortedByDistance(glm::vec3 p, const FilterArrays& arrays, const Nei
                         base + 7 * padded};
 }
 
+// The positions the badness is measured on (px, py, pz) and their unit directions from p (dx, dy,
+// dz), for every entry (measure() first). Projected (`Projection`), the geodesic projections
+// q'_i = p + G(p,p_i) · normalize(q_i - p), q_i the orthogonal projection on the tangent plane,
+// G = 2/3 |p p_i| + |b_{p,i} - b_{i,p}| (`Geodesic`, from measure()'s control points) or |p p_i|
+// (`Euclidean`, variant 1); else the points themselves (`Points`). The loop runs in SIMD lanes and
+// computes the bits of the glm expressions it replaced: dot products summed x, y, then z, lengths
+// as their square roots, normalize as v · (1 / |v|).
+enum class Projection { Points, Euclidean, Geodesic };
+template <Projection kind>
+[[gnu::always_inline]] inline void
+projectForFilter(glm::vec3 p, glm::vec3 n, std::size_t count, const NeighbourhoodScratch& scratch,
+                 float* __restrict px, float* __restrict py, float* __restrict pz, float* __restrict dx,
+                 float* __restrict dy, float* __restrict dz) {
+    const float* __restrict qx = scratch.position.x.data();
+    const float* __restrict qy = scratch.position.y.data();
+    const float* __restrict qz = scratch.position.z.data();
+    const float* __restrict nearX = scratch.nearControl.x.data();
+    const float* __restrict nearY = scratch.nearControl.y.data();
+    const float* __restrict nearZ = scratch.nearControl.z.data();
+    const float* __restrict farX = scratch.farControl.x.data();
+    const float* __restrict farY = scratch.farControl.y.data();
+    const float* __restrict farZ = scratch.farControl.z.data();
+    for (std::size_t k = 0; k < count; ++k) {
+        float yx = qx[k], yy = qy[k], yz = qz[k];
+        if constexpr (kind != Projection::Points) {
+            const float ex = qx[k] - p.x, ey = qy[k] - p.y, ez = qz[k] - p.z;
+            const float along = ex * n.x + ey * n.y + ez * n.z;
+            const float tx = ex - along * n.x, ty = ey - along * n.y, tz = ez - along * n.z;
+            const float tangentLength = std::sqrt(tx * tx + ty * ty + tz * tz);
+            const float length = std::sqrt(ex * ex + ey * ey + ez * ez);
+            float g = length;
+            if constexpr (kind == Projection::Geodesic) {
+                const float cx = farX[k] - nearX[k], cy = farY[k] - nearY[k], cz = farZ[k] - nearZ[k];
+                g = (2.0f / 3.0f) * length + std::sqrt(cx * cx + cy * cy + cz * cz);
+            }
+            const float scale = g / tangentLength;
+            const bool projected = tangentLength > 0.0f;
+            yx = projected ? p.x + tx * scale : yx;
+            yy = projected ? p.y + ty * scale : yy;
+            yz = projected ? p.z + tz * scale : yz;
+        }
+        const float vx = yx - p.x, vy = yy - p.y, vz = yz - p.z;
+        const float inverse = 1.0f / std::sqrt(vx * vx + vy * vy + vz * vz);
+        px[k] = yx, py[k] = yy, pz[k] = yz;
+        dx[k] = vx * inverse, dy[k] = vy * inverse, dz[k] = vz * inverse;
+    }
+}
+PNSPLAT_AVX2_CLONE void projectForFilter(glm::vec3 p, glm::vec3 n, const FuzzyParams& params,
+                                         std::size_t count, const NeighbourhoodScratch& scratch, float* px,
+                                         float* py, float* pz, float* dx, float* dy, float* dz) {
+    if (!params.geodesicProjection)
+        projectForFilter<Projection::Points>(p, n, count, scratch, px, py, pz, dx, dy, dz);
+    else if (params.euclideanGeodesic)
+        projectForFilter<Projection::Euclidean>(p, n, count, scratch, px, py, pz, dx, dy, dz);
+    else
+        projectForFilter<Projection::Geodesic>(p, n, count, scratch, px, py, pz, dx, dy, dz);
+}
+
 } // namespace
 
 void sortFan(glm::vec3 p, glm::vec3 n, NeighbourSet& set, NeighbourhoodScratch& scratch) {
+    splitCoordinates(set, scratch);
     measure(p, n, set, true, scratch);
     scratch.order.resize(set.size());
     for (std::uint32_t k = 0; k < set.size(); ++k) scratch.order[k] = k;
     sortOrderByAngle(set, scratch);
-    gather(set, scratch.order, scratch);
+    gather(set, scratch.order, true, scratch);
 }
 
 void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourSet& set,
                  NeighbourhoodScratch& scratch) {
     const std::size_t count = set.size();
     const bool geodesic = params.geodesicProjection && !params.euclideanGeodesic;
-    measure(p, n, set, geodesic || params.edgeControls, scratch);
+    const bool controls = geodesic || params.edgeControls;
+    splitCoordinates(set, scratch);
+    measure(p, n, set, controls, scratch);
     // The positions the badness is measured on, and their unit directions from p, as flat arrays
     // (x, y, z apart) for the O(k²) loop (survivorsOfSmallSet, or survives for large sets).
     const std::size_t paddedCount = paddedToLanes(count);
@@ -305,24 +426,7 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     float* dx = scratchArray(scratch.dx, paddedCount);
     float* dy = scratchArray(scratch.dy, paddedCount);
     float* dz = scratchArray(scratch.dz, paddedCount);
-    for (std::size_t k = 0; k < count; ++k) {
-        const glm::vec3 d = set.position[k] - p;
-        glm::vec3 y = set.position[k];
-        if (params.geodesicProjection) {
-            // q'_i = p + G(p,p_i) · normalize(q_i - p), q_i the orthogonal projection on the tangent
-            // plane, G = 2/3 |p p_i| + |b_{p,i} - b_{i,p}| (or |p p_i| for variant 1).
-            const glm::vec3 tangent = d - glm::dot(d, n) * n;
-            const float tangentLength = glm::length(tangent);
-            const float g =
-                params.euclideanGeodesic
-                    ? glm::length(d)
-                    : controlPolygonLength(p, set.position[k], set.nearControl[k], set.farControl[k]);
-            if (tangentLength > 0.0f) y = p + tangent * (g / tangentLength);
-        }
-        const glm::vec3 direction = glm::normalize(y - p);
-        px[k] = y.x, py[k] = y.y, pz[k] = y.z;
-        dx[k] = direction.x, dy[k] = direction.y, dz[k] = direction.z;
-    }
+    projectForFilter(p, n, params, count, scratch, px, py, pz, dx, dy, dz);
 
     float* su = scratchArray(scratch.su, paddedCount);
     float* sv = scratchArray(scratch.sv, paddedCount);
@@ -339,7 +443,7 @@ void filterFuzzy(glm::vec3 p, glm::vec3 n, const FuzzyParams& params, NeighbourS
     if (byDistance)
         for (std::uint32_t& k : order) k = scratch.byDistance[k];
     sortOrderByAngle(set, scratch);
-    gather(set, scratch.order, scratch);
+    gather(set, scratch.order, controls, scratch);
 }
 
 } // namespace pnsplat

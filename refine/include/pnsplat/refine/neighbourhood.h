@@ -83,13 +83,20 @@ inline float fuzzyBadness(glm::vec3 p, glm::vec3 pi, glm::vec3 pj, float sinThet
     return fuzzyBadness(a / std::sqrt(length2), pi - pj, sinThetaF);
 }
 
+// Vectors as flat arrays, x, y and z apart, for loops in SIMD lanes.
+struct FlatVec3 {
+    std::vector<float> x, y, z;
+};
+
 // Scratch buffers reused across calls (no allocation per point once warm). The float arrays keep
 // their largest size; entries [0, k) belong to the last set of k entries filtered, and the pair
 // loop reads up to k rounded up to its SIMD width.
 struct NeighbourhoodScratch {
-    std::vector<float> px, py, pz; // the positions the badness is measured on
-    std::vector<float> dx, dy, dz; // their unit directions from p
-    std::vector<float> su, sv;     // tangent-plane coordinates of the neighbours
+    std::vector<float> px, py, pz;    // the positions the badness is measured on
+    std::vector<float> dx, dy, dz;    // their unit directions from p
+    std::vector<float> su, sv;        // tangent-plane coordinates of the neighbours
+    FlatVec3 position, normal;        // the set's
+    FlatVec3 nearControl, farControl; // their edge control points from p
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;
     // Sets larger than the filter's block (sortedByDistance): the entries by distance from p, and

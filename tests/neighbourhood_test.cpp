@@ -265,9 +265,10 @@ TEST(FilterFuzzy, IndependentOfInputOrder) {
 // formulas of ALGORITHM.md §2.2, §2.7 and §3.3 in glm, entry by entry, which must give the same
 // bits: the positions the badness is measured on (q'_i = p + tangent · (G / |tangent|), q_i itself
 // for Nf or where the tangent is 0), their unit directions from p (glm::normalize), and the fan's
-// edge control points (edgeControlPoints), for Nf, Ng and variant 1, on random sets of 1 to 40
-// entries with random normals (some along the edge, where the control point is the edge's third,
-// and some entries straight above p).
+// edge control points (edgeControlPoints), the tangent-plane coordinates and the angles, for Nf, Ng
+// and variant 1, with and without the control points asked for, on random sets of 1 to 40 entries
+// with random normals (some along the edge, where the control point is the edge's third, and some
+// entries straight above p).
 TEST(FilterFuzzy, PerEntryTermsAreTheVectorFormulasBitForBit) {
     std::mt19937_64 rng(212);
     enum class Measure { Points, Geodesic, Euclidean };
@@ -278,8 +279,10 @@ TEST(FilterFuzzy, PerEntryTermsAreTheVectorFormulasBitForBit) {
         FuzzyParams params;
         params.geodesicProjection = measure != Measure::Points;
         params.euclideanGeodesic = measure == Measure::Euclidean;
+        params.edgeControls = trial % 2 == 0;
         const glm::vec3 p(uniform(rng, -1, 1), uniform(rng, -1, 1), uniform(rng, -1, 1));
         const glm::vec3 n = randomUnit(rng);
+        const TangentFrame frame(n);
         NeighbourSet set;
         const auto count = static_cast<std::uint32_t>(1 + rng() % 40);
         for (std::uint32_t k = 0; k < count; ++k) {
@@ -292,6 +295,8 @@ TEST(FilterFuzzy, PerEntryTermsAreTheVectorFormulasBitForBit) {
         filterFuzzy(p, n, params, set, scratch);
         for (std::uint32_t k = 0; k < count; ++k) {
             const glm::vec3 q = input.position[k], d = q - p;
+            ASSERT_EQ(scratch.su[k], glm::dot(d, frame.u)) << "trial " << trial << ", entry " << k;
+            ASSERT_EQ(scratch.sv[k], glm::dot(d, frame.v)) << "trial " << trial << ", entry " << k;
             glm::vec3 y = q;
             if (params.geodesicProjection) {
                 const glm::vec3 tangent = d - glm::dot(d, n) * n;
@@ -306,6 +311,13 @@ TEST(FilterFuzzy, PerEntryTermsAreTheVectorFormulasBitForBit) {
             ASSERT_EQ(glm::vec3(scratch.dx[k], scratch.dy[k], scratch.dz[k]), direction)
                 << "trial " << trial << ", entry " << k;
             ++checked;
+        }
+        for (std::size_t k = 0; k < set.size(); ++k)
+            ASSERT_EQ(set.angle[k], frame.angleOf(set.position[k] - p))
+                << "trial " << trial << ", fan member " << k;
+        if (!params.edgeControls && measure != Measure::Geodesic) {
+            EXPECT_TRUE(set.nearControl.empty() && set.farControl.empty()) << "trial " << trial;
+            continue;
         }
         for (std::size_t k = 0; k < set.size(); ++k) {
             const EdgeControls e = edgeControlPoints(p, n, set.position[k], set.normal[k]);

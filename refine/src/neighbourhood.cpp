@@ -2,6 +2,7 @@
 #include "pnsplat/refine/neighbourhood.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <numbers>
 
@@ -91,13 +92,13 @@ void splitCoordinates(const NeighbourSet& set, NeighbourhoodScratch& scratch) {
 
 // The edge control points of the PN curves from (p, n) to the `count` points q with normals m
 // (edgeControlPoints, pn_triangle.h, bit for bit): near p into near..., near q into far....
-[[gnu::always_inline]] inline void edgeControls(glm::vec3 p, glm::vec3 n, std::size_t count,
-                                                const float* __restrict qx, const float* __restrict qy,
-                                                const float* __restrict qz, const float* __restrict mx,
-                                                const float* __restrict my, const float* __restrict mz,
-                                                float* __restrict nearX, float* __restrict nearY,
-                                                float* __restrict nearZ, float* __restrict farX,
-                                                float* __restrict farY, float* __restrict farZ) {
+[[gnu::always_inline]] inline void controlPointsFrom(glm::vec3 p, glm::vec3 n, std::size_t count,
+                                                     const float* __restrict qx, const float* __restrict qy,
+                                                     const float* __restrict qz, const float* __restrict mx,
+                                                     const float* __restrict my, const float* __restrict mz,
+                                                     float* __restrict nearX, float* __restrict nearY,
+                                                     float* __restrict nearZ, float* __restrict farX,
+                                                     float* __restrict farY, float* __restrict farZ) {
     for (std::size_t k = 0; k < count; ++k) {
         const float tx = (qx[k] - p.x) * (1.0f / 3.0f), ty = (qy[k] - p.y) * (1.0f / 3.0f),
                     tz = (qz[k] - p.z) * (1.0f / 3.0f);
@@ -131,9 +132,9 @@ PNSPLAT_AVX2_CLONE void measure(glm::vec3 p, glm::vec3 n, NeighbourSet& set, boo
     FlatVec3 &near = scratch.nearControl, &far = scratch.farControl;
     grow(near, count);
     grow(far, count);
-    edgeControls(p, n, count, qx, qy, qz, scratch.normal.x.data(), scratch.normal.y.data(),
-                 scratch.normal.z.data(), near.x.data(), near.y.data(), near.z.data(), far.x.data(),
-                 far.y.data(), far.z.data());
+    controlPointsFrom(p, n, count, qx, qy, qz, scratch.normal.x.data(), scratch.normal.y.data(),
+                      scratch.normal.z.data(), near.x.data(), near.y.data(), near.z.data(), far.x.data(),
+                      far.y.data(), far.z.data());
 }
 
 // Rewrites `set` as its entries order[0..count) (a gather through scratch.sorted), with the edge
@@ -156,9 +157,10 @@ void gather(NeighbourSet& set, const std::vector<std::uint32_t>& order, bool con
         out.angle[k] = set.angle[from];
     }
     if (controls) {
+        const FlatVec3 &near = scratch.nearControl, &far = scratch.farControl;
+        assert(near.x.size() >= set.size() && far.x.size() >= set.size());
         for (std::size_t k = 0; k < count; ++k) {
             const std::uint32_t from = order[k];
-            const FlatVec3 &near = scratch.nearControl, &far = scratch.farControl;
             out.nearControl[k] = {near.x[from], near.y[from], near.z[from]};
             out.farControl[k] = {far.x[from], far.y[from], far.z[from]};
         }

@@ -89,13 +89,14 @@ struct FlatVec3 {
 };
 
 // Scratch buffers reused across calls (no allocation per point once warm). The float arrays keep
-// their largest size; entries [0, k) belong to the last set of k entries filtered, and the pair
-// loop reads up to k rounded up to its SIMD width.
+// their largest size; entries [0, k) belong to the last set of k entries filtered or sorted (the
+// control points only where they were computed for it), and the pair loop reads up to k rounded up
+// to its SIMD width.
 struct NeighbourhoodScratch {
     std::vector<float> px, py, pz;    // the positions the badness is measured on
     std::vector<float> dx, dy, dz;    // their unit directions from p
     std::vector<float> su, sv;        // tangent-plane coordinates of the neighbours
-    FlatVec3 position, normal;        // the set's
+    FlatVec3 position, normal;        // the set's positions and normals, split
     FlatVec3 nearControl, farControl; // their edge control points from p
     std::vector<std::uint32_t> order;
     NeighbourSet sorted;

@@ -23,7 +23,9 @@
 namespace pnsplat {
 
 namespace detail {
-// edgeControlPoint from third = (pb - pa)/3 and its squared length.
+// edgeControlPoint from third = (pb - pa)/3 and its squared length. Repeated in flat arrays by
+// neighbourhood.cpp (controlFromThird, and controlPolygonLength in projectForFilter);
+// FilterFuzzy.PerEntryTermsAreTheVectorFormulasBitForBit checks that they agree.
 inline glm::vec3 edgeControlPointFromThird(glm::vec3 pa, glm::vec3 na, glm::vec3 third, float thirdLength2) {
     const glm::vec3 tangent = third - glm::dot(third, na) * na; // Q_a(pa + third) - pa
     const float tangentLength2 = glm::dot(tangent, tangent);
